@@ -1,0 +1,88 @@
+# auger: the front door. `make test` and `make demo` install what is missing, build and run.
+# Targets:
+#   make test        everything CI runs: deps, builds, unit + protocol tests (also under
+#                    ASan+UBSan), header checks with avr-gcc and g++, a bounded fuzz run
+#   make test-full   longer suites (see docs/benchmarks.md)
+#   make demo        the simulated robot (arrives with the daemon, issue 4)
+#   make deps        install missing Debian packages (scripts/install-deps.sh)
+#   make host        configure and build the host, simulator and tests (Release, build/)
+#   make asan        the unit and protocol tests with ASan+UBSan (build-asan/)
+#   make fuzz        run the protocol parser fuzzer (FUZZ_RUNS, default unbounded: Ctrl-C)
+#   make bench-protocol   XOR byte vs CRC-16 corruption figures (docs/protocol.md)
+SHELL := /bin/bash
+.SHELLFLAGS := -eu -o pipefail -c
+JOBS ?= $(shell nproc)
+BUILD ?= build
+ASAN_BUILD ?= build-asan
+FUZZ_BUILD ?= build-fuzz
+CMAKE_GENERATOR ?= Ninja
+
+AVR_CFLAGS := -mmcu=atmega328p -DF_CPU=16000000UL -std=c99 -Os -Wall -Wextra -Werror -pedantic
+HOST_WARN := -Wall -Wextra -Werror -pedantic
+
+.PHONY: all deps host asan check-protocol fuzz fuzz-smoke test test-full demo \
+        bench-protocol clean
+
+all: host
+
+deps:
+	@bash scripts/install-deps.sh
+
+host: deps
+	cmake -S . -B $(BUILD) -G $(CMAKE_GENERATOR) -DCMAKE_BUILD_TYPE=Release
+	cmake --build $(BUILD) -j $(JOBS)
+
+asan: deps
+	cmake -S . -B $(ASAN_BUILD) -G $(CMAKE_GENERATOR) -DCMAKE_BUILD_TYPE=Debug \
+	  -DAUGER_SANITIZE=ON -DAUGER_WITH_SIM=OFF
+	cmake --build $(ASAN_BUILD) -j $(JOBS)
+
+# shared/protocol.h and .c must compile cleanly for the module (C99, avr-gcc -Os) and the
+# host (C99 and C++17).
+check-protocol: deps
+	@mkdir -p $(BUILD)/check
+	avr-gcc $(AVR_CFLAGS) -c shared/protocol.c -o $(BUILD)/check/protocol.avr.o
+	gcc -std=c99 $(HOST_WARN) -c shared/protocol.c -o $(BUILD)/check/protocol.host.o
+	printf '#include "protocol.h"\nint main() { proto_parser_t p; proto_parser_init(&p); return p.n; }\n' \
+	  | g++ -std=c++17 $(HOST_WARN) -Ishared -x c++ - -x none -o $(BUILD)/check/protocol_cxx \
+	    $(BUILD)/check/protocol.host.o
+	@echo "check-protocol: protocol.h/.c compile with avr-gcc (C99), gcc (C99) and g++ (C++17)"
+
+$(FUZZ_BUILD)/fuzz_parser: shared/protocol.c shared/protocol.h tests/fuzz/fuzz_parser.c | deps
+	@mkdir -p $(FUZZ_BUILD)
+	clang -std=c99 -g -O1 -Wall -Wextra -Werror -fsanitize=fuzzer,address,undefined \
+	  -fno-sanitize-recover=all -Ishared shared/protocol.c tests/fuzz/fuzz_parser.c -o $@
+
+$(FUZZ_BUILD)/corpus: tests/protocol/gen_vectors.py
+	python3 tests/protocol/gen_vectors.py --corpus $@
+	@touch $@
+
+FUZZ_RUNS ?= -1
+fuzz: $(FUZZ_BUILD)/fuzz_parser $(FUZZ_BUILD)/corpus
+	@mkdir -p $(FUZZ_BUILD)/work
+	$(FUZZ_BUILD)/fuzz_parser -runs=$(FUZZ_RUNS) -seed=1 -max_len=512 \
+	  $(FUZZ_BUILD)/work $(FUZZ_BUILD)/corpus
+
+# The bounded run inside `make test`: fixed seed, fixed number of inputs.
+fuzz-smoke: $(FUZZ_BUILD)/fuzz_parser $(FUZZ_BUILD)/corpus
+	@rm -rf $(FUZZ_BUILD)/smoke && mkdir -p $(FUZZ_BUILD)/smoke
+	$(FUZZ_BUILD)/fuzz_parser -runs=300000 -seed=1 -max_len=512 -print_final_stats=1 \
+	  $(FUZZ_BUILD)/smoke $(FUZZ_BUILD)/corpus 2>&1 | tail -n 3
+
+test: deps check-protocol host asan fuzz-smoke
+	cd $(ASAN_BUILD) && ctest --output-on-failure -L unit -j $(JOBS)
+	cd $(BUILD) && ctest --output-on-failure
+
+test-full: test
+	$(MAKE) fuzz FUZZ_RUNS=5000000
+
+demo:
+	@echo "make demo: the simulated robot driven by augerd arrives with the daemon (issue 4)." >&2
+	@echo "Nothing to run yet; see README.md." >&2
+	@exit 1
+
+bench-protocol: host
+	$(BUILD)/tests/protocol/proto_corruption 1000000
+
+clean:
+	rm -rf $(BUILD) $(ASAN_BUILD) $(FUZZ_BUILD)

@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Installs the Debian packages auger needs, skipping those already installed.
+# Idempotent; runs apt-get only when something is missing. Called by `make deps`
+# (and so by `make test` / `make demo`). Needs root or sudo when it has work to do.
+set -euo pipefail
+
+packages=(
+  # toolchains and build
+  build-essential cmake ninja-build pkg-config python3
+  # firmware
+  gcc-avr binutils-avr avr-libc avrdude
+  # firmware-in-the-loop simulation
+  simavr libsimavr-dev libelf-dev arduino-core-avr
+  # host
+  libeigen3-dev libtomlplusplus-dev libserial-dev catch2
+  # fuzzing (libFuzzer) and sanitizers
+  clang libclang-rt-14-dev
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  status=$(dpkg-query -W -f='${Status}' "$p" 2>/dev/null || true)
+  [[ "$status" == "install ok installed" ]] || missing+=("$p")
+done
+
+if [[ ${#missing[@]} -eq 0 ]]; then
+  echo "install-deps: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+echo "install-deps: installing ${missing[*]}"
+sudo_cmd=()
+if [[ $(id -u) -ne 0 ]]; then
+  command -v sudo >/dev/null || { echo "install-deps: need root or sudo to install: ${missing[*]}" >&2; exit 1; }
+  sudo_cmd=(sudo)
+fi
+export DEBIAN_FRONTEND=noninteractive
+"${sudo_cmd[@]}" apt-get update -qq
+"${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"
