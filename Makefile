@@ -4,6 +4,7 @@
 #                    ASan+UBSan), header checks with avr-gcc and g++, a bounded fuzz run
 #   make test-full   longer suites (see docs/benchmarks.md)
 #   make demo        the simulated robot (arrives with the daemon, issue 4)
+#   make firmware    build the motor-module image (firmware/build/auger-module.elf, .hex)
 #   make deps        install missing Debian packages (scripts/install-deps.sh)
 #   make host        configure and build the host, simulator and tests (Release, build/)
 #   make asan        the unit and protocol tests with ASan+UBSan (build-asan/)
@@ -20,21 +21,24 @@ CMAKE_GENERATOR ?= Ninja
 AVR_CFLAGS := -mmcu=atmega328p -DF_CPU=16000000UL -std=c99 -Os -Wall -Wextra -Werror -pedantic
 HOST_WARN := -Wall -Wextra -Werror -pedantic
 
-.PHONY: all deps host asan check-protocol fuzz fuzz-smoke test test-full demo \
-        bench-protocol clean
+.PHONY: all deps firmware host asan check-protocol fuzz fuzz-smoke test test-full demo \
+        bench-protocol pid-units clean
 
 all: host
 
 deps:
 	@bash scripts/install-deps.sh
 
-host: deps
-	cmake -S . -B $(BUILD) -G $(CMAKE_GENERATOR) -DCMAKE_BUILD_TYPE=Release
+firmware: deps
+	$(MAKE) -C firmware
+
+host: deps firmware
+	cmake -S . -B $(BUILD) -G $(CMAKE_GENERATOR) -DCMAKE_BUILD_TYPE=Release -DAUGER_SANITIZE=OFF -DAUGER_WITH_SIM=ON
 	cmake --build $(BUILD) -j $(JOBS)
 
-asan: deps
+asan: deps firmware
 	cmake -S . -B $(ASAN_BUILD) -G $(CMAKE_GENERATOR) -DCMAKE_BUILD_TYPE=Debug \
-	  -DAUGER_SANITIZE=ON -DAUGER_WITH_SIM=OFF
+	  -DAUGER_SANITIZE=ON -DAUGER_WITH_SIM=ON
 	cmake --build $(ASAN_BUILD) -j $(JOBS)
 
 # shared/protocol.h and .c must compile cleanly for the module (C99, avr-gcc -Os) and the
@@ -84,5 +88,10 @@ demo:
 bench-protocol: host
 	$(BUILD)/tests/protocol/proto_corruption 1000000
 
+# The paper's PID gains under every reading of their units (docs/firmware.md).
+pid-units: host
+	$(BUILD)/tests/fil/pid_units
+
 clean:
 	rm -rf $(BUILD) $(ASAN_BUILD) $(FUZZ_BUILD)
+	$(MAKE) -C firmware clean

@@ -1,0 +1,130 @@
+/* INA219 driver; see ina219.h. */
+#include "ina219.h"
+
+#include "board.h"
+#include "config.h"
+#include "ina_math.h"
+
+enum step { STEP_IDLE, STEP_CONFIG, STEP_CAL, STEP_BUS, STEP_CURRENT };
+
+static uint8_t step = STEP_IDLE;
+static bool configured;
+static uint32_t step_start_ms;
+static uint8_t tx[3];
+static uint8_t rx[2];
+static uint16_t bus_reg;
+static ina_reading_t latest;
+static bool have_new;
+static uint8_t fail_streak;
+static bool failure_pending;
+
+static void launch(uint8_t s, uint32_t t_ms)
+{
+    step = s;
+    step_start_ms = t_ms;
+    bool ok;
+    switch (s) {
+    case STEP_CONFIG:
+        tx[0] = INA_REG_CONFIG;
+        tx[1] = (uint8_t)(INA_CONFIG_VALUE >> 8);
+        tx[2] = (uint8_t)(INA_CONFIG_VALUE & 0xFFu);
+        ok = twi_start(INA_ADDR, tx, 3, rx, 0);
+        break;
+    case STEP_CAL:
+        /* Rewritten every cycle: a load transient can reset the chip to cal = 0, which
+         * makes the current register read 0 while the motor is stalled. */
+        tx[0] = INA_REG_CAL;
+        tx[1] = (uint8_t)(INA_CAL >> 8);
+        tx[2] = (uint8_t)(INA_CAL & 0xFFu);
+        ok = twi_start(INA_ADDR, tx, 3, rx, 0);
+        break;
+    case STEP_BUS:
+        tx[0] = INA_REG_BUS;
+        ok = twi_start(INA_ADDR, tx, 1, rx, 2);
+        break;
+    default:
+        tx[0] = INA_REG_CURRENT;
+        ok = twi_start(INA_ADDR, tx, 1, rx, 2);
+        break;
+    }
+    if (!ok) step = STEP_IDLE; /* cannot happen: a cycle owns the bus */
+}
+
+static void fail_cycle(void)
+{
+    step = STEP_IDLE;
+    configured = false; /* the chip may have reset: configure it again */
+    if (fail_streak < 255u) fail_streak++;
+    if (fail_streak >= INA_FAIL_CYCLES) failure_pending = true;
+}
+
+void ina_init(void)
+{
+    twi_init();
+    step = STEP_IDLE;
+    configured = false;
+    fail_streak = 0;
+}
+
+void ina_start_cycle(uint32_t t_ms)
+{
+    if (step != STEP_IDLE) {
+        /* The previous cycle never finished. */
+        twi_abort();
+        fail_cycle();
+    }
+    launch(configured ? STEP_CAL : STEP_CONFIG, t_ms);
+}
+
+void ina_poll(uint32_t t_ms)
+{
+    if (step == STEP_IDLE) return;
+    enum twi_status st = twi_status();
+    if (st == TWI_BUSY || st == TWI_IDLE) {
+        if ((uint32_t)(t_ms - step_start_ms) > TWI_TIMEOUT_MS) {
+            twi_abort();
+            fail_cycle();
+        }
+        return;
+    }
+    twi_acknowledge();
+    if (st == TWI_ERROR) {
+        fail_cycle();
+        return;
+    }
+    switch (step) {
+    case STEP_CONFIG:
+        configured = true;
+        launch(STEP_CAL, t_ms);
+        break;
+    case STEP_CAL:
+        launch(STEP_BUS, t_ms);
+        break;
+    case STEP_BUS:
+        bus_reg = (uint16_t)(((uint16_t)rx[0] << 8) | rx[1]);
+        launch(STEP_CURRENT, t_ms);
+        break;
+    default:
+        latest.voltage_mv = ina_bus_mv(bus_reg);
+        latest.current_ma = ina_current_ma((uint16_t)(((uint16_t)rx[0] << 8) | rx[1]), CURRENT_LSB_UA);
+        have_new = true;
+        fail_streak = 0;
+        step = STEP_IDLE;
+        break;
+    }
+}
+
+bool ina_take(ina_reading_t *out)
+{
+    if (!have_new) return false;
+    *out = latest;
+    have_new = false;
+    return true;
+}
+
+bool ina_take_failure(void)
+{
+    bool f = failure_pending;
+    failure_pending = false;
+    return f;
+}

@@ -1,0 +1,105 @@
+/*
+ * simmod: N simulated motor modules (ATmega328P under simavr running a firmware ELF,
+ * wired to docs/hardware.md's pins: MD20A + motor + gearbox + screw, quadrature encoder,
+ * INA219, battery). The robot simulator and the tests advance them in simulated time
+ * with simmod_step_to(), set the load on each screw and read back the shaft, the current
+ * and the UART bytes; a pty per module lets a real host program talk to them.
+ * docs/simulator.md describes the models and their parameters.
+ *
+ * Threads: simmod_step_to() may run modules on worker threads; every other function must
+ * be called from the thread that calls simmod_step_to(), between calls. UART callbacks
+ * run on that thread too, at the end of each step, with each byte's simulated time.
+ */
+#ifndef AUGER_SIM_SIMMOD_H
+#define AUGER_SIM_SIMMOD_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "battery.h"
+#include "motor_model.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define SIMMOD_MAX_MODULES 8
+
+typedef struct simmod_t simmod_t;
+
+/* One byte the module sent, at simulated time t_s (when the firmware wrote UDR0). */
+typedef void (*simmod_uart_cb_t)(void *ctx, int module, uint8_t byte, double t_s);
+
+typedef struct simmod_config_t {
+	const char *elf_path;        /* firmware; required */
+	int count;                   /* modules, 1..SIMMOD_MAX_MODULES */
+	int realtime;                /* 0: batch (as fast as possible); 1: paced to the wall clock */
+	int threads;                 /* worker threads incl. the caller; 0 = one per core (max 2) */
+	const char *pty_dir;         /* if set: a pty per module, symlinked DIR/moduleN */
+	int reset_on_open;           /* reset a module when a host opens its pty (DTR) */
+	double clock_offset_ppm[SIMMOD_MAX_MODULES]; /* crystal error per module */
+	const char *bootloader_hex;  /* optional Optiboot .hex: start there, as after reset */
+	double physics_step_s;       /* motor integration step: 100 us */
+	double shunt_ohm;            /* INA219 shunt: must match the firmware's build value */
+	uint8_t ina219_addr7;        /* 0x40 */
+	int encoder_counts_per_rev;  /* X4 counts per motor revolution: 48 */
+	motor_params_t motor;
+	battery_params_t battery;
+	int verbose;                 /* simavr log level passed through (0: errors only) */
+} simmod_config_t;
+
+void simmod_config_default(simmod_config_t *cfg);
+
+/* NULL on error (message on stderr). */
+simmod_t *simmod_create(const simmod_config_t *cfg);
+void simmod_destroy(simmod_t *sim);
+
+int simmod_count(const simmod_t *sim);
+/* Advance every module to simulated time t_s (seconds since creation). */
+void simmod_step_to(simmod_t *sim, double t_s);
+double simmod_time_s(const simmod_t *sim);
+/* 0 running; -1 the AVR crashed or stopped (e.g. slept with interrupts off). */
+int simmod_state(const simmod_t *sim, int module);
+
+/* ---- mechanics and power ---- */
+double simmod_shaft_angle_rad(const simmod_t *sim, int module);   /* screw (output) */
+double simmod_shaft_speed_rpm(const simmod_t *sim, int module);   /* screw (output) */
+double simmod_motor_angle_rad(const simmod_t *sim, int module);   /* motor shaft */
+double simmod_motor_current_a(const simmod_t *sim, int module);   /* armature, signed */
+double simmod_battery_current_a(const simmod_t *sim, int module); /* what the INA219 sees */
+double simmod_battery_voltage_v(const simmod_t *sim, int module); /* terminal */
+double simmod_pwm_duty(const simmod_t *sim, int module);  /* from PB1's edges, 0..1 */
+int simmod_dir_pin(const simmod_t *sim, int module);      /* PB0 level */
+/* Load torque on the screw, N m; positive opposes positive rotation. */
+void simmod_set_load_torque(simmod_t *sim, int module, double torque_nm);
+/* Force the battery's terminal voltage (tests); v <= 0 returns to the pack model. */
+void simmod_set_battery_voltage(simmod_t *sim, int module, double v);
+void simmod_set_battery_soc(simmod_t *sim, int module, double soc);
+/* The true X4 count on the encoder pins now (what a perfect decoder would hold). */
+int64_t simmod_encoder_count(const simmod_t *sim, int module);
+/* Reset the INA219 as a supply glitch would (config and calibration lost). */
+void simmod_ina219_glitch(simmod_t *sim, int module);
+
+/* ---- UART ---- */
+void simmod_set_uart_callback(simmod_t *sim, simmod_uart_cb_t cb, void *ctx);
+/* Queue bytes to the module's RX; they arrive at the line rate. Returns 0. */
+int simmod_uart_send(simmod_t *sim, int module, const uint8_t *data, size_t len);
+/* Slave path of the module's pty ("" without one). */
+const char *simmod_pty_path(const simmod_t *sim, int module);
+/* The stable symlink to it ("" without one). */
+const char *simmod_pty_link(const simmod_t *sim, int module);
+
+/* ---- AVR ---- */
+/* External reset (as the reset pin or DTR): MCUSR.EXTRF set. */
+void simmod_reset(simmod_t *sim, int module);
+/* Stack headroom: longest run of the paint byte between the end of .bss and the stack
+ * pointer, in bytes; -1 if the ELF has no __bss_end/_end symbol. */
+int simmod_stack_headroom(const simmod_t *sim, int module, uint8_t paint_byte);
+/* The simavr core (struct avr_t *) for tests that need more. */
+void *simmod_avr(simmod_t *sim, int module);
+uint64_t simmod_cycles(const simmod_t *sim, int module);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,307 @@
+// Firmware in the loop: the real firmware image (firmware/build/auger-module.elf) in simulated
+// ATmega328Ps wired to simulated motors, encoders, INA219s and batteries (sim/), talking the
+// protocol of shared/protocol.h through the same golden vectors as the host tests.
+#include "fil_rig.hpp"
+#include "golden_vectors.hpp"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <random>
+
+using namespace auger::fil;
+using auger::test::GoldenVector;
+
+namespace {
+
+constexpr uint8_t kEnable = PROTO_SP_ENABLE;
+constexpr uint8_t kEnableClear = PROTO_SP_ENABLE | PROTO_SP_CLEAR_FAULTS;
+
+bool faulted(const Telemetry& t, uint16_t fault) { return (t.tm.status & fault) != 0; }
+bool enabled(const Telemetry& t) { return (t.tm.status & PROTO_ST_ENABLED) != 0; }
+
+// Output stall torque of the simulated motor with 12 V across it (the duty cap's voltage).
+double stall_out_nm_12v()
+{
+    motor_params_t p;
+    motor_params_default(&p);
+    return motor_model_stall_out_nm(&p, 12.0);
+}
+
+}  // namespace
+
+TEST_CASE("module boots disabled, says who it is, and sends telemetry every 10 ms", "[fil]")
+{
+    Rig rig;
+    rig.run_for(1.0);
+    REQUIRE(rig.identities(0).size() == 1);
+    const proto_identity_t& id = rig.identities(0)[0];
+    CHECK(id.protocol_version == PROTO_VERSION);
+    CHECK(id.module_id == 0);
+    CHECK((id.flags & PROTO_ID_FROM_EEPROM) == 0);  // fresh EEPROM: build defaults
+
+    const auto& tel = rig.telemetry(0);
+    REQUIRE(tel.size() >= 95);
+    for (const auto& t : tel) {
+        CHECK_FALSE(enabled(t));
+        CHECK(t.tm.duty_x10000 == 0);
+        CHECK((t.tm.status & PROTO_ST_DEFAULTS) != 0);
+    }
+    CHECK(simmod_pwm_duty(rig.sim(), 0) == 0.0);
+
+    rig.send_request(0, PROTO_T_IDENTITY);
+    rig.send_request(0, PROTO_T_CONFIG_REPORT);
+    rig.run_for(0.1);
+    CHECK(rig.identities(0).size() == 2);
+    REQUIRE(rig.config_reports(0).size() == 1);
+    CHECK(rig.config_reports(0)[0].cmd_timeout_ms == 250);
+    CHECK(rig.host_dropped(0) == 0);
+}
+
+TEST_CASE("telemetry every 10 ms with no gap over 60 s simulated", "[fil]")
+{
+    Rig rig;
+    rig.command(0, 10.0, kEnable);
+    rig.run_for(60.0);
+    const auto& tel = rig.telemetry(0);
+    REQUIRE(tel.size() >= 5990);
+    double worst_gap_s = 0;
+    int module_clock_gaps = 0;
+    for (size_t i = 1; i < tel.size(); ++i) {
+        worst_gap_s = std::max(worst_gap_s, tel[i].t_s - tel[i - 1].t_s);
+        if (tel[i].tm.time_ms - tel[i - 1].tm.time_ms != 10) ++module_clock_gaps;
+    }
+    INFO("worst gap between telemetry frames: " << worst_gap_s * 1e3 << " ms");
+    CHECK(worst_gap_s < 0.0125);  // 10 ms period, jitter from the UART queue only
+    CHECK(module_clock_gaps == 0);
+    CHECK(rig.host_dropped(0) == 0);
+    CHECK(rig.last(0).tm.rx_errors == 0);
+    CHECK(rig.last(0).tm.seq_ack == rig.last_seq_sent(0));
+}
+
+TEST_CASE("host CRC equals avr-libc's: golden setpoints are applied, golden config answered", "[fil]")
+{
+    auto vectors = auger::test::load_golden_vectors(auger::test::golden_vectors_path());
+    Rig rig;
+    rig.run_for(0.05);
+    int setpoints = 0;
+    for (const GoldenVector& v : vectors) {
+        if (v.kind != "setpoint") continue;
+        proto_setpoint_t sp = auger::test::to_setpoint(v);
+        if (sp.flags & kEnable) continue;  // keep the motor still: only the CRC is under test
+        rig.send_raw(0, v.bytes);
+        rig.run_for(0.03);
+        INFO(v.name);
+        CHECK(rig.last(0).tm.seq_ack == sp.seq);
+        ++setpoints;
+    }
+    CHECK(setpoints >= 2);
+    // The module's own frames (CRC by avr-libc's _crc_ccitt_update) all pass the host parser.
+    CHECK(rig.host_dropped(0) == 0);
+    CHECK(rig.last(0).tm.rx_errors == 0);
+}
+
+TEST_CASE("bit-flipped and garbage bytes never change the setpoint", "[fil]")
+{
+    Rig rig;
+    rig.command(0, 10.0, kEnable);
+    rig.run_for(1.0);
+    REQUIRE(rig.last(0).tm.omega_cmd_crpm == 1000);
+
+    std::mt19937_64 rng(5);
+    // A setpoint for -20 rpm, damaged 200 ways, and random garbage between.
+    proto_setpoint_t evil{60000, -2000, kEnableClear};
+    uint8_t frame[PROTO_MAX_FRAME];
+    size_t n = proto_encode_setpoint(&evil, frame);
+    for (int i = 0; i < 200; ++i) {
+        std::vector<uint8_t> bad(frame, frame + n);
+        int flips = 1 + int(rng() % 3);
+        for (int k = 0; k < flips; ++k) {
+            size_t bit = 16 + rng() % ((n - 2) * 8);  // after the start bytes
+            bad[bit / 8] ^= uint8_t(1u << (bit % 8));
+        }
+        std::vector<uint8_t> junk(rng() % 20);
+        for (auto& b : junk) b = uint8_t(rng());
+        bad.insert(bad.end(), junk.begin(), junk.end());
+        rig.send_raw(0, bad);
+        rig.run_for(0.01);
+        REQUIRE(rig.last(0).tm.omega_cmd_crpm == 1000);
+    }
+    rig.run_for(0.5);
+    for (const auto& t : rig.telemetry(0)) CHECK(t.tm.omega_cmd_crpm != -2000);
+    CHECK(rig.last(0).tm.rx_errors >= 150);  // counted, not acted on
+    CHECK(enabled(rig.last(0)));
+    CHECK(std::fabs(simmod_shaft_speed_rpm(rig.sim(), 0) - 10.0) < 1.0);
+}
+
+TEST_CASE("no setpoint for 250 ms stops the motor; only an explicit enable restarts it", "[fil]")
+{
+    Rig rig;
+    rig.command(0, 10.0, kEnable);
+    rig.run_for(1.5);
+    REQUIRE(enabled(rig.last(0)));
+    REQUIRE(simmod_pwm_duty(rig.sim(), 0) > 0.05);
+
+    const double t_last_setpoint = rig.t_s() - 0.01;  // sent at the start of the last period
+    rig.stop_sending(0);
+    rig.run_for(0.5);
+    // The first telemetry with the motor stopped came at most 250 ms (+ one period) later.
+    double t_stop = INFINITY;
+    for (const auto& t : rig.telemetry(0))
+        if (t.t_s > t_last_setpoint && !enabled(t) && t.tm.duty_x10000 == 0) {
+            t_stop = t.t_s;
+            break;
+        }
+    INFO("stopped " << (t_stop - t_last_setpoint) * 1e3 << " ms after the last setpoint");
+    CHECK(t_stop - t_last_setpoint <= 0.250 + 0.011);
+    CHECK(t_stop - t_last_setpoint >= 0.240);
+    CHECK(faulted(rig.last(0), PROTO_F_CMD_TIMEOUT));
+    CHECK(simmod_pwm_duty(rig.sim(), 0) == 0.0);
+
+    // Setpoints come back with ENABLE only: the fault stays latched, the motor stays stopped.
+    rig.command(0, 10.0, kEnable);
+    rig.run_for(1.0);
+    CHECK_FALSE(enabled(rig.last(0)));
+    CHECK(faulted(rig.last(0), PROTO_F_CMD_TIMEOUT));
+    CHECK(std::fabs(simmod_shaft_speed_rpm(rig.sim(), 0)) < 0.5);
+
+    // The explicit enable.
+    rig.command(0, 10.0, kEnableClear);
+    rig.run_for(1.0);
+    CHECK(enabled(rig.last(0)));
+    CHECK_FALSE(faulted(rig.last(0), PROTO_F_CMD_TIMEOUT));
+    CHECK(std::fabs(simmod_shaft_speed_rpm(rig.sim(), 0) - 10.0) < 1.0);
+}
+
+TEST_CASE("under-voltage stops the motor, with hysteresis before it may run again", "[fil]")
+{
+    Rig rig(RigOptions{1, 18.0, 1});
+    rig.command(0, 10.0, kEnable);
+    rig.run_for(1.0);
+    REQUIRE(enabled(rig.last(0)));
+
+    simmod_set_battery_voltage(rig.sim(), 0, 15.5);
+    rig.run_for(0.3);
+    CHECK(faulted(rig.last(0), PROTO_F_UNDERVOLTAGE));
+    CHECK_FALSE(enabled(rig.last(0)));
+    CHECK(simmod_pwm_duty(rig.sim(), 0) == 0.0);
+
+    // Above the threshold but inside the hysteresis: clearing does not hold.
+    simmod_set_battery_voltage(rig.sim(), 0, 16.2);
+    rig.command(0, 10.0, kEnableClear);
+    rig.run_for(0.5);
+    CHECK(faulted(rig.last(0), PROTO_F_UNDERVOLTAGE));
+    CHECK_FALSE(enabled(rig.last(0)));
+
+    simmod_set_battery_voltage(rig.sim(), 0, 17.0);
+    rig.run_for(1.0);
+    CHECK_FALSE(faulted(rig.last(0), PROTO_F_UNDERVOLTAGE));
+    CHECK(enabled(rig.last(0)));
+}
+
+TEST_CASE("sustained overcurrent stops the motor and latches", "[fil]")
+{
+    Rig rig(RigOptions{1, 18.0, 1});
+    rig.command(0, 10.0, kEnable);
+    rig.run_for(1.0);
+    REQUIRE(enabled(rig.last(0)));
+    // A screw jammed in the ground: a load near the motor's stall torque.
+    simmod_set_load_torque(rig.sim(), 0, 0.9 * stall_out_nm_12v());
+    rig.run_for(1.0);
+    CHECK(faulted(rig.last(0), PROTO_F_OVERCURRENT));
+    CHECK_FALSE(enabled(rig.last(0)));
+    CHECK(simmod_pwm_duty(rig.sim(), 0) == 0.0);
+    // It latched on readings of 5.2 A or more, five in a row.
+    int run = 0, longest = 0;
+    for (const auto& t : rig.telemetry(0)) {
+        run = std::abs(t.tm.current_ma) >= 5200 ? run + 1 : 0;
+        longest = std::max(longest, run);
+    }
+    CHECK(longest >= 1);
+    simmod_set_load_torque(rig.sim(), 0, 0.0);
+    rig.run_for(0.5);
+    CHECK(faulted(rig.last(0), PROTO_F_OVERCURRENT));  // latched
+    rig.command(0, 10.0, kEnableClear);
+    rig.run_for(1.0);
+    CHECK(enabled(rig.last(0)));
+}
+
+TEST_CASE("INA219 readings equal the simulated current and voltage within resolution", "[fil]")
+{
+    for (double v : {15.0, 21.0}) {
+        Rig rig(RigOptions{1, v, 1});
+        rig.run_for(0.05);
+        // 15 V is below the default 16.0 V under-voltage stop: lower it for this reading.
+        rig.reconfigure(0, [](proto_config_t& c) { c.undervoltage_mv = 14000; });
+        rig.command(0, 15.0, kEnable);
+        simmod_set_load_torque(rig.sim(), 0, 0.3 * stall_out_nm_12v());
+        rig.run_for(2.0);
+        const Telemetry& t = rig.last(0);
+        INFO("battery " << v << " V");
+        // The pack current the INA219 averages: the motor current while PWM is high.
+        double pack_a = simmod_pwm_duty(rig.sim(), 0) * std::fabs(simmod_motor_current_a(rig.sim(), 0));
+        double shunt_ohm = 0.01;  // the firmware's and the simulator's default build value
+        // Bus voltage is measured after the high-side shunt; LSB 4 mV.
+        CHECK(std::fabs(t.tm.voltage_mv / 1000.0 - (v - pack_a * shunt_ohm)) <= 0.008);
+        // Current LSB 1 mA; the reading is up to one period older than the simulator's
+        // values, and the speed loop moves the duty by a fraction of a percent per period.
+        CHECK(std::fabs(t.tm.current_ma / 1000.0 - pack_a) <= 0.002 + 0.03 * pack_a);
+        CHECK(pack_a > 1.0);
+    }
+}
+
+TEST_CASE("encoder counts equal the simulated shaft's at top speed and through reversals", "[fil]")
+{
+    Rig rig(RigOptions{1, 21.0, 1});
+    double omegas[] = {30.0, -30.0, 30.0, -5.0, 0.0};  // 30 rpm asks more than the motor has
+    double top_rpm = 0;
+    for (double w : omegas) {
+        rig.command(0, w, kEnable);
+        rig.run_for(1.5);
+        top_rpm = std::max(top_rpm, std::fabs(simmod_shaft_speed_rpm(rig.sim(), 0)));
+    }
+    rig.run_for(1.0);  // at rest
+    INFO("top speed " << top_rpm << " rpm");
+    CHECK(top_rpm > 20.0);
+    CHECK(rig.last(0).tm.position_counts == int32_t(simmod_encoder_count(rig.sim(), 0)));
+    CHECK(rig.last(0).tm.encoder_errors == 0);
+}
+
+TEST_CASE("four modules at once, each on its own setpoint", "[fil]")
+{
+    Rig rig(RigOptions{4, 18.0, 2});
+    const double targets[4] = {5.0, -10.0, 15.0, -20.0};
+    for (int m = 0; m < 4; ++m) rig.command(m, targets[m], kEnable);
+    rig.run_for(2.0);
+    for (int m = 0; m < 4; ++m) {
+        INFO("module " << m);
+        CHECK(rig.identities(m).size() == 1);
+        CHECK(std::fabs(simmod_shaft_speed_rpm(rig.sim(), m) - targets[m]) < 1.0);
+        CHECK(rig.last(m).tm.seq_ack == rig.last_seq_sent(m));
+        CHECK(rig.host_dropped(m) == 0);
+    }
+}
+
+TEST_CASE("a configuration frame is stored in EEPROM and survives a reset", "[fil]")
+{
+    Rig rig;
+    rig.run_for(0.1);
+    rig.send_request(0, PROTO_T_CONFIG_REPORT);
+    rig.run_for(0.05);
+    REQUIRE(rig.config_reports(0).size() == 1);
+    proto_config_t cfg = rig.config_reports(0)[0];
+    cfg.module_id = 3;
+    cfg.dir_sign = -1;
+    rig.send_config(0, cfg);
+    rig.run_for(0.5);
+    REQUIRE(rig.config_reports(0).size() == 2);
+    CHECK(rig.config_reports(0)[1].module_id == 3);
+    CHECK(rig.config_reports(0)[1].dir_sign == -1);
+
+    simmod_reset(rig.sim(), 0);
+    rig.run_for(1.0);
+    REQUIRE(rig.identities(0).size() == 2);
+    CHECK(rig.identities(0)[1].module_id == 3);
+    CHECK((rig.identities(0)[1].flags & PROTO_ID_FROM_EEPROM) != 0);
+    CHECK((rig.last(0).tm.status & PROTO_ST_DEFAULTS) == 0);
+}

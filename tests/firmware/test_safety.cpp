@@ -1,0 +1,170 @@
+// Safety state machine: boot state, command timeout, latching, clearing, overcurrent,
+// under-voltage hysteresis, sensor and watchdog faults.
+#include <catch2/catch.hpp>
+
+#include "config.h"
+#include "safety.h"
+#include "settings.h"
+
+namespace {
+safety_t booted(bool watchdog = false)
+{
+    proto_config_t cfg;
+    settings_defaults(&cfg);
+    safety_t s;
+    safety_init(&s, &cfg, watchdog);
+    return s;
+}
+const uint8_t EN = PROTO_SP_ENABLE;
+const uint8_t CLR = PROTO_SP_CLEAR_FAULTS;
+} // namespace
+
+TEST_CASE("safety: boots disabled with no fault")
+{
+    safety_t s = booted();
+    CHECK_FALSE(safety_motor_enabled(&s));
+    CHECK(safety_status(&s) == 0);
+    for (uint32_t t = 0; t < 1000; ++t) safety_tick(&s, t);
+    CHECK(safety_status(&s) == 0); // no setpoint ever: no timeout fault either
+}
+
+TEST_CASE("safety: command timeout at 250 ms exactly, latched")
+{
+    safety_t s = booted();
+    CHECK(safety_on_setpoint(&s, EN, 1000));
+    CHECK(safety_motor_enabled(&s));
+    CHECK(safety_status(&s) == (PROTO_ST_ENABLED | PROTO_ST_SETPOINT_OK));
+    for (uint32_t t = 1000; t <= 1249; ++t) safety_tick(&s, t);
+    CHECK(safety_motor_enabled(&s));
+    safety_tick(&s, 1250);
+    CHECK_FALSE(safety_motor_enabled(&s));
+    CHECK(safety_status(&s) == PROTO_F_CMD_TIMEOUT);
+
+    // A new enabling setpoint alone does not restart the motor...
+    CHECK_FALSE(safety_on_setpoint(&s, EN, 1300));
+    CHECK_FALSE(safety_motor_enabled(&s));
+    CHECK(safety_status(&s) == (PROTO_F_CMD_TIMEOUT | PROTO_ST_SETPOINT_OK));
+    // ... clearing without enable clears but stays stopped ...
+    CHECK_FALSE(safety_on_setpoint(&s, CLR, 1310));
+    CHECK(safety_status(&s) == PROTO_ST_SETPOINT_OK);
+    // ... and enable + clear in one frame runs.
+    safety_tick(&s, 1320);
+    CHECK(safety_on_setpoint(&s, EN | CLR, 1320));
+    CHECK(safety_motor_enabled(&s));
+}
+
+TEST_CASE("safety: a fresh setpoint each period keeps it running; timeout counts from the last")
+{
+    safety_t s = booted();
+    uint32_t t = 0;
+    for (; t < 5000; ++t) {
+        if (t % 10 == 0) safety_on_setpoint(&s, EN, t);
+        safety_tick(&s, t);
+        REQUIRE(safety_motor_enabled(&s));
+    }
+    // last setpoint at 4990
+    for (; t < 4990 + 250; ++t) safety_tick(&s, t);
+    CHECK(safety_motor_enabled(&s));
+    safety_tick(&s, 4990 + 250);
+    CHECK(safety_status(&s) == PROTO_F_CMD_TIMEOUT);
+}
+
+TEST_CASE("safety: timeout while disabled is no fault")
+{
+    safety_t s = booted();
+    safety_on_setpoint(&s, 0, 0);
+    CHECK(safety_status(&s) == PROTO_ST_SETPOINT_OK);
+    safety_tick(&s, 300);
+    CHECK(safety_status(&s) == 0);
+}
+
+TEST_CASE("safety: disable setpoint stops without fault")
+{
+    safety_t s = booted();
+    safety_on_setpoint(&s, EN, 0);
+    CHECK_FALSE(safety_on_setpoint(&s, 0, 10));
+    CHECK_FALSE(safety_motor_enabled(&s));
+    CHECK(safety_status(&s) == PROTO_ST_SETPOINT_OK);
+}
+
+TEST_CASE("safety: timeout survives the 32-bit millisecond wrap")
+{
+    safety_t s = booted();
+    safety_on_setpoint(&s, EN, 0xFFFFFF00u);
+    safety_tick(&s, 0xFFFFFF00u + 249u);
+    CHECK(safety_motor_enabled(&s));
+    safety_tick(&s, 0xFFFFFF00u + 250u); // wrapped to 0xFA
+    CHECK_FALSE(safety_motor_enabled(&s));
+}
+
+TEST_CASE("safety: overcurrent needs 5 consecutive readings at or above 5200 mA")
+{
+    safety_t s = booted();
+    safety_on_setpoint(&s, EN, 0);
+    for (int i = 0; i < 4; ++i) safety_on_power(&s, 5200, 18000);
+    safety_on_power(&s, 5199, 18000); // breaks the run
+    for (int i = 0; i < 4; ++i) safety_on_power(&s, -5200, 18000); // either sign
+    CHECK(safety_motor_enabled(&s));
+    safety_on_power(&s, 6000, 18000);
+    CHECK_FALSE(safety_motor_enabled(&s));
+    CHECK((safety_status(&s) & PROTO_F_MASK) == PROTO_F_OVERCURRENT);
+    // Clearing resets the count: four more readings do not latch again.
+    CHECK(safety_on_setpoint(&s, EN | CLR, 10));
+    for (int i = 0; i < 4; ++i) safety_on_power(&s, 5200, 18000);
+    CHECK(safety_motor_enabled(&s));
+    safety_on_power(&s, 5200, 18000);
+    CHECK_FALSE(safety_motor_enabled(&s));
+}
+
+TEST_CASE("safety: under-voltage latches below 16.0 V, clears only above 16.5 V")
+{
+    safety_t s = booted();
+    safety_on_setpoint(&s, EN, 0);
+    safety_on_power(&s, 1000, 16000); // exactly at the limit: fine
+    CHECK(safety_motor_enabled(&s));
+    // A surge's sag one reading short of UNDERVOLTAGE_SAMPLES, then recovery: no fault.
+    for (int i = 0; i < UNDERVOLTAGE_SAMPLES - 1; ++i) safety_on_power(&s, 4000, 14000);
+    safety_on_power(&s, 1000, 16000);
+    CHECK(safety_motor_enabled(&s));
+    // Low for UNDERVOLTAGE_SAMPLES readings in a row: latched.
+    for (int i = 0; i < UNDERVOLTAGE_SAMPLES - 1; ++i) safety_on_power(&s, 1000, 15999);
+    CHECK(safety_motor_enabled(&s));
+    safety_on_power(&s, 1000, 15999);
+    CHECK_FALSE(safety_motor_enabled(&s));
+    CHECK((safety_status(&s) & PROTO_F_MASK) == PROTO_F_UNDERVOLTAGE);
+    // Recovered into the hysteresis band: clearing is refused.
+    safety_on_power(&s, 0, 16499);
+    CHECK_FALSE(safety_on_setpoint(&s, EN | CLR, 10));
+    CHECK((safety_status(&s) & PROTO_F_MASK) == PROTO_F_UNDERVOLTAGE);
+    // Above the band: clearing works.
+    safety_on_power(&s, 0, 16500);
+    CHECK(safety_on_setpoint(&s, EN | CLR, 20));
+    CHECK(safety_status(&s) == (PROTO_ST_ENABLED | PROTO_ST_SETPOINT_OK));
+    // Dipping into the band from above is not a fault.
+    safety_on_power(&s, 0, 16100);
+    CHECK(safety_motor_enabled(&s));
+}
+
+TEST_CASE("safety: sensor fault latches until cleared, and not while still failing")
+{
+    safety_t s = booted();
+    safety_on_setpoint(&s, EN, 0);
+    safety_on_sensor_fault(&s);
+    CHECK_FALSE(safety_motor_enabled(&s));
+    CHECK((safety_status(&s) & PROTO_F_MASK) == PROTO_F_SENSOR);
+    // Still failing: clearing is refused.
+    CHECK_FALSE(safety_on_setpoint(&s, EN | CLR, 5));
+    CHECK((safety_status(&s) & PROTO_F_MASK) == PROTO_F_SENSOR);
+    safety_on_power(&s, 0, 18000); // a good reading alone does not clear it...
+    CHECK((safety_status(&s) & PROTO_F_MASK) == PROTO_F_SENSOR);
+    CHECK(safety_on_setpoint(&s, EN | CLR, 10)); // ... but allows clearing
+}
+
+TEST_CASE("safety: a watchdog reset is reported and must be cleared")
+{
+    safety_t s = booted(true);
+    CHECK(safety_status(&s) == PROTO_F_WATCHDOG);
+    CHECK_FALSE(safety_on_setpoint(&s, EN, 0));
+    CHECK(safety_on_setpoint(&s, EN | CLR, 10));
+    CHECK(safety_status(&s) == (PROTO_ST_ENABLED | PROTO_ST_SETPOINT_OK));
+}
