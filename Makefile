@@ -5,6 +5,7 @@
 #   make test-full   longer suites (see docs/benchmarks.md)
 #   make demo        the simulated robot (arrives with the daemon, issue 4)
 #   make firmware    build the motor-module image (firmware/build/auger-module.elf, .hex)
+#   make flash PORT=/dev/ttyUSB0 [ID=n]   flash a module through Optiboot, set its id
 #   make deps        install missing Debian packages (scripts/install-deps.sh)
 #   make host        configure and build the host, simulator and tests (Release, build/)
 #   make asan        the unit and protocol tests with ASan+UBSan (build-asan/)
@@ -21,7 +22,7 @@ CMAKE_GENERATOR ?= Ninja
 AVR_CFLAGS := -mmcu=atmega328p -DF_CPU=16000000UL -std=c99 -Os -Wall -Wextra -Werror -pedantic
 HOST_WARN := -Wall -Wextra -Werror -pedantic
 
-.PHONY: all deps firmware host asan check-protocol fuzz fuzz-smoke test test-full demo \
+.PHONY: all deps firmware flash host asan check-protocol fuzz fuzz-smoke test test-full demo \
         bench-protocol pid-units clean
 
 all: host
@@ -31,6 +32,14 @@ deps:
 
 firmware: deps
 	$(MAKE) -C firmware
+
+PORT ?= /dev/ttyUSB0
+ID ?=
+flash: firmware
+	cmake -S . -B $(BUILD) -G $(CMAKE_GENERATOR) -DCMAKE_BUILD_TYPE=Release -DAUGER_SANITIZE=OFF -DAUGER_WITH_SIM=ON
+	cmake --build $(BUILD) -j $(JOBS) --target auger-module
+	AUGER_MODULE=$(BUILD)/host/tools/auger-module \
+	  scripts/flash-module.sh $(PORT) firmware/build/auger-module.hex $(ID)
 
 host: deps firmware
 	cmake -S . -B $(BUILD) -G $(CMAKE_GENERATOR) -DCMAKE_BUILD_TYPE=Release -DAUGER_SANITIZE=OFF -DAUGER_WITH_SIM=ON

@@ -77,6 +77,17 @@ TEST_CASE("telemetry every 10 ms with no gap over 60 s simulated", "[fil]")
     CHECK(rig.host_dropped(0) == 0);
     CHECK(rig.last(0).tm.rx_errors == 0);
     CHECK(rig.last(0).tm.seq_ack == rig.last_seq_sent(0));
+
+    // Stack painting: after a minute of control, telemetry, setpoints, INA219 traffic and
+    // (below) a config write and requests, the untouched paint is the stack headroom.
+    rig.stop_sending(0);
+    rig.run_for(0.3);
+    rig.reconfigure(0, [](proto_config_t& c) { c.cmd_timeout_ms = 300; });
+    rig.send_request(0, PROTO_T_IDENTITY);
+    rig.run_for(0.1);
+    int headroom = simmod_stack_headroom(rig.sim(), 0, 0xC5);
+    INFO("stack headroom " << headroom << " bytes");
+    CHECK(headroom >= 512);
 }
 
 TEST_CASE("host CRC equals avr-libc's: golden setpoints are applied, golden config answered", "[fil]")
