@@ -5,10 +5,13 @@
 #include "config.h"
 #include "ina_math.h"
 
-enum step { STEP_IDLE, STEP_CONFIG, STEP_CAL, STEP_BUS, STEP_CURRENT };
+enum step { STEP_IDLE, STEP_CHECK, STEP_CONFIG, STEP_CAL, STEP_BUS, STEP_CURRENT };
 
 static uint8_t step = STEP_IDLE;
 static bool configured;
+/* The chip was found reset this cycle: its current register predates the new calibration
+ * (it is updated at the end of a conversion), so this cycle reports no new current. */
+static bool reset_seen;
 static uint32_t step_start_ms;
 static uint8_t tx[3];
 static uint8_t rx[2];
@@ -24,6 +27,13 @@ static void launch(uint8_t s, uint32_t t_ms)
     step_start_ms = t_ms;
     bool ok;
     switch (s) {
+    case STEP_CHECK:
+        /* A load transient can reset the chip: configuration (range, averaging) and
+         * calibration back to their power-on values. Reading the configuration back each
+         * cycle catches it; the calibration is rewritten anyway (below). */
+        tx[0] = INA_REG_CONFIG;
+        ok = twi_start(INA_ADDR, tx, 1, rx, 2);
+        break;
     case STEP_CONFIG:
         tx[0] = INA_REG_CONFIG;
         tx[1] = (uint8_t)(INA_CONFIG_VALUE >> 8);
@@ -73,7 +83,7 @@ void ina_start_cycle(uint32_t t_ms)
         twi_abort();
         fail_cycle();
     }
-    launch(configured ? STEP_CAL : STEP_CONFIG, t_ms);
+    launch(configured ? STEP_CHECK : STEP_CONFIG, t_ms);
 }
 
 void ina_poll(uint32_t t_ms)
@@ -93,6 +103,14 @@ void ina_poll(uint32_t t_ms)
         return;
     }
     switch (step) {
+    case STEP_CHECK:
+        if ((uint16_t)(((uint16_t)rx[0] << 8) | rx[1]) == INA_CONFIG_VALUE) {
+            launch(STEP_CAL, t_ms);
+        } else {
+            reset_seen = true;
+            launch(STEP_CONFIG, t_ms);
+        }
+        break;
     case STEP_CONFIG:
         configured = true;
         launch(STEP_CAL, t_ms);
@@ -106,13 +124,17 @@ void ina_poll(uint32_t t_ms)
         break;
     default:
         latest.voltage_mv = ina_bus_mv(bus_reg);
-        latest.current_ma = ina_current_ma((uint16_t)(((uint16_t)rx[0] << 8) | rx[1]), CURRENT_LSB_UA);
+        if (!reset_seen)
+            latest.current_ma = ina_current_ma((uint16_t)(((uint16_t)rx[0] << 8) | rx[1]), CURRENT_LSB_UA);
+        reset_seen = false;
         have_new = true;
         fail_streak = 0;
         step = STEP_IDLE;
         break;
     }
 }
+
+bool ina_busy(void) { return step != STEP_IDLE; }
 
 bool ina_take(ina_reading_t *out)
 {
