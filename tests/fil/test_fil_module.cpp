@@ -3,6 +3,7 @@
 // protocol of shared/protocol.h through the same golden vectors as the host tests.
 #include "fil_rig.hpp"
 #include "golden_vectors.hpp"
+#include "sim_avr.h"
 
 #include <catch2/catch.hpp>
 
@@ -366,4 +367,46 @@ TEST_CASE("after the INA219 loses its calibration (load transient) the readings 
         CHECK(x <= *hi + m_clean * 0.02);
     }
     CHECK(enabled(glitched.last(0)));
+}
+
+TEST_CASE("a hung module is reset by its watchdog, reports it, and stays stopped", "[fil]")
+{
+    Rig rig(RigOptions{1, 18.0, 1});
+    rig.command(0, 10.0, kEnable);
+    rig.run_for(1.0);
+    REQUIRE(enabled(rig.last(0)));
+    REQUIRE(rig.identities(0).size() == 1);
+
+    // Hang the main loop: an endless `nop; rjmp .-4` in unused flash, as a runaway pointer or
+    // a stuck loop would; interrupts stay on. (With interrupts off the chip resets at the
+    // second timeout too, but simavr 1.6 only re-raises the watchdog interrupt then; and it
+    // takes a bare `rjmp .` with interrupts off for the end of a program.)
+    auto* avr = static_cast<avr_t*>(simmod_avr(rig.sim(), 0));
+    const uint32_t addr = 0x7000;  // the image ends near 0x2400; Optiboot starts at 0x7E00
+    REQUIRE(avr->flash[addr] == 0xFF);
+    const uint8_t loop[] = {0x00, 0x00, 0xFE, 0xCF};  // nop; rjmp -2 words (little-endian)
+    for (unsigned i = 0; i < sizeof loop; ++i) avr->flash[addr + i] = loop[i];
+    avr->pc = addr;
+    avr->state = cpu_Running;  // it may have been asleep between interrupts
+    const double t_hang = rig.t_s();
+    rig.run_for(0.5);
+
+    // Telemetry stopped, then the module came back by itself with a new identity frame.
+    REQUIRE(rig.identities(0).size() == 2);
+    double gap_s = 0;
+    for (size_t i = 1; i < rig.telemetry(0).size(); ++i)
+        gap_s = std::max(gap_s, rig.telemetry(0)[i].t_s - rig.telemetry(0)[i - 1].t_s);
+    INFO("longest telemetry gap " << gap_s * 1e3 << " ms");
+    CHECK(gap_s > 0.1);    // hung for two watchdog periods (64 + 64 ms)...
+    CHECK(gap_s < 0.3);    // ... then reset
+    CHECK((rig.identities(0)[1].reset_cause & 0x08) != 0);  // WDRF
+    CHECK(faulted(rig.last(0), PROTO_F_WATCHDOG));
+    CHECK_FALSE(enabled(rig.last(0)));
+    CHECK(rig.last(0).t_s > t_hang + 0.2);
+    // Setpoints with ENABLE alone do not restart it; the explicit enable does.
+    CHECK(simmod_pwm_duty(rig.sim(), 0) == 0.0);
+    rig.command(0, 10.0, kEnableClear);
+    rig.run_for(1.0);
+    CHECK(enabled(rig.last(0)));
+    CHECK(std::fabs(simmod_shaft_speed_rpm(rig.sim(), 0) - 10.0) < 1.0);
 }
