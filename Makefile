@@ -11,6 +11,7 @@
 #   make asan        the unit and protocol tests with ASan+UBSan (build-asan/)
 #   make fuzz        run the protocol parser fuzzer (FUZZ_RUNS, default unbounded: Ctrl-C)
 #   make bench-protocol   XOR byte vs CRC-16 corruption figures (docs/protocol.md)
+#   make bench-firmware   firmware cycles, edge rates, CPU load, simulation speed (docs/benchmarks.md)
 SHELL := /bin/bash
 .SHELLFLAGS := -eu -o pipefail -c
 JOBS ?= $(shell nproc)
@@ -23,7 +24,7 @@ AVR_CFLAGS := -mmcu=atmega328p -DF_CPU=16000000UL -std=c99 -Os -Wall -Wextra -We
 HOST_WARN := -Wall -Wextra -Werror -pedantic
 
 .PHONY: all deps firmware flash host asan check-protocol fuzz fuzz-smoke test test-full demo \
-        bench-protocol pid-units clean
+        bench-protocol bench-firmware pid-units clean
 
 all: host
 
@@ -96,6 +97,9 @@ demo:
 
 bench-protocol: host
 	$(BUILD)/tests/protocol/proto_corruption 1000000
+
+bench-firmware: host
+	$(BUILD)/bench/fw_bench
 
 # The paper's PID gains under every reading of their units (docs/firmware.md).
 pid-units: host

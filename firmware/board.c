@@ -2,6 +2,7 @@
 #include "board.h"
 
 #include <avr/interrupt.h>
+#include <avr/pgmspace.h>
 #include <avr/sleep.h> /* sleep_cpu */
 #include <avr/wdt.h>
 #include <util/atomic.h>
@@ -11,6 +12,18 @@
 /* Read by the simulator (docs/firmware.md): `used` and `externally_visible` keep the
  * name through -flto even though the firmware itself never reads it. */
 __attribute__((used, externally_visible)) volatile uint16_t fw_stack_unused_bytes;
+
+/* The encoder ISR's table (encoder_isr.S): 16 used entries of 256, at ENC_ISR_INDEX, from
+ * the same transitions as enc_transition_table (ENC_DELTA, host-tested against it).
+ * Flash, not RAM: lpm costs one cycle more than ld, but 256 aligned bytes of RAM would
+ * cost up to 511. */
+#define ENC_E(old_ab, new_ab) [ENC_ISR_INDEX(old_ab, new_ab)] = (uint8_t)ENC_DELTA(old_ab, new_ab)
+__attribute__((used, externally_visible, aligned(256))) const uint8_t enc_isr_table[256] PROGMEM = {
+    ENC_E(0, 0), ENC_E(0, 1), ENC_E(0, 2), ENC_E(0, 3), ENC_E(1, 0), ENC_E(1, 1),
+    ENC_E(1, 2), ENC_E(1, 3), ENC_E(2, 0), ENC_E(2, 1), ENC_E(2, 2), ENC_E(2, 3),
+    ENC_E(3, 0), ENC_E(3, 1), ENC_E(3, 2), ENC_E(3, 3),
+};
+#undef ENC_E
 
 void board_init(void)
 {
@@ -36,14 +49,13 @@ void board_init(void)
     OCR2A = TICK_OCR;
     TIMSK2 = (1 << OCIE2A);
 
-    /* Encoder: inputs with pull-ups, the table in RAM, the current state, then PCINT. */
+    /* Encoder: inputs with pull-ups, the current state, then PCINT. */
     ENC_DDR &= (uint8_t)~((1 << ENC_A_BIT) | (1 << ENC_B_BIT));
     ENC_PORT |= (1 << ENC_A_BIT) | (1 << ENC_B_BIT);
-    for (uint8_t i = 0; i < 16; ++i) enc_isr_table[i] = (uint8_t)enc_transition_table[i];
     enc_isr_count = 0;
     enc_isr_illegal = 0;
     __builtin_avr_delay_cycles(16); /* pull-ups charge the lines, PIND's synchroniser follows */
-    enc_isr_prev = (uint8_t)((uint8_t)(uintptr_t)enc_isr_table | ((ENC_PIN & ENC_AB_MASK) >> 2));
+    enc_isr_prev = (uint8_t)((ENC_PIN & ENC_AB_MASK) << 4); /* old_ab << 6 */
     ENC_PCMSK = ENC_PCINT_MASK;
     PCIFR = (1 << ENC_PCIE);
     PCICR |= (1 << ENC_PCIE);
@@ -61,8 +73,10 @@ void board_motor_set(int16_t duty_x10000)
     }
     uint16_t mag = (uint16_t)(duty_x10000 < 0 ? -duty_x10000 : duty_x10000);
     if (mag > 10000u) mag = 10000u;
-    /* mag * 1000 / 10000 = OCR counts of PWM_TOP + 1 */
-    uint16_t ocr = (uint16_t)((mag + 5u) / 10u);
+    /* mag * 1000 / 10000 = OCR counts of PWM_TOP + 1, rounded. x / 10 as
+     * (x * 52429) >> 19, exact for every 16-bit x (checked exhaustively): a 16x16 multiply
+     * instead of libgcc's 16-bit division (~200 cycles). */
+    uint16_t ocr = (uint16_t)(((uint32_t)(uint16_t)(mag + 5u) * 52429u) >> 19);
     if (ocr > PWM_TOP) ocr = PWM_TOP;
     if (duty_x10000 > 0) {
         MOTOR_DIR_PORT |= (1 << MOTOR_DIR_BIT);
@@ -111,20 +125,26 @@ void board_wdt_reset(void)
     if (!(WDTCSR & (1 << WDIE))) WDTCSR |= (1 << WDIE);
 }
 
-void board_idle(uint8_t last_tick)
+void board_idle(uint8_t last_tick, uint8_t due_ms)
 {
-    /* Encoder edges and transmitted bytes wake the CPU thousands of times a second but
-     * give the main loop nothing to do: go back to sleep here until the tick moves, a byte
-     * arrives or a TWI transaction ends. No cli() around the check (a window with
-     * interrupts off right after another ISR would delay the encoder ISR past the next
-     * edge at 200k edges/s): instead the ISRs that bring work (tick, UART RX, TWI end)
-     * clear SE, which turns a `sleep` reached after the check into a no-op. */
-    for (;;) {
-        SMCR = SLEEP_SMCR_IDLE;
-        uint8_t twi = twi_state;
-        if (board_tick != last_tick || uart_rx_pending() || twi == TWI_ST_DONE || twi == TWI_ST_ERROR)
-            break;
-        sleep_cpu();
+    /* Ticks, encoder edges and transmitted bytes wake the CPU thousands of times a second,
+     * but the loop has work only at the ticks it asked for (due_ms: the next INA219 cycle,
+     * control step or command timeout), at the tick after a byte arrived (the RX ring holds
+     * 2.5 ms) and at the end of a TWI transaction. The tick ISR and the TWI ISR clear SE
+     * when they bring that work. So: set SE, look once for work that came before, then
+     * sleep while SE stays set; a wake-up that brings nothing costs the `in`, `sbrc` and
+     * jump back (5 cycles with the sleep). No cli() around the check (a window with
+     * interrupts off right after another ISR would delay the encoder ISR past the next edge
+     * at 200k edges/s): an ISR between the check and `sleep` clears SE, which makes that
+     * `sleep` a no-op and ends the loop. */
+    board_wake_tick = (uint8_t)(last_tick + due_ms);
+    SMCR = SLEEP_SMCR_IDLE;
+    uint8_t elapsed = (uint8_t)(board_tick - last_tick);
+    uint8_t twi = twi_state;
+    if (elapsed < due_ms && !(elapsed != 0 && uart_rx_new) && twi != TWI_ST_DONE && twi != TWI_ST_ERROR) {
+        do {
+            sleep_cpu();
+        } while (SMCR & (1 << SE));
     }
     SMCR = 0;
 }

@@ -56,9 +56,9 @@
 #define UART_UDRE_VECT USART_UDRE_vect
 #define TWI_VECT TWI_vect
 
-/* The assembly ISRs (encoder, TWI) save r24, r25 and SREG in GPIOR0..2 (1 cycle each
- * instead of a 2-cycle push). No ISR enables interrupts, so they never nest and can share
- * the three registers; nothing else may use them. */
+/* The assembly ISRs (encoder, TWI, UART) save registers and SREG in GPIOR0..2 (1 cycle
+ * each instead of a 2-cycle push). No ISR enables interrupts, so they never nest and can
+ * share the three registers; nothing else may use them. */
 #define ISR_SAVE0 GPIOR0
 #define ISR_SAVE1 GPIOR1
 #define ISR_SAVE2 GPIOR2
@@ -70,6 +70,9 @@
 #define TWI_ST_ERROR 3
 
 /* ---- UART --------------------------------------------------------------------------------- */
+/* Ring sizes, powers of two (the ISRs wrap with a mask); no `u` suffix: uart_isr.S uses them. */
+#define UART_RX_SIZE 64  /* 2.5 ms of input at 250000 baud; drained at the tick after input */
+#define UART_TX_SIZE 128 /* four telemetry frames */
 /* 250000 baud with U2X: UBRR = 16 MHz / (8 * 250000) - 1 = 7, exact. */
 #define UART_UBRR 7u
 
@@ -82,11 +85,12 @@
 #ifndef __ASSEMBLER__
 
 /* ---- encoder_isr.S ---- */
-extern volatile uint8_t enc_isr_table[16]; /* copy of enc_transition_table, 16-aligned */
-extern volatile uint8_t enc_isr_prev;      /* low address byte of the table | old ab */
+extern const uint8_t enc_isr_table[256];   /* flash, 256-aligned, ENC_ISR_INDEX (enc.h) */
+extern volatile uint8_t enc_isr_prev;      /* old ab << 6 */
 extern volatile uint16_t enc_isr_count;    /* wrapping X4 count */
 extern volatile uint16_t enc_isr_illegal;  /* wrapping illegal-transition count */
 extern volatile uint8_t board_tick;        /* 1 kHz tick, wraps */
+extern volatile uint8_t board_wake_tick;   /* the tick ISR wakes the loop at this tick */
 extern uint8_t fw_reset_cause;             /* MCUSR at boot (.noinit, set in .init3) */
 extern volatile uint8_t fw_wdt_marker[2];  /* set by the watchdog interrupt */
 
@@ -98,16 +102,22 @@ void board_encoder_read(uint16_t *count, uint16_t *illegal);
 void board_led(bool on);
 void board_wdt_start(void); /* interrupt-then-reset mode, 64 ms + 64 ms */
 void board_wdt_reset(void); /* also re-arms the interrupt stage after a late reset */
-/* Sleep until the tick moves past last_tick, a byte arrives or a TWI transaction ends. */
-void board_idle(uint8_t last_tick);
+/* Sleep until due_ms ticks after last_tick (1..127), a tick after a received byte, or the
+ * end of a TWI transaction. */
+void board_idle(uint8_t last_tick, uint8_t due_ms);
 /* Unused stack in bytes: painted bytes above the end of .bss/.noinit that are still intact. */
 uint16_t board_stack_unused(void);
 extern volatile uint16_t fw_stack_unused_bytes;
 
-/* ---- board_uart.c ---- */
+/* ---- board_uart.c + uart_isr.S: rings written by one side each ---- */
+extern volatile uint8_t uart_rx_buf[UART_RX_SIZE];
+extern volatile uint8_t uart_rx_head, uart_rx_tail; /* ISR writes head, loop writes tail */
+extern volatile uint16_t uart_rx_overflows_count;   /* ISR only; read atomically */
+extern volatile uint8_t uart_rx_new; /* set by the RX ISR, cleared by the loop: wake at the tick */
+extern uint8_t uart_tx_buf[UART_TX_SIZE]; /* loop writes [head, ...), ISR reads [tail, head) */
+extern volatile uint8_t uart_tx_head, uart_tx_tail; /* loop writes head, ISR writes tail */
 void uart_init(void);
 bool uart_read(uint8_t *byte);
-bool uart_rx_pending(void);
 /* Queue a whole frame or nothing: never blocks. False (and counted) if it did not fit. */
 bool uart_write(const uint8_t *data, uint8_t len);
 uint16_t uart_rx_overflows(void); /* ring full or hardware overrun, wraps */

@@ -23,6 +23,20 @@ extern "C" {
 
 extern const int8_t enc_transition_table[16];
 
+/* The ISR's own table (encoder_isr.S, board.c): 256 bytes of flash, 256-aligned, indexed by
+ * (new_ab << 2) | (old_ab << 6). The ISR gets new_ab << 2 as PIND & 0x0C and keeps it for
+ * the next edge as old_ab << 6 with one `swap`, so the index costs no shifts. */
+#define ENC_ISR_INDEX(old_ab, new_ab) ((uint8_t)((((new_ab) & 3u) << 2) | (((old_ab) & 3u) << 6)))
+
+/* The same transitions as a formula (A = bit 0, B = bit 1): no change 0, both pins changed
+ * ENC_ILLEGAL, else +1 when new A differs from old B. A constant expression, so the ISR's
+ * flash table (board.c) is built from it at compile time; the host tests check that it
+ * equals enc_transition_table entry for entry. */
+#define ENC_DELTA(old_ab, new_ab)                                                              \
+    ((((old_ab) ^ (new_ab)) & 3u) == 0u   ? 0                                                  \
+     : (((old_ab) ^ (new_ab)) & 3u) == 3u ? ENC_ILLEGAL                                        \
+     : ((((new_ab) & 1u) ^ (((old_ab) >> 1) & 1u)) ? 1 : -1))
+
 /* Count change for one transition: +1, -1, 0, or ENC_ILLEGAL. */
 int8_t enc_delta(uint8_t old_ab, uint8_t new_ab);
 

@@ -9,17 +9,13 @@
     .global __do_clear_bss
 
 /* ---- data ------------------------------------------------------------------------------- */
-    .section .bss.enc_isr_table,"aw",@nobits
-    .balign 16
-    .global enc_isr_table
-enc_isr_table:  .skip 16    ; copy of enc_transition_table (enc.c), filled by board_init
-
     .section .bss.enc_isr_vars,"aw",@nobits
-    .global enc_isr_prev, enc_isr_count, enc_isr_illegal, board_tick
+    .global enc_isr_prev, enc_isr_count, enc_isr_illegal, board_tick, board_wake_tick
 enc_isr_prev:    .skip 1
 enc_isr_count:   .skip 2
 enc_isr_illegal: .skip 2
 board_tick:      .skip 1
+board_wake_tick: .skip 1
 
     .section .noinit.fw_reset_cause,"aw",@nobits
     .global fw_reset_cause, fw_wdt_marker
@@ -27,50 +23,50 @@ fw_reset_cause:  .skip 1    ; .noinit: .init4 clears .bss after .init3 wrote thi
 fw_wdt_marker:   .skip 2    ; WDT_MARKER0/1 written by the watchdog interrupt, survives the reset
 
 /* ---- encoder: PCINT2 on PD2 (A) / PD3 (B) ------------------------------------------------
- * PIND is read by the second instruction, 2 cycles after the vector jump, so a following
- * edge only needs to be at least that far away to be seen as a separate step.
- * The table index is (new_ab << 2) | old_ab = (PIND & 0x0C) | old_ab, and enc_isr_prev
- * holds the table's low address byte with old_ab in it (the table is 16-aligned).
- * Cost (cycles, counted from the instruction list; the simulator measures it, see
- * docs/firmware.md): 7 response + vector jump, 48 body = 55 per edge, 57 for an illegal
- * transition. A plain C ISR took about 115.
+ * PIND is read by the second instruction, so a following edge only needs to come after
+ * that to be seen as a separate step (it sets the flag again and the ISR runs once more).
+ * Table: enc_isr_table (board.c), 256 bytes of flash, 256-aligned, entry at
+ * (new_ab << 2) | (old_ab << 6): new_ab << 2 is PIND & 0x0C as read, and `swap` turns it
+ * into the next edge's old_ab << 6 (enc_isr_prev), so no shifts. Entries: 0, +1, 0xFF
+ * (-1) or ENC_ILLEGAL (0x80). Only r30, r31 and SREG are used, saved in GPIOR0..2 (no
+ * push/pop); the high byte of the count takes the sign with sbrc/dec, which keep the carry.
+ * Cost, measured in simavr (build/bench/fw_bench isr, docs/benchmarks.md): 43 cycles per
+ * edge from the vector's jmp to reti inclusive (min = mean = max over 42 000 edges; an
+ * illegal transition takes the same 43 by instruction count); the chip adds its 4 cycles of
+ * interrupt response (8 when it wakes from sleep), which simavr does not model: 47 (51).
+ * The previous version (RAM table indexed (new << 2) | old, push/pop) measured 51 (55).
  */
     .section .text.enc_isr,"ax",@progbits
     .global ENC_VECT
 ENC_VECT:
-    out  _SFR_IO_ADDR(ISR_SAVE0), r24
-    in   r24, _SFR_IO_ADDR(ENC_PIN)       ; sample the pins first
-    out  _SFR_IO_ADDR(ISR_SAVE1), r25
-    in   r25, _SFR_IO_ADDR(SREG)
-    out  _SFR_IO_ADDR(ISR_SAVE2), r25
-    push r30
-    push r31
-    andi r24, ENC_AB_MASK                 ; new_ab << 2
-    lds  r30, enc_isr_prev                ; lo8(table) | old_ab
-    or   r30, r24
-    lsr  r24
-    lsr  r24                              ; new_ab
-    ori  r24, lo8(enc_isr_table)
-    sts  enc_isr_prev, r24
-    ldi  r31, hi8(enc_isr_table)
-    ld   r24, Z                           ; delta: 0, +1, -1 or ENC_ILLEGAL (0x80)
-    cpi  r24, 0x80
+    out  _SFR_IO_ADDR(ISR_SAVE0), r30
+    in   r30, _SFR_IO_ADDR(ENC_PIN)       ; sample the pins first
+    out  _SFR_IO_ADDR(ISR_SAVE1), r31
+    in   r31, _SFR_IO_ADDR(SREG)
+    out  _SFR_IO_ADDR(ISR_SAVE2), r31
+    andi r30, ENC_AB_MASK                 ; new_ab << 2
+    lds  r31, enc_isr_prev                ; old_ab << 6
+    or   r31, r30                         ; table index
+    swap r30                              ; new_ab << 6: old_ab of the next edge
+    sts  enc_isr_prev, r30
+    mov  r30, r31
+    ldi  r31, hi8(enc_isr_table)          ; lo8(enc_isr_table) is 0 (256-aligned)
+    lpm  r30, Z                           ; delta: 0, +1, 0xFF or ENC_ILLEGAL (0x80)
+    cpi  r30, 0x80
     breq 2f
-    mov  r25, r24
-    lsl  r25
-    sbc  r25, r25                         ; sign extension of the delta
-    lds  r30, enc_isr_count
+    lds  r31, enc_isr_count
+    add  r31, r30
+    sts  enc_isr_count, r31
     lds  r31, enc_isr_count+1
-    add  r30, r24
-    adc  r31, r25
+    sbrc r30, 7                           ; delta -1: high byte + 0xFF + carry
+    dec  r31                              ; (dec and ldi leave the carry of the add alone)
+    ldi  r30, 0
+    adc  r31, r30
     sts  enc_isr_count+1, r31
-    sts  enc_isr_count, r30
-1:  pop  r31
-    pop  r30
-    in   r25, _SFR_IO_ADDR(ISR_SAVE2)
-    out  _SFR_IO_ADDR(SREG), r25
-    in   r25, _SFR_IO_ADDR(ISR_SAVE1)
-    in   r24, _SFR_IO_ADDR(ISR_SAVE0)
+1:  in   r31, _SFR_IO_ADDR(ISR_SAVE2)
+    out  _SFR_IO_ADDR(SREG), r31
+    in   r31, _SFR_IO_ADDR(ISR_SAVE1)
+    in   r30, _SFR_IO_ADDR(ISR_SAVE0)
     reti
 2:  lds  r30, enc_isr_illegal
     lds  r31, enc_isr_illegal+1
@@ -80,23 +76,33 @@ ENC_VECT:
     rjmp 1b
 
 /* ---- 1 kHz tick: Timer2 compare A ---------------------------------------------------------
- * Only counts (and cancels a pending sleep); the main loop extends the 8-bit count to the
- * 32-bit module time. 29 cycles. */
+ * Counts, and wakes the main loop (clears SE, board_idle) only at the tick it asked for
+ * (board_wake_tick) or when a byte has arrived since it last drained the RX ring
+ * (uart_rx_new): on the other ticks there is nothing for it to do. 28..31 cycles (measured,
+ * jmp to reti). */
     .section .text.tick_isr,"ax",@progbits
     .global TICK_VECT
 TICK_VECT:
-    push r24
+    out  _SFR_IO_ADDR(ISR_SAVE0), r24
     in   r24, _SFR_IO_ADDR(SREG)
-    push r24
+    out  _SFR_IO_ADDR(ISR_SAVE2), r24
+    out  _SFR_IO_ADDR(ISR_SAVE1), r25
     lds  r24, board_tick
     subi r24, 0xFF                        ; +1
     sts  board_tick, r24
-    in   r24, _SFR_IO_ADDR(SMCR)
+    lds  r25, board_wake_tick
+    cp   r24, r25
+    breq 1f
+    lds  r25, uart_rx_new
+    tst  r25
+    breq 2f
+1:  in   r24, _SFR_IO_ADDR(SMCR)
     andi r24, ~(1 << SE) & 0xFF           ; the main loop has work: no sleep (board_idle)
     out  _SFR_IO_ADDR(SMCR), r24
-    pop  r24
+2:  in   r25, _SFR_IO_ADDR(ISR_SAVE1)
+    in   r24, _SFR_IO_ADDR(ISR_SAVE2)
     out  _SFR_IO_ADDR(SREG), r24
-    pop  r24
+    in   r24, _SFR_IO_ADDR(ISR_SAVE0)
     reti
 
 /* ---- watchdog interrupt: the first watchdog timeout (WDIE + WDE mode) -------------------

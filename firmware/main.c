@@ -161,7 +161,9 @@ static void send_telemetry(void)
     uart_write(buf, (uint8_t)proto_encode_telemetry(&tm, buf));
 }
 
-static void control_step(void)
+/* noinline: a symbol of its own, so the simulator benchmark (bench/fw_bench) can time it
+ * from call to return; one call every 10 ms costs nothing. */
+__attribute__((noinline)) static void control_step(void)
 {
     uint16_t count, illegal;
     board_encoder_read(&count, &illegal);
@@ -216,47 +218,68 @@ int main(void)
         board_wdt_reset();
 
         uint8_t now = board_tick;
-        uint8_t elapsed = (uint8_t)(now - last_tick);
-        last_tick = now;
-        while (elapsed--) {
-            t_ms++;
-            safety_tick(&safety, t_ms);
-            stop_if_disabled();
-            if (++phase_ms == INA_PHASE_MS) ina_start_cycle(t_ms);
-            if (phase_ms >= CONTROL_PERIOD_MS) {
-                phase_ms = 0;
-                control_due = true;
+        if (now != last_tick) {
+            /* Received bytes first, with t_ms still the millisecond they arrived in: the
+             * same times (and so the same command timeouts) as when every byte woke the
+             * loop, at one wake-up per tick with input instead of one per byte. */
+            uart_rx_new = 0;
+            uint8_t byte;
+            while (uart_read(&byte)) {
+                proto_parser_push(&parser, byte);
+                proto_frame_t frame;
+                while (proto_parser_pop(&parser, &frame)) handle_frame(&frame);
             }
+
+            /* Every millisecond since the last pass, in order (the loop sleeps through the
+             * ticks where none of this can change anything: see due_ms below). */
+            uint8_t elapsed = (uint8_t)(now - last_tick);
+            last_tick = now;
+            while (elapsed--) {
+                t_ms++;
+                safety_tick(&safety, t_ms);
+                stop_if_disabled();
+                if (++phase_ms == INA_PHASE_MS) ina_start_cycle(t_ms);
+                if (phase_ms >= CONTROL_PERIOD_MS) {
+                    phase_ms = 0;
+                    control_due = true;
+                }
+            }
+
+            bool busy = eeprom_poll(); /* one byte per tick: a byte takes 3.3 ms anyway */
+            if (eeprom_busy && !busy && config_report_pending) {
+                config_report_pending = false;
+                send_config_report();
+            }
+            eeprom_busy = busy;
         }
 
-        uint8_t byte;
-        while (uart_read(&byte)) {
-            proto_parser_push(&parser, byte);
-            proto_frame_t frame;
-            while (proto_parser_pop(&parser, &frame)) handle_frame(&frame);
-        }
-
+        /* Every pass: a tick, or the end of a TWI transaction (the next one starts now). */
         ina_poll(t_ms);
         ina_reading_t r;
         if (ina_take(&r)) {
             power = r;
             safety_on_power(&safety, r.current_ma, r.voltage_mv);
+            stop_if_disabled();
         }
-        if (ina_take_failure()) safety_on_sensor_fault(&safety);
-        stop_if_disabled();
-
-        bool busy = eeprom_poll();
-        if (eeprom_busy && !busy && config_report_pending) {
-            config_report_pending = false;
-            send_config_report();
+        if (ina_take_failure()) {
+            safety_on_sensor_fault(&safety);
+            stop_if_disabled();
         }
-        eeprom_busy = busy;
 
         if (control_due) {
             control_due = false;
             control_step();
         }
 
-        board_idle(last_tick);
+        /* The next tick with work: the INA219 cycle start (phase INA_PHASE_MS), the control
+         * step (phase 0), the command timeout; every tick while an INA219 transaction (its
+         * timeout is counted in ticks) or an EEPROM write is in progress. Between them the
+         * tick ISR lets the loop sleep (board_idle). */
+        uint8_t due_ms = (uint8_t)(phase_ms < INA_PHASE_MS ? INA_PHASE_MS - phase_ms
+                                                           : CONTROL_PERIOD_MS - phase_ms);
+        uint32_t timeout_ms = safety_ms_to_timeout(&safety, t_ms);
+        if (timeout_ms < due_ms) due_ms = (uint8_t)timeout_ms;
+        if (due_ms == 0 || eeprom_busy || ina_busy()) due_ms = 1;
+        board_idle(last_tick, due_ms);
     }
 }

@@ -55,6 +55,13 @@ void safety_tick(safety_t *s, uint32_t t_ms)
     }
 }
 
+uint32_t safety_ms_to_timeout(const safety_t *s, uint32_t t_ms)
+{
+    if (!s->setpoint_fresh) return UINT32_MAX;
+    uint32_t age_ms = (uint32_t)(t_ms - s->last_setpoint_ms);
+    return age_ms >= s->cmd_timeout_ms ? 0u : (uint32_t)s->cmd_timeout_ms - age_ms;
+}
+
 void safety_on_power(safety_t *s, int16_t current_ma, uint16_t voltage_mv)
 {
     s->sensor_failing = false;

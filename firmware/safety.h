@@ -44,6 +44,10 @@ void safety_configure(safety_t *s, const proto_config_t *cfg);
 bool safety_on_setpoint(safety_t *s, uint8_t flags, uint32_t t_ms);
 /* Called every tick: the command timeout. */
 void safety_tick(safety_t *s, uint32_t t_ms);
+/* Milliseconds from t_ms to the tick at which safety_tick detects the command timeout (0:
+ * t_ms itself); UINT32_MAX without a fresh setpoint. The main loop sleeps through the
+ * ticks before it. */
+uint32_t safety_ms_to_timeout(const safety_t *s, uint32_t t_ms);
 /* A completed INA219 reading. */
 void safety_on_power(safety_t *s, int16_t current_ma, uint16_t voltage_mv);
 /* The INA219 failed to answer INA_FAIL_CYCLES times in a row. */

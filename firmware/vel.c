@@ -32,6 +32,7 @@ int32_t vel_diff_counts(vel_t *v, int32_t position_counts)
 
 int16_t vel_crpm_from_counts(const vel_t *v, int32_t counts)
 {
+    if (counts == 0) return 0; /* what the float path gives, without ~300 cycles of it */
     float crpm = (float)counts * v->crpm_per_count;
     if (crpm >= 32767.0f) return 32767;
     if (crpm <= -32767.0f) return -32767;

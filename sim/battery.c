@@ -21,6 +21,7 @@ void battery_init(battery_t *b, const battery_params_t *p)
 	b->p = *p;
 	b->soc = p->soc_initial;
 	b->forced_v = 0;
+	b->drawn_c = 0;
 }
 
 double battery_cell_ocv_v(double soc)
@@ -53,6 +54,7 @@ double battery_terminal_v(const battery_t *b, double current_a)
 
 void battery_draw(battery_t *b, double current_a, double dt_s)
 {
+	b->drawn_c += current_a * dt_s;
 	b->soc -= current_a * dt_s / (3600.0 * b->p.capacity_ah);
 	if (b->soc < 0)
 		b->soc = 0;

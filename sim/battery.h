@@ -21,6 +21,8 @@ typedef struct battery_params_t {
 typedef struct battery_t {
 	battery_params_t p;
 	double soc;          /* state of charge 0..1 */
+	double drawn_c;      /* charge delivered since creation, coulombs (exact pack current
+	                      * integral: tests average the current over a window with it) */
 	double forced_v;     /* > 0: terminal voltage forced (tests), model ignored */
 } battery_t;
 

@@ -88,6 +88,9 @@ typedef struct module_t {
 	int has_bss_end;
 	uint32_t boot_addr;
 	int has_boot;
+	uint64_t sleep_cycles; /* cycles simavr skipped while the AVR slept (CPU load) */
+	simmod_step_hook_t step_hook;
+	void *step_hook_ctx;
 	elf_firmware_t *fw; /* kept: simavr may point into its symbol table */
 } module_t;
 
@@ -128,10 +131,13 @@ static void sim_logger(avr_t *avr, const int level, const char *format, va_list 
 		vfprintf(stderr, format, ap);
 }
 
-static void sleep_none(avr_t *avr, avr_cycle_count_t how_long)
+/* Replaces simavr's pacing sleep (batch runs do not sleep; real-time runs are paced by
+ * simmod_step_to) and counts the cycles the AVR slept: simavr 1.6 advances the cycle
+ * counter by 1 + how_long after this call (sim_avr.c, avr_callback_run_raw). */
+static void sleep_count(avr_t *avr, avr_cycle_count_t how_long)
 {
-	(void)avr;
-	(void)how_long;
+	module_t *m = (module_t *)avr->custom.data;
+	m->sleep_cycles += 1 + how_long;
 }
 
 /* ---- ELF symbols (for the stack painting read-back) ---- */
@@ -422,7 +428,21 @@ static void module_advance(module_t *m, double t_s)
 	while (m->alive && avr->cycle < target) {
 		avr_cycle_count_t stop = target < m->next_service ? target : m->next_service;
 		while (avr->cycle < stop) {
-			int state = avr_run(avr);
+			if (m->step_hook) {
+				simmod_step_info_t info;
+				info.pc_before = avr->pc;
+				info.cycle_before = avr->cycle;
+				uint64_t slept = m->sleep_cycles;
+				avr_run(avr);
+				info.pc_after = avr->pc;
+				info.cycle_after = avr->cycle;
+				info.sleep_cycles = m->sleep_cycles - slept;
+				info.sp_after = (uint16_t)(avr->data[REG_SPL] | (avr->data[REG_SPH] << 8));
+				m->step_hook(m->step_hook_ctx, m->index, &info);
+			} else {
+				avr_run(avr);
+			}
+			int state = avr->state;
 			if (state == cpu_Done || state == cpu_Crashed) {
 				m->alive = 0;
 				fprintf(stderr, "auger-sim: module %d stopped (%s) at %.6f s\n", m->index,
@@ -503,7 +523,8 @@ static module_t *module_create(simmod_t *sim, int index)
 	double f = fw->frequency ? fw->frequency : 16000000.0;
 	m->avr->frequency = (uint32_t)llround(f * (1.0 + cfg->clock_offset_ppm[index] * 1e-6));
 	m->freq_hz = m->avr->frequency;
-	m->avr->sleep = sleep_none; /* batch or our own pacer: never simavr's usleep */
+	m->avr->sleep = sleep_count; /* batch or our own pacer: never simavr's usleep */
+	m->avr->custom.data = m;     /* for sleep_count; custom.init/deinit stay NULL */
 	m->alive = 1;
 
 	uint32_t v;
@@ -812,6 +833,11 @@ double simmod_battery_voltage_v(const simmod_t *sim, int module)
 	return battery_terminal_v(&m->battery, m->motor.battery_current_a);
 }
 
+double simmod_battery_charge_c(const simmod_t *sim, int module)
+{
+	return sim->mod[module]->battery.drawn_c;
+}
+
 double simmod_pwm_duty(const simmod_t *sim, int module)
 {
 	return motor_pwm_duty(&sim->mod[module]->motor);
@@ -902,4 +928,23 @@ void *simmod_avr(simmod_t *sim, int module)
 uint64_t simmod_cycles(const simmod_t *sim, int module)
 {
 	return sim->mod[module]->avr->cycle;
+}
+
+uint64_t simmod_sleep_cycles(const simmod_t *sim, int module)
+{
+	return sim->mod[module]->sleep_cycles;
+}
+
+void simmod_force_encoder_rate(simmod_t *sim, int module, double edges_per_s, double jitter,
+		uint64_t seed)
+{
+	module_t *m = sim->mod[module];
+	encoder_force_rate(&m->encoder, edges_per_s, jitter, seed, m->motor.model.angle_rad);
+}
+
+void simmod_set_step_hook(simmod_t *sim, int module, simmod_step_hook_t hook, void *ctx)
+{
+	module_t *m = sim->mod[module];
+	m->step_hook = hook;
+	m->step_hook_ctx = ctx;
 }

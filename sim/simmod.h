@@ -72,6 +72,9 @@ double simmod_pwm_duty(const simmod_t *sim, int module);  /* from PB1's edges, 0
 int simmod_dir_pin(const simmod_t *sim, int module);      /* PB0 level */
 /* Load torque on the screw, N m; positive opposes positive rotation. */
 void simmod_set_load_torque(simmod_t *sim, int module, double torque_nm);
+/* Charge the pack has delivered since creation, coulombs: the mean pack current over a
+ * window is its difference divided by the window (what the INA219 averages). */
+double simmod_battery_charge_c(const simmod_t *sim, int module);
 /* Force the battery's terminal voltage (tests); v <= 0 returns to the pack model. */
 void simmod_set_battery_voltage(simmod_t *sim, int module, double v);
 void simmod_set_battery_soc(simmod_t *sim, int module, double soc);
@@ -98,6 +101,34 @@ int simmod_stack_headroom(const simmod_t *sim, int module, uint8_t paint_byte);
 /* The simavr core (struct avr_t *) for tests that need more. */
 void *simmod_avr(simmod_t *sim, int module);
 uint64_t simmod_cycles(const simmod_t *sim, int module);
+/* Cycles the AVR spent asleep since creation (simavr skips them in one jump). CPU load over
+ * a window = 1 - (sleep cycles / cycles) of the window. */
+uint64_t simmod_sleep_cycles(const simmod_t *sim, int module);
+
+/* ---- test and benchmark hooks ---- */
+/* Drive the encoder pins at edges_per_s (the sign gives the direction) instead of from the
+ * shaft, e.g. to find the highest edge rate the firmware decodes. Intervals between edges
+ * are uniform in mean x [1 - jitter, 1 + jitter] (jitter 0..1; 0: regular spacing) from a
+ * deterministic generator seeded by seed. The motor model runs on unchanged.
+ * edges_per_s = 0 returns to the shaft without a jump: the count goes on from where the
+ * forced run left it (simmod_encoder_count stays the true count on the pins throughout).
+ * A reset of the AVR also ends a forced run. */
+void simmod_force_encoder_rate(simmod_t *sim, int module, double edges_per_s, double jitter,
+		uint64_t seed);
+
+/* One avr_run() of a module: one instruction, or one sleep span; an interrupt taken at its
+ * end leaves pc_after on the vector. simavr 1.6 adds no cycles for the interrupt response
+ * (the chip: 4, 8 from sleep). Byte addresses. */
+typedef struct simmod_step_info_t {
+	uint32_t pc_before, pc_after;
+	uint64_t cycle_before, cycle_after;
+	uint64_t sleep_cycles; /* of cycle_after - cycle_before, asleep */
+	uint16_t sp_after;     /* stack pointer after the step */
+} simmod_step_info_t;
+typedef void (*simmod_step_hook_t)(void *ctx, int module, const simmod_step_info_t *info);
+/* Profilers: called after every avr_run() of the module (on the thread that runs it; use
+ * threads = 1). About halves the simulation speed; NULL removes it. */
+void simmod_set_step_hook(simmod_t *sim, int module, simmod_step_hook_t hook, void *ctx);
 
 #ifdef __cplusplus
 }

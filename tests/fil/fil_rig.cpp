@@ -13,7 +13,7 @@ Rig::Rig(const RigOptions& opt) : count_(opt.count), mods_(size_t(opt.count))
 {
     simmod_config_t cfg;
     simmod_config_default(&cfg);
-    const std::string elf = firmware_elf();
+    const std::string elf = opt.elf_path.empty() ? firmware_elf() : opt.elf_path;
     cfg.elf_path = elf.c_str();
     cfg.count = opt.count;
     cfg.threads = opt.threads;

@@ -19,9 +19,12 @@ struct Telemetry {
 };
 
 struct RigOptions {
-    int count = 1;
-    double battery_v = 0.0;  // > 0: force every module's battery terminal voltage
-    int threads = 1;
+    RigOptions(int count_ = 1, double battery_v_ = 0.0, int threads_ = 1)
+        : count(count_), battery_v(battery_v_), threads(threads_) {}
+    int count;
+    double battery_v;      // > 0: force every module's battery terminal voltage
+    int threads;
+    std::string elf_path;  // empty: the firmware under test (firmware_elf())
 };
 
 class Rig {

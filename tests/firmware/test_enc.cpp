@@ -70,6 +70,25 @@ TEST_CASE("encoder table: index as the ISR builds it from PIND")
     }
 }
 
+TEST_CASE("encoder table: the ISR's formula and flash layout")
+{
+    for (uint8_t o = 0; o < 4; ++o) {
+        for (uint8_t n = 0; n < 4; ++n) {
+            INFO("old " << int(o) << " new " << int(n));
+            CHECK(int(ENC_DELTA(o, n)) == int(enc_transition_table[ENC_INDEX(o, n)]));
+            // The ISR: prev = swap(old PIND & 0x0C), index = (PIND & 0x0C) | prev.
+            uint8_t old_pind = static_cast<uint8_t>(0xF3u | (o << 2));
+            uint8_t pind = static_cast<uint8_t>(0xF3u | (n << 2));
+            uint8_t prev = static_cast<uint8_t>(((old_pind & 0x0Cu) << 4) | ((old_pind & 0x0Cu) >> 4));
+            CHECK(uint8_t((pind & 0x0Cu) | prev) == ENC_ISR_INDEX(o, n));
+        }
+    }
+    // 16 distinct slots
+    for (unsigned a = 0; a < 16; ++a)
+        for (unsigned b = a + 1; b < 16; ++b)
+            CHECK(ENC_ISR_INDEX(a >> 2, a & 3) != ENC_ISR_INDEX(b >> 2, b & 3));
+}
+
 TEST_CASE("encoder decoder: counts through reversals")
 {
     enc_decoder_t d;

@@ -180,4 +180,9 @@ TEST_CASE("pid: duty cap = motor rating / battery voltage")
     CHECK(pid_duty_cap_x10000(12000, 0) == 0);
     CHECK(pid_duty_cap_x10000(65535, 1) == 10000);
     CHECK(pid_duty_cap_x10000(1, 65535) == 0);
+    // The shift-and-subtract division equals the integer quotient everywhere it runs.
+    for (uint32_t rated = 1; rated < 65536u; rated += 37u)
+        for (uint32_t batt = rated + 1u; batt < 65536u; batt += 101u)
+            REQUIRE(pid_duty_cap_x10000(uint16_t(rated), uint16_t(batt)) ==
+                    int16_t(rated * 10000u / batt));
 }

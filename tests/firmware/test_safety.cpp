@@ -28,6 +28,22 @@ TEST_CASE("safety: boots disabled with no fault")
     CHECK(safety_status(&s) == 0); // no setpoint ever: no timeout fault either
 }
 
+TEST_CASE("safety: ms to the timeout is when safety_tick detects it")
+{
+    safety_t s = booted();
+    CHECK(safety_ms_to_timeout(&s, 500) == UINT32_MAX); // no setpoint: no deadline
+    CHECK(safety_on_setpoint(&s, EN, 1000));
+    for (uint32_t t = 1000; t < 1400; ++t) {
+        uint32_t due = safety_ms_to_timeout(&s, t);
+        bool before = safety_motor_enabled(&s);
+        safety_tick(&s, t);
+        // detected at t exactly when the deadline is t itself
+        CHECK((before && !safety_motor_enabled(&s)) == (before && due == 0));
+        if (t < 1250) CHECK(due == 1250 - t);
+    }
+    CHECK(safety_ms_to_timeout(&s, 1400) == UINT32_MAX); // timed out: no longer fresh
+}
+
 TEST_CASE("safety: command timeout at 250 ms exactly, latched")
 {
     safety_t s = booted();

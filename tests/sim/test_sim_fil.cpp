@@ -205,6 +205,45 @@ TEST_CASE("encoder count equals the true count at top speed and through reversal
 	CHECK(std::fabs(counts - (double)simmod_encoder_count(b.sim, 0)) <= 1.0);
 }
 
+TEST_CASE("forced encoder rate: edges at the imposed rate, then back to the shaft without a jump", "[fil][encoder]")
+{
+	Bench b(fx_board);
+	b.boot();
+	uint16_t errors = 0;
+	// 40 000 edges/s downwards, jittered +-50 %: 4000 counts in 0.1 s (+-1 for the phase)
+	int64_t c0 = simmod_encoder_count(b.sim, 0);
+	simmod_force_encoder_rate(b.sim, 0, -40000.0, 0.5, 42);
+	b.run(0.1);
+	int64_t c1 = simmod_encoder_count(b.sim, 0);
+	CHECK(std::llabs((c0 - c1) - 4000) <= 40); // the mean of 4000 jittered intervals
+	CHECK(simmod_shaft_speed_rpm(b.sim, 0) == 0.0); // the motor model is not involved
+	simmod_force_encoder_rate(b.sim, 0, 0.0, 0.0, 0); // back to the shaft, which is at rest
+	b.run(0.01);
+	CHECK(simmod_encoder_count(b.sim, 0) == c1);
+	CHECK(firmware_count(b, &errors) == (int32_t)c1); // the fixture's decoder saw every edge
+	CHECK(errors == 0);
+	// the shaft moves again: the count follows it from where the forced run left it
+	set_pwm(b, 400, true);
+	b.run(0.2);
+	set_pwm(b, 0, true);
+	b.run(0.1);
+	int64_t c2 = simmod_encoder_count(b.sim, 0);
+	CHECK(c2 > c1 + 100);
+	CHECK(firmware_count(b, &errors) == (int32_t)c2);
+	CHECK(errors == 0);
+}
+
+TEST_CASE("sleep cycles are counted and never exceed the cycles run", "[fil]")
+{
+	Bench b(fx_echo);
+	b.boot();
+	uint64_t c0 = simmod_cycles(b.sim, 0), s0 = simmod_sleep_cycles(b.sim, 0);
+	b.run(0.05);
+	uint64_t dc = simmod_cycles(b.sim, 0) - c0, ds = simmod_sleep_cycles(b.sim, 0) - s0;
+	CHECK(ds > 0);
+	CHECK(ds <= dc);
+}
+
 TEST_CASE("INA219 over TWI reads the simulated current and voltage within resolution", "[fil][ina219]")
 {
 	Bench b(fx_board);

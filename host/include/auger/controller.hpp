@@ -1,0 +1,90 @@
+// The controller as one step function with an injected clock (DESIGN.md "Time"):
+// step(t_s, telemetry[4], sensors) -> setpoints[4] (rpm). augerd calls it from its 100 Hz loop,
+// the simulator's scheduler in lock-step simulated time. The Model is const and shared; all
+// working memory is allocated at construction, so a step never touches the heap.
+#pragma once
+
+#include <array>
+#include <vector>
+
+#include "auger/allocation.hpp"
+#include "auger/dynamics.hpp"
+#include "auger/estimation.hpp"
+#include "auger/tracking_pid.hpp"
+#include "auger/trajectory.hpp"
+
+namespace auger {
+
+enum class EstimatorKind { dead_reckoning, dead_reckoning_imu, ekf };
+
+struct ControllerConfig {
+  PidGains gains = table5_gains("sand");
+  Vec3 gamma_per_s = default_gamma_per_s();
+  AllocatorConfig allocator;
+  EstimatorKind estimator = EstimatorKind::ekf;
+  EkfConfig ekf;
+  int dynamics_substeps = 4;
+  double max_dt_s = 0.1;  // a longer gap (a stalled loop) is integrated as this much
+};
+
+// One module's telemetry for this cycle.
+struct ScrewTelemetry {
+  double omega_rpm = 0;
+  bool valid = false;  // false: no fresh frame, the last setpoint stands in for the speed
+};
+
+// Sensor messages that arrived since the last step (absent = not measured).
+struct SensorInput {
+  bool has_pose = false;
+  Vec3 pose = Vec3::Zero();  // external tracking (camera), world frame
+  Mat3 pose_cov = Mat3::Identity() * 1e-4;
+  bool has_imu_psi = false;
+  double imu_psi_rad = 0;
+  bool has_imu_r = false;
+  double imu_r_radps = 0;
+};
+
+class Controller {
+ public:
+  // The model is referenced, not copied: it must outlive the controller.
+  Controller(const Model& model, const ControllerConfig& config);
+
+  // Not for the 100 Hz path (these may allocate): load a trajectory, (re)start.
+  void set_waypoints(std::vector<Waypoint> waypoints);  // times relative to the first enabled step
+  void reset(const Vec3& eta);                          // estimate at eta, at rest, disabled
+  void set_enabled(bool enabled);                       // disabled: setpoints 0, reference holds
+
+  // One control cycle at time t_s (seconds, any epoch, increasing).
+  const std::array<double, 4>& step(double t_s, const std::array<ScrewTelemetry, 4>& telemetry,
+                                    const SensorInput& sensors);
+
+  const Vec3& eta_estimate() const { return eta_; }
+  const Vec3& zeta_estimate() const { return zeta_; }
+  const ReferenceState& reference() const { return ref_; }
+  const PidTerms& pid_terms() const { return pid_terms_; }
+  const AllocationResult& allocation() const { return alloc_; }
+  const ControllerConfig& config() const { return config_; }
+  bool enabled() const { return enabled_; }
+
+ private:
+  const Model& model_;
+  ControllerConfig config_;
+  DeadReckoning dr_;
+  Ekf ekf_;
+  ReferenceState ref_;
+  PidState pid_;
+  PidTerms pid_terms_{};
+  AllocationResult alloc_;
+  std::vector<Waypoint> waypoints_;
+  int waypoint_ = -1;
+  double t_prev_s_ = 0;
+  double t_start_s_ = 0;
+  bool started_ = false;  // a first step has set the clock
+  bool trajectory_running_ = false;
+  bool enabled_ = false;
+  Vec3 eta_ = Vec3::Zero(), zeta_ = Vec3::Zero();
+  Vec4 omega_meas_rpm_ = Vec4::Zero();
+  std::array<double, 4> setpoints_rpm_{};
+};
+
+}  // namespace auger

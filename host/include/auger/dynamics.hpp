@@ -1,0 +1,41 @@
+// Dynamic model, eqs. (5)-(7): eta_dot = J(psi) zeta, M zeta_dot = -D zeta + tau, tau = S B omega
+// (omega in rpm), plus the model's effects. The linear part is stepped exactly (zero-order hold
+// per DOF: M and D are diagonal), because m / D_x = 0.05 s is shorter than a few 10 ms samples;
+// the pose is integrated with RK4 sub-steps using that exact velocity.
+#pragma once
+
+#include <vector>
+
+#include "auger/effect.hpp"
+#include "auger/model.hpp"
+
+namespace auger {
+
+// Exact step of one DOF m v_dot = -d v + f with f held over dt (d may be 0).
+// Returns the end velocity; *gain (if given) receives d v_end / d f.
+double first_order_step(double m, double d, double v, double f, double dt_s, double* gain = nullptr);
+// Displacement over that step (exact integral of v).
+double first_order_displacement(double m, double d, double v, double f, double dt_s);
+
+// Preallocated workspace of the dynamics step.
+struct DynamicsData {
+  explicit DynamicsData(const Model& model);
+  void reset(const Model& model);  // resets the effects' state
+  std::vector<double> effect_state;
+  EffectContext ctx;
+  Vec3 tau_drive_n = Vec3::Zero();   // last sub-step's drive force (after drive effects)
+  Vec3 tau_effect_n = Vec3::Zero();  // last sub-step's effect body forces
+};
+
+// eq. (7) with the drive effects: the body force of the screw speeds.
+void drive_force(const Model& model, DynamicsData& data, const Vec4& omega_rpm, double dt_s, Vec3& tau_n);
+
+// One step of eqs. (5)-(7) over dt_s with omega_rpm held, in n_sub equal sub-steps (effects
+// re-evaluated per sub-step). eta (world) and zeta (body) are updated in place.
+void dynamics_step(const Model& model, DynamicsData& data, Vec3& eta, Vec3& zeta,
+                   const Vec4& omega_rpm, double dt_s, int n_sub = 4);
+
+// Steady body velocity of the nominal model for constant screw speeds: D^-1 S B omega.
+Vec3 steady_velocity(const Model& model, const Vec4& omega_rpm);
+
+}  // namespace auger

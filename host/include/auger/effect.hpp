@@ -1,0 +1,174 @@
+// Physical effects: named changes to the nominal model, each with its own parameters. An effect
+// can change how screw speeds become forces (eq. (7)), add forces on the body (eq. (6)), or
+// change what the sensors report. The model file lists the effects in use; the registry creates
+// them by id. The workbench (issue 5) adds effects by registering more factories.
+#pragma once
+
+#include <functional>
+#include <map>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "auger/model.hpp"
+
+namespace auger {
+
+// An error in a configuration or model file: what() is "file:line:column: message".
+class ConfigError : public std::runtime_error {
+ public:
+  ConfigError(std::string file, int line, int column, const std::string& message);
+  const std::string& file() const { return file_; }
+  int line() const { return line_; }
+  int column() const { return column_; }
+
+ private:
+  std::string file_;
+  int line_, column_;
+};
+
+// What a body-force effect sees over one step of the linear dynamics. Because M and D are
+// diagonal and the step is exact with the force held, the body velocity at the step's end is
+// affine in the added force: zeta_end = zeta_free + gain .* force. Dry friction uses this to
+// stop exactly at zero instead of chattering around it.
+struct EffectContext {
+  Vec3 eta;           // pose at the step's start (world)
+  Vec3 zeta;          // body velocity at the step's start
+  Vec4 omega_rpm;     // screw speeds held over the step
+  Vec3 tau_drive_n;   // drive force over the step (after drive effects)
+  double dt_s = 0;
+  Vec3 zeta_free;     // velocity at the step's end with the forces applied so far
+  Vec3 gain;          // d zeta_end / d force per DOF
+};
+
+// Ideal sensor readings of a state; sensor effects change them.
+struct SensorValues {
+  Vec3 pose;           // external tracking: x_m, y_m, psi_rad
+  double imu_psi_rad;  // IMU heading
+  double imu_r_radps;  // IMU yaw rate
+};
+
+class Effect {
+ public:
+  virtual ~Effect() = default;
+  virtual const std::string& id() const = 0;
+  // The parameter values in use (name, value), for reports.
+  virtual std::vector<std::pair<std::string, double>> params() const = 0;
+
+  // Per-run state (e.g. a lag) lives in the caller's workspace, `state_size()` doubles.
+  virtual std::size_t state_size() const { return 0; }
+  virtual void reset_state(double* /*state*/) const {}
+
+  // eq. (7): tau_n holds S B omega on entry; change it in place.
+  virtual void drive_force(const Model& /*model*/, const Vec4& /*omega_rpm*/, double /*dt_s*/,
+                           Vec3& /*tau_n*/, double* /*state*/) const {}
+  // eq. (6): body force (body frame) over the coming step, returned in force_n.
+  virtual void body_force(const Model& /*model*/, const EffectContext& /*ctx*/, Vec3& force_n,
+                          double* /*state*/) const {
+    force_n.setZero();
+  }
+  // What the sensors report for the state (eta, zeta).
+  virtual void sensors(const Model& /*model*/, const Vec3& /*eta*/, const Vec3& /*zeta*/,
+                       SensorValues& /*values*/) const {}
+};
+
+// A parameter a factory accepts; required parameters have no default.
+struct ParamSpec {
+  std::string name;
+  double default_value = 0;
+  bool required = false;
+  std::string doc;
+};
+
+struct EffectParamValue {
+  std::string name;
+  double value = 0;
+  int line = 0, column = 0;
+};
+
+// One `[[effect]]` entry of a model file.
+struct EffectConfig {
+  std::string id;
+  std::vector<EffectParamValue> params;
+  std::string file;
+  int line = 0, column = 0;
+};
+
+class EffectRegistry {
+ public:
+  // values are in the order of the specs, defaults filled in.
+  using Factory = std::function<std::shared_ptr<const Effect>(const std::vector<double>& values)>;
+  struct Entry {
+    std::string id;
+    std::string doc;
+    std::vector<ParamSpec> params;
+    Factory make;
+  };
+
+  void add(Entry entry);  // throws std::invalid_argument on a duplicate id
+  bool has(const std::string& id) const { return entries_.count(id) != 0; }
+  const std::map<std::string, Entry>& entries() const { return entries_; }
+  // Throws ConfigError (file, line) on an unknown id, unknown or missing parameter, or a value
+  // the factory rejects (std::invalid_argument from it).
+  std::shared_ptr<const Effect> create(const EffectConfig& config) const;
+
+  // The effects this library ships.
+  static const EffectRegistry& builtin();
+
+ private:
+  std::map<std::string, Entry> entries_;
+};
+
+// Registers the library's effects into a registry (so a tool can extend a copy).
+void register_builtin_effects(EffectRegistry& registry);
+
+// ---- the shipped effects ----
+
+// Coulomb dry friction per DOF, hard sign form: a force of at most (force_x_n, force_y_n,
+// torque_psi_nm) opposing the motion; at rest it holds the body while the drive force is
+// below it (stiction equal to the sliding level). Applied implicitly over a step.
+class CoulombFriction final : public Effect {
+ public:
+  explicit CoulombFriction(const Vec3& limit);
+  const std::string& id() const override;
+  std::vector<std::pair<std::string, double>> params() const override;
+  void body_force(const Model& model, const EffectContext& ctx, Vec3& force_n,
+                  double* state) const override;
+  const Vec3& limit() const { return limit_; }
+
+ private:
+  Vec3 limit_;
+};
+
+// Dead band: a screw turning slower than omega_dead_rpm produces no force.
+class ScrewDeadBand final : public Effect {
+ public:
+  explicit ScrewDeadBand(double omega_dead_rpm);
+  const std::string& id() const override;
+  std::vector<std::pair<std::string, double>> params() const override;
+  void drive_force(const Model& model, const Vec4& omega_rpm, double dt_s, Vec3& tau_n,
+                   double* state) const override;
+
+ private:
+  double omega_dead_rpm_;
+};
+
+// A constant IMU heading bias: the IMU reports psi + bias_rad.
+class ImuHeadingBias final : public Effect {
+ public:
+  explicit ImuHeadingBias(double bias_rad);
+  const std::string& id() const override;
+  std::vector<std::pair<std::string, double>> params() const override;
+  void sensors(const Model& model, const Vec3& eta, const Vec3& zeta,
+               SensorValues& values) const override;
+
+ private:
+  double bias_rad_;
+};
+
+// Ideal sensor readings of (eta, zeta) with the model's sensor effects applied.
+void predict_sensors(const Model& model, const Vec3& eta, const Vec3& zeta, SensorValues& values);
+
+}  // namespace auger

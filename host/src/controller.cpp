@@ -1,0 +1,105 @@
+// Controller step: estimation, reference eq. (18), PID eqs. (19)-(21), allocation eq. (22).
+#include "auger/controller.hpp"
+
+#include <algorithm>
+
+namespace auger {
+
+Controller::Controller(const Model& model, const ControllerConfig& config)
+    : model_(model), config_(config), dr_(model) {
+  reset(Vec3::Zero());
+}
+
+void Controller::reset(const Vec3& eta) {
+  dr_.eta = eta;
+  dr_.zeta.setZero();
+  dr_.dyn.reset(model_);
+  ekf_reset(config_.ekf, ekf_, eta);
+  reference_reset(ref_, eta);
+  pid_ = PidState{};
+  eta_ = eta;
+  zeta_.setZero();
+  started_ = false;
+  trajectory_running_ = false;
+  enabled_ = false;
+  waypoint_ = -1;
+  setpoints_rpm_.fill(0.0);
+  omega_meas_rpm_.setZero();
+}
+
+void Controller::set_waypoints(std::vector<Waypoint> waypoints) {
+  check_waypoints(waypoints);
+  waypoints_ = std::move(waypoints);
+  waypoint_ = -1;
+  trajectory_running_ = false;
+}
+
+void Controller::set_enabled(bool enabled) {
+  if (enabled && !enabled_) {
+    // Start tracking from where the robot is, at rest: no jump in the reference.
+    reference_reset(ref_, eta_);
+    pid_ = PidState{};
+    trajectory_running_ = false;
+  }
+  enabled_ = enabled;
+}
+
+const std::array<double, 4>& Controller::step(double t_s, const std::array<ScrewTelemetry, 4>& tel,
+                                              const SensorInput& sensors) {
+  double dt = started_ ? t_s - t_prev_s_ : 0.0;
+  if (!(dt > 0)) dt = 0.0;  // a repeated or backward time step predicts nothing
+  dt = std::min(dt, config_.max_dt_s);
+  if (started_ && !(t_s > t_prev_s_)) t_s = t_prev_s_;
+  t_prev_s_ = t_s;
+  started_ = true;
+
+  for (int i = 0; i < 4; ++i)
+    omega_meas_rpm_[i] = tel[static_cast<std::size_t>(i)].valid ? tel[static_cast<std::size_t>(i)].omega_rpm
+                                                                 : setpoints_rpm_[static_cast<std::size_t>(i)];
+
+  // Estimation from the screw speeds measured over the past cycle.
+  switch (config_.estimator) {
+    case EstimatorKind::dead_reckoning:
+    case EstimatorKind::dead_reckoning_imu: {
+      const bool imu = config_.estimator == EstimatorKind::dead_reckoning_imu && sensors.has_imu_psi;
+      dead_reckoning_step(model_, dr_, omega_meas_rpm_, dt, imu ? sensors.imu_psi_rad : kNotMeasured,
+                          config_.dynamics_substeps);
+      if (sensors.has_pose) dr_.eta = sensors.pose;  // an external fix resets the drift
+      eta_ = dr_.eta;
+      zeta_ = dr_.zeta;
+      break;
+    }
+    case EstimatorKind::ekf:
+      ekf_predict(model_, config_.ekf, ekf_, dr_.dyn, omega_meas_rpm_, dt);
+      if (sensors.has_imu_psi) ekf_update_imu_psi(model_, config_.ekf, ekf_, sensors.imu_psi_rad);
+      if (sensors.has_imu_r) ekf_update_imu_r(model_, config_.ekf, ekf_, sensors.imu_r_radps);
+      if (sensors.has_pose) ekf_update_pose(model_, ekf_, sensors.pose, sensors.pose_cov);
+      eta_ = ekf_.x.head<3>();
+      zeta_ = ekf_.x.tail<3>();
+      break;
+  }
+
+  if (!enabled_) {
+    reference_reset(ref_, eta_);
+    setpoints_rpm_.fill(0.0);
+    alloc_ = AllocationResult{};
+    return setpoints_rpm_;
+  }
+
+  // Reference, eq. (18): the active waypoint is the set-point; before any, hold the start.
+  if (!trajectory_running_) {
+    t_start_s_ = t_s;
+    trajectory_running_ = true;
+    waypoint_ = -1;
+  }
+  waypoint_ = active_waypoint(waypoints_, t_s - t_start_s_, waypoint_);
+  const Vec3 eta_p = waypoint_ >= 0 ? waypoints_[static_cast<std::size_t>(waypoint_)].eta_p : ref_.eta_d;
+  reference_step(config_.gamma_per_s, ref_, eta_p, dt);
+
+  tracking_pid(config_.gains, pid_, eta_, zeta_, ref_, pid_terms_);  // eqs. (19)-(21)
+  allocate(model_, config_.allocator, pid_terms_.tau_n, alloc_);       // eq. (22)
+  for (int i = 0; i < 4; ++i) setpoints_rpm_[static_cast<std::size_t>(i)] = alloc_.omega_rpm[i];
+  return setpoints_rpm_;
+}
+
+}  // namespace auger

@@ -1,0 +1,149 @@
+// Effect registry and the shipped effects.
+#include "auger/effect.hpp"
+
+#include <algorithm>
+
+namespace auger {
+
+ConfigError::ConfigError(std::string file, int line, int column, const std::string& message)
+    : std::runtime_error(file + ":" + std::to_string(line) + ":" + std::to_string(column) + ": " +
+                         message),
+      file_(std::move(file)),
+      line_(line),
+      column_(column) {}
+
+void EffectRegistry::add(Entry entry) {
+  if (entries_.count(entry.id)) throw std::invalid_argument("effect id registered twice: " + entry.id);
+  std::string id = entry.id;
+  entries_.emplace(std::move(id), std::move(entry));
+}
+
+std::shared_ptr<const Effect> EffectRegistry::create(const EffectConfig& c) const {
+  auto it = entries_.find(c.id);
+  if (it == entries_.end()) {
+    std::string known;
+    for (const auto& [id, e] : entries_) known += (known.empty() ? "" : ", ") + id;
+    throw ConfigError(c.file, c.line, c.column, "unknown effect '" + c.id + "' (known: " + known + ")");
+  }
+  const Entry& e = it->second;
+  std::vector<double> values(e.params.size());
+  std::vector<bool> given(e.params.size(), false);
+  for (const auto& p : c.params) {
+    auto spec = std::find_if(e.params.begin(), e.params.end(),
+                             [&](const ParamSpec& s) { return s.name == p.name; });
+    if (spec == e.params.end()) {
+      std::string known;
+      for (const auto& s : e.params) known += (known.empty() ? "" : ", ") + s.name;
+      throw ConfigError(c.file, p.line, p.column,
+                        "effect '" + c.id + "' has no parameter '" + p.name + "' (known: " + known + ")");
+    }
+    const auto k = static_cast<std::size_t>(spec - e.params.begin());
+    values[k] = p.value;
+    given[k] = true;
+  }
+  for (std::size_t k = 0; k < e.params.size(); ++k) {
+    if (given[k]) continue;
+    if (e.params[k].required)
+      throw ConfigError(c.file, c.line, c.column,
+                        "effect '" + c.id + "' needs parameter '" + e.params[k].name + "'");
+    values[k] = e.params[k].default_value;
+  }
+  try {
+    return e.make(values);
+  } catch (const std::invalid_argument& ex) {
+    throw ConfigError(c.file, c.line, c.column, "effect '" + c.id + "': " + ex.what());
+  }
+}
+
+void register_builtin_effects(EffectRegistry& r) {
+  auto non_negative = [](double v, const char* name) {
+    if (!(v >= 0) || !std::isfinite(v)) throw std::invalid_argument(std::string(name) + " must be >= 0");
+  };
+  r.add({"coulomb_friction", "dry friction per DOF, hard sign form, stiction = sliding level",
+         {{"force_x_n", 0, false, "longitudinal level"},
+          {"force_y_n", 0, false, "lateral level"},
+          {"torque_psi_nm", 0, false, "yaw level"}},
+         [non_negative](const std::vector<double>& v) {
+           non_negative(v[0], "force_x_n");
+           non_negative(v[1], "force_y_n");
+           non_negative(v[2], "torque_psi_nm");
+           return std::make_shared<CoulombFriction>(Vec3(v[0], v[1], v[2]));
+         }});
+  r.add({"screw_dead_band", "a screw slower than omega_dead_rpm gives no force",
+         {{"omega_dead_rpm", 0, true, "dead band half-width"}},
+         [non_negative](const std::vector<double>& v) {
+           non_negative(v[0], "omega_dead_rpm");
+           return std::make_shared<ScrewDeadBand>(v[0]);
+         }});
+  r.add({"imu_heading_bias", "the IMU reports psi + bias_rad",
+         {{"bias_rad", 0, true, "constant heading bias"}},
+         [](const std::vector<double>& v) {
+           if (!std::isfinite(v[0])) throw std::invalid_argument("bias_rad must be finite");
+           return std::make_shared<ImuHeadingBias>(v[0]);
+         }});
+}
+
+const EffectRegistry& EffectRegistry::builtin() {
+  static const EffectRegistry registry = [] {
+    EffectRegistry r;
+    register_builtin_effects(r);
+    return r;
+  }();
+  return registry;
+}
+
+// ---------------------------------------------------------------- CoulombFriction
+CoulombFriction::CoulombFriction(const Vec3& limit) : limit_(limit) {}
+const std::string& CoulombFriction::id() const {
+  static const std::string s = "coulomb_friction";
+  return s;
+}
+std::vector<std::pair<std::string, double>> CoulombFriction::params() const {
+  return {{"force_x_n", limit_.x()}, {"force_y_n", limit_.y()}, {"torque_psi_nm", limit_.z()}};
+}
+void CoulombFriction::body_force(const Model&, const EffectContext& ctx, Vec3& force_n, double*) const {
+  // Implicit (time-stepping) hard-sign friction: the force that would bring the DOF to rest at
+  // the step's end, clamped to the friction level. Moving fast: -limit sign(v); at rest with a
+  // weak drive: exactly cancels it (sticks); never reverses the motion within a step.
+  for (int k = 0; k < 3; ++k) {
+    const double stop = -ctx.zeta_free[k] / ctx.gain[k];
+    force_n[k] = std::clamp(stop, -limit_[k], limit_[k]);
+  }
+}
+
+// ---------------------------------------------------------------- ScrewDeadBand
+ScrewDeadBand::ScrewDeadBand(double omega_dead_rpm) : omega_dead_rpm_(omega_dead_rpm) {}
+const std::string& ScrewDeadBand::id() const {
+  static const std::string s = "screw_dead_band";
+  return s;
+}
+std::vector<std::pair<std::string, double>> ScrewDeadBand::params() const {
+  return {{"omega_dead_rpm", omega_dead_rpm_}};
+}
+void ScrewDeadBand::drive_force(const Model& model, const Vec4& omega_rpm, double, Vec3& tau_n,
+                                double*) const {
+  for (int i = 0; i < 4; ++i)
+    if (std::fabs(omega_rpm[i]) < omega_dead_rpm_) tau_n -= model.SB.col(i) * omega_rpm[i];  // eq. (7)
+}
+
+// ---------------------------------------------------------------- ImuHeadingBias
+ImuHeadingBias::ImuHeadingBias(double bias_rad) : bias_rad_(bias_rad) {}
+const std::string& ImuHeadingBias::id() const {
+  static const std::string s = "imu_heading_bias";
+  return s;
+}
+std::vector<std::pair<std::string, double>> ImuHeadingBias::params() const {
+  return {{"bias_rad", bias_rad_}};
+}
+void ImuHeadingBias::sensors(const Model&, const Vec3&, const Vec3&, SensorValues& v) const {
+  v.imu_psi_rad = wrap_angle(v.imu_psi_rad + bias_rad_);
+}
+
+void predict_sensors(const Model& model, const Vec3& eta, const Vec3& zeta, SensorValues& v) {
+  v.pose = eta;
+  v.imu_psi_rad = eta.z();
+  v.imu_r_radps = zeta.z();
+  for (const auto& e : model.effects) e->sensors(model, eta, zeta, v);
+}
+
+}  // namespace auger

@@ -1,0 +1,150 @@
+// Pose estimation: dead reckoning (eqs. (5)-(7)), IMU heading variant, EKF.
+#include "auger/estimation.hpp"
+
+#include <cmath>
+
+#include <Eigen/LU>
+
+#include "auger/effect.hpp"
+
+namespace auger {
+
+void dead_reckoning_step(const Model& model, DeadReckoning& dr, const Vec4& omega_rpm, double dt_s,
+                         double imu_psi_rad, int n_sub) {
+  const bool imu = measured(imu_psi_rad);
+  dynamics_step(model, dr.dyn, dr.eta, dr.zeta, omega_rpm, dt_s, n_sub);
+  // Paper's variant (Fig. 9): the IMU orientation replaces the model's.
+  if (imu) dr.eta.z() = wrap_angle(imu_psi_rad);
+}
+
+void ekf_reset(const EkfConfig& cfg, Ekf& ekf, const Vec3& eta) {
+  ekf.x.setZero();
+  ekf.x.head<3>() = eta;
+  ekf.P = cfg.initial_std.cwiseAbs2().asDiagonal();
+}
+
+namespace {
+// Exact displacement of eq. (6) per DOF: disp = a v0 + b f (both closed form).
+void displacement_coeffs(double m, double d, double dt, double& a, double& b) {
+  if (d <= 0) {
+    a = dt;
+    b = 0.5 * dt * dt / m;
+    return;
+  }
+  const double T = m / d;
+  const double q = T * (1.0 - std::exp(-dt / T));
+  a = q;
+  b = (dt - q) / d;
+}
+}  // namespace
+
+Vec6 ekf_process(const Model& model, const Vec6& x, const Vec3& tau, double dt, Mat6* F) {
+  Vec6 xn;
+  Vec3 disp, a;
+  for (int k = 0; k < 3; ++k) {
+    double gain = 0, b = 0;
+    xn[3 + k] = first_order_step(model.M_diag[k], model.D_diag[k], x[3 + k], tau[k], dt, &gain);  // eq. (6)
+    displacement_coeffs(model.M_diag[k], model.D_diag[k], dt, a[k], b);
+    disp[k] = a[k] * x[3 + k] + b * tau[k];
+  }
+  // eq. (5): body displacement rotated by the heading at mid-step.
+  const double psi_m = x[2] + 0.5 * disp[2];
+  const double c = std::cos(psi_m), s = std::sin(psi_m);
+  xn[0] = x[0] + c * disp[0] - s * disp[1];
+  xn[1] = x[1] + s * disp[0] + c * disp[1];
+  xn[2] = x[2] + disp[2];
+  if (F) {
+    Mat6& J = *F;
+    J.setZero();
+    const double dx_dpsi = -s * disp[0] - c * disp[1];
+    const double dy_dpsi = c * disp[0] - s * disp[1];
+    J(0, 0) = 1;
+    J(0, 2) = dx_dpsi;
+    J(0, 3) = c * a[0];
+    J(0, 4) = -s * a[1];
+    J(0, 5) = dx_dpsi * 0.5 * a[2];
+    J(1, 1) = 1;
+    J(1, 2) = dy_dpsi;
+    J(1, 3) = s * a[0];
+    J(1, 4) = c * a[1];
+    J(1, 5) = dy_dpsi * 0.5 * a[2];
+    J(2, 2) = 1;
+    J(2, 5) = a[2];
+    for (int k = 0; k < 3; ++k) {
+      double gain;
+      J(3 + k, 3 + k) = first_order_step(model.M_diag[k], model.D_diag[k], 1.0, 0.0, dt, &gain);
+    }
+  }
+  return xn;
+}
+
+void ekf_predict(const Model& model, const EkfConfig& cfg, Ekf& ekf, DynamicsData& dyn,
+                 const Vec4& omega_rpm, double dt) {
+  if (!(dt > 0)) return;
+  drive_force(model, dyn, omega_rpm, dt, ekf.tau_n);  // eq. (7) with the drive effects
+  ekf.x = ekf_process(model, ekf.x, ekf.tau_n, dt, &ekf.F);
+  ekf.x[2] = wrap_angle(ekf.x[2]);
+  Vec6 q;
+  q.head<3>() = cfg.pose_noise.cwiseAbs2() * dt;
+  q.tail<3>() = cfg.accel_noise.cwiseAbs2() * dt;
+  ekf.P = ekf.F * ekf.P * ekf.F.transpose();
+  ekf.P.diagonal() += q;
+}
+
+double ekf_h_imu_psi(const Model& model, const Vec6& x, Eigen::Matrix<double, 1, 6>* H) {
+  SensorValues v;
+  predict_sensors(model, x.head<3>(), x.tail<3>(), v);
+  if (H) H->setZero(), (*H)(0, 2) = 1;
+  return v.imu_psi_rad;
+}
+
+double ekf_h_imu_r(const Model& model, const Vec6& x, Eigen::Matrix<double, 1, 6>* H) {
+  SensorValues v;
+  predict_sensors(model, x.head<3>(), x.tail<3>(), v);
+  if (H) H->setZero(), (*H)(0, 5) = 1;
+  return v.imu_r_radps;
+}
+
+Vec3 ekf_h_pose(const Model& model, const Vec6& x, Eigen::Matrix<double, 3, 6>* H) {
+  SensorValues v;
+  predict_sensors(model, x.head<3>(), x.tail<3>(), v);
+  if (H) H->setZero(), H->leftCols<3>().setIdentity();
+  return v.pose;
+}
+
+namespace {
+// Joseph-form update (keeps P symmetric positive semi-definite); fixed sizes, no heap.
+template <int N>
+void ekf_update(Ekf& ekf, const Eigen::Matrix<double, N, 1>& innovation,
+                const Eigen::Matrix<double, N, 6>& H, const Eigen::Matrix<double, N, N>& R) {
+  const Eigen::Matrix<double, N, N> S = H * ekf.P * H.transpose() + R;
+  const Eigen::Matrix<double, 6, N> K = ekf.P * H.transpose() * S.inverse();
+  ekf.x += K * innovation;
+  ekf.x[2] = wrap_angle(ekf.x[2]);
+  const Mat6 IKH = Mat6::Identity() - K * H;
+  ekf.P = IKH * ekf.P * IKH.transpose() + K * R * K.transpose();
+}
+}  // namespace
+
+void ekf_update_imu_psi(const Model& model, const EkfConfig& cfg, Ekf& ekf, double z) {
+  Eigen::Matrix<double, 1, 6> H;
+  const double h = ekf_h_imu_psi(model, ekf.x, &H);
+  Eigen::Matrix<double, 1, 1> nu(wrap_angle(z - h)), R(cfg.imu_psi_std_rad * cfg.imu_psi_std_rad);
+  ekf_update<1>(ekf, nu, H, R);
+}
+
+void ekf_update_imu_r(const Model& model, const EkfConfig& cfg, Ekf& ekf, double z) {
+  Eigen::Matrix<double, 1, 6> H;
+  const double h = ekf_h_imu_r(model, ekf.x, &H);
+  Eigen::Matrix<double, 1, 1> nu(z - h), R(cfg.imu_r_std_radps * cfg.imu_r_std_radps);
+  ekf_update<1>(ekf, nu, H, R);
+}
+
+void ekf_update_pose(const Model& model, Ekf& ekf, const Vec3& pose, const Mat3& covariance) {
+  Eigen::Matrix<double, 3, 6> H;
+  Vec3 nu = pose - ekf_h_pose(model, ekf.x, &H);
+  nu.z() = wrap_angle(nu.z());
+  ekf_update<3>(ekf, nu, H, covariance);
+}
+
+}  // namespace auger

@@ -1,0 +1,261 @@
+// Model file reader (toml++, header-only, used only in this file).
+#include "auger/model_file.hpp"
+
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include <toml++/toml.h>
+
+namespace auger {
+namespace {
+
+int line_of(const toml::node& n) { return static_cast<int>(n.source().begin.line); }
+int col_of(const toml::node& n) { return static_cast<int>(n.source().begin.column); }
+
+[[noreturn]] void fail(const std::string& file, const toml::node& n, const std::string& msg) {
+  throw ConfigError(file, line_of(n), col_of(n), msg);
+}
+
+double number(const std::string& file, const toml::node& n, const std::string& key) {
+  if (!n.is_number()) fail(file, n, "'" + key + "' must be a number");
+  return *n.value<double>();
+}
+
+std::string text(const std::string& file, const toml::node& n, const std::string& key) {
+  if (!n.is_string()) fail(file, n, "'" + key + "' must be a string");
+  return *n.value<std::string>();
+}
+
+const toml::table& as_table(const std::string& file, const toml::node& n, const std::string& key) {
+  if (!n.is_table()) fail(file, n, "'" + key + "' must be a table");
+  return *n.as_table();
+}
+
+// Fills named doubles of a table; an unknown key is an error naming its line.
+struct NumberField {
+  const char* key;
+  double* target;
+  bool required;
+  double scale;  // e.g. degrees to radians
+};
+
+void read_numbers(const std::string& file, const toml::table& t, const std::string& where,
+                  std::vector<NumberField> fields, int table_line) {
+  std::set<std::string> seen;
+  for (auto&& [k, v] : t) {
+    const std::string key(k.str());
+    auto it = std::find_if(fields.begin(), fields.end(), [&](const NumberField& f) { return key == f.key; });
+    if (it == fields.end()) {
+      std::string known;
+      for (const auto& f : fields) known += (known.empty() ? "" : ", ") + std::string(f.key);
+      fail(file, v, "unknown key '" + key + "' in " + where + " (known: " + known + ")");
+    }
+    *it->target = number(file, v, key) * it->scale;
+    seen.insert(key);
+  }
+  for (const auto& f : fields)
+    if (f.required && !seen.count(f.key))
+      throw ConfigError(file, table_line, 1, where + " needs '" + std::string(f.key) + "'");
+}
+
+Vec3 vec3(const std::string& file, const toml::node& n, const std::string& key) {
+  const toml::array* a = n.as_array();
+  if (!a || a->size() != 3) fail(file, n, "'" + key + "' must be an array of 3 numbers (x, y, yaw)");
+  Vec3 v;
+  for (std::size_t i = 0; i < 3; ++i) v[static_cast<Eigen::Index>(i)] = number(file, *a->get(i), key);
+  return v;
+}
+
+template <class E>
+E choice(const std::string& file, const toml::node& n, const std::string& key,
+         std::initializer_list<std::pair<const char*, E>> options) {
+  const std::string v = text(file, n, key);
+  std::string known;
+  for (const auto& [name, value] : options) {
+    if (v == name) return value;
+    known += (known.empty() ? "" : ", ") + std::string(name);
+  }
+  fail(file, n, "'" + key + "' = '" + v + "' is not one of: " + known);
+}
+
+void read_control(const std::string& file, const toml::table& t, ControlSection& c) {
+  for (auto&& [k, v] : t) {
+    const std::string key(k.str());
+    if (key == "gamma_per_s") c.gamma_per_s = vec3(file, v, key);
+    else if (key == "kp") c.kp = vec3(file, v, key);
+    else if (key == "kd") c.kd = vec3(file, v, key);
+    else if (key == "ki") c.ki = vec3(file, v, key);
+    else if (key == "integral_limit") c.integral_limit = vec3(file, v, key);
+    else if (key == "omega_min_rpm") c.omega_min_rpm = number(file, v, key);
+    else if (key == "engage_rpm") c.engage_rpm = number(file, v, key);
+    else if (key == "allocator")
+      c.allocator = choice<AllocatorKind>(file, v, key, {{"pseudo_inverse", AllocatorKind::pseudo_inverse},
+                                                         {"null_space", AllocatorKind::null_space}});
+    else if (key == "priority")
+      c.priority = choice<AllocationPriority>(file, v, key, {{"yaw", AllocationPriority::yaw},
+                                                             {"translation", AllocationPriority::translation}});
+    else if (key == "estimator")
+      c.estimator = choice<EstimatorKind>(file, v, key, {{"dead_reckoning", EstimatorKind::dead_reckoning},
+                                                         {"dead_reckoning_imu", EstimatorKind::dead_reckoning_imu},
+                                                         {"ekf", EstimatorKind::ekf}});
+    else
+      fail(file, v, "unknown key '" + key + "' in [control] (known: gamma_per_s, kp, kd, ki, integral_limit, "
+                    "allocator, priority, omega_min_rpm, engage_rpm, estimator)");
+    const bool non_negative_vec =
+        (key == "gamma_per_s" || key == "kp" || key == "kd" || key == "ki" || key == "integral_limit");
+    if (non_negative_vec && !(vec3(file, v, key).minCoeff() >= 0)) fail(file, v, "'" + key + "' must be >= 0");
+    if ((key == "omega_min_rpm" || key == "engage_rpm") && !(number(file, v, key) >= 0))
+      fail(file, v, "'" + key + "' must be >= 0");
+  }
+}
+
+}  // namespace
+
+const TerrainEntry* ModelFile::find_terrain(const std::string& name) const {
+  for (const auto& t : terrains)
+    if (t.params.name == name) return &t;
+  return nullptr;
+}
+
+ModelFile parse_model_file(const std::string& source, const std::string& name) {
+  toml::table root;
+  try {
+    root = toml::parse(source, name);
+  } catch (const toml::parse_error& e) {
+    throw ConfigError(name, static_cast<int>(e.source().begin.line),
+                      static_cast<int>(e.source().begin.column), std::string(e.description()));
+  }
+  ModelFile f;
+  f.path = name;
+  bool have_schema = false;
+  for (auto&& [k, v] : root) {
+    const std::string key(k.str());
+    if (key == "schema") {
+      if (!v.is_integer()) fail(name, v, "'schema' must be an integer");
+      f.schema = static_cast<int>(*v.value<std::int64_t>());
+      if (f.schema != kModelSchema)
+        fail(name, v, "schema " + std::to_string(f.schema) + " is not supported (this reader knows " +
+                          std::to_string(kModelSchema) + ")");
+      have_schema = true;
+    } else if (key == "omega_unit") {
+      f.omega_unit = text(name, v, key);
+      // sigma of Tables 2-3 is per rpm (MODEL-NOTES decision); a file in rad/s would silently
+      // scale every force by 9.5, so it is refused rather than guessed.
+      if (f.omega_unit != "rpm")
+        fail(name, v, "omega_unit '" + f.omega_unit + "' is not supported: sigma must be per rpm");
+    } else if (key == "frame") {
+      f.frame = text(name, v, key);
+      if (f.frame != "rep103")
+        fail(name, v, "frame '" + f.frame + "' is not supported (rep103: x forward, y left, psi CCW)");
+    } else if (key == "robot") {
+      const auto& t = as_table(name, v, key);
+      RobotParams r;
+      double phi_deg = 30, alpha_deg = 26.5;
+      read_numbers(name, t, "[robot]",
+                   {{"r_s_m", &r.r_s_m, true, 1},
+                    {"phi_deg", &phi_deg, true, 1},
+                    {"l_x_m", &r.l_x_m, true, 1},
+                    {"l_y_m", &r.l_y_m, true, 1},
+                    {"alpha_deg", &alpha_deg, true, 1},
+                    {"m_kg", &r.m_kg, true, 1},
+                    {"I_z_kgm2", &r.I_z_kgm2, true, 1},
+                    {"omega_max_rpm", &r.omega_max_rpm, true, 1}},
+                   line_of(v));
+      r.phi_rad = deg_to_rad(phi_deg);
+      r.alpha_rad = deg_to_rad(alpha_deg);
+      f.robot = r;
+      f.robot_line = line_of(v);
+    } else if (key == "gantry") {
+      double mass = 0;
+      read_numbers(name, as_table(name, v, key), "[gantry]", {{"mass_kg", &mass, true, 1}}, line_of(v));
+      f.gantry_mass_kg = mass;
+    } else if (key == "terrain") {
+      for (auto&& [tk, tv] : as_table(name, v, key)) {
+        TerrainEntry e;
+        e.params.name = std::string(tk.str());
+        e.line = line_of(tv);
+        TerrainParams& p = e.params;
+        read_numbers(name, as_table(name, tv, "terrain." + p.name), "[terrain." + p.name + "]",
+                     {{"sigma_long", &p.sigma_long, true, 1},
+                      {"sigma_lat", &p.sigma_lat, true, 1},
+                      {"D_x", &p.D_x, true, 1},
+                      {"D_y", &p.D_y, true, 1},
+                      {"D_psi", &p.D_psi, false, 1}},
+                     e.line);
+        f.terrains.push_back(std::move(e));
+      }
+    } else if (key == "effect") {
+      if (!v.is_array_of_tables()) fail(name, v, "'effect' must be an array of tables ([[effect]])");
+      for (auto&& item : *v.as_array()) {
+        const auto& t = *item.as_table();
+        EffectConfig c;
+        c.file = name;
+        c.line = line_of(item);
+        c.column = col_of(item);
+        bool have_id = false;
+        for (auto&& [ek, ev] : t) {
+          const std::string ekey(ek.str());
+          if (ekey == "id") {
+            c.id = text(name, ev, "id");
+            have_id = true;
+          } else {
+            c.params.push_back({ekey, number(name, ev, ekey), line_of(ev), col_of(ev)});
+          }
+        }
+        if (!have_id) throw ConfigError(name, c.line, c.column, "[[effect]] needs 'id'");
+        f.effects.push_back(std::move(c));
+      }
+    } else if (key == "control") {
+      read_control(name, as_table(name, v, key), f.control);
+    } else {
+      fail(name, v, "unknown key '" + key +
+                        "' (known: schema, omega_unit, frame, robot, gantry, terrain, effect, control)");
+    }
+  }
+  if (!have_schema) throw ConfigError(name, 1, 1, "model file needs 'schema = " + std::to_string(kModelSchema) + "'");
+  return f;
+}
+
+ModelFile load_model_file(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError(path, 0, 0, "cannot open model file");
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return parse_model_file(ss.str(), path);
+}
+
+Model build_model(const ModelFile& f, const std::string& terrain, const EffectRegistry& registry) {
+  if (!f.robot) throw ConfigError(f.path, 1, 1, "model file has no [robot]");
+  const TerrainEntry* t = f.find_terrain(terrain);
+  if (!t) throw ConfigError(f.path, 1, 1, "model file has no terrain '" + terrain + "'");
+  if (!std::isfinite(t->params.D_psi))
+    throw ConfigError(f.path, t->line, 1, "terrain '" + terrain + "' has no D_psi (needed for the robot)");
+  std::vector<std::shared_ptr<const Effect>> effects;
+  for (const auto& c : f.effects) effects.push_back(registry.create(c));
+  try {
+    return make_model(*f.robot, t->params, std::move(effects));
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(f.path, f.robot_line, 1, e.what());
+  }
+}
+
+ControllerConfig controller_config(const ModelFile& f, const std::string& terrain) {
+  ControllerConfig c;
+  c.gains = table5_gains(terrain);
+  if (f.robot) c.allocator.omega_max_rpm = f.robot->omega_max_rpm;
+  const ControlSection& s = f.control;
+  if (s.gamma_per_s) c.gamma_per_s = *s.gamma_per_s;
+  if (s.kp) c.gains.kp = *s.kp;
+  if (s.kd) c.gains.kd = *s.kd;
+  if (s.ki) c.gains.ki = *s.ki;
+  if (s.integral_limit) c.gains.integral_limit = *s.integral_limit;
+  if (s.allocator) c.allocator.kind = *s.allocator;
+  if (s.priority) c.allocator.priority = *s.priority;
+  if (s.omega_min_rpm) c.allocator.omega_min_rpm = *s.omega_min_rpm;
+  if (s.engage_rpm) c.allocator.engage_rpm = *s.engage_rpm;
+  if (s.estimator) c.estimator = *s.estimator;
+  return c;
+}
+
+}  // namespace auger

@@ -1,0 +1,95 @@
+// Effect interface and registry: creation by id with checked parameters, and the shipped effects
+// against their closed-form behaviour.
+#include <catch2/catch.hpp>
+
+#include "auger/dynamics.hpp"
+#include "auger/effect.hpp"
+
+using namespace auger;
+
+namespace {
+const TerrainParams kSand{"sand", 0.812, 0.247, 560.33, 320.08, 11.46};
+
+EffectConfig config(const std::string& id, std::vector<EffectParamValue> params) {
+  EffectConfig c;
+  c.id = id;
+  c.params = std::move(params);
+  c.file = "fx.toml";
+  c.line = 7;
+  c.column = 1;
+  return c;
+}
+}  // namespace
+
+TEST_CASE("registry creates effects by id and rejects unknown ids and parameters with file and line") {
+  const EffectRegistry& r = EffectRegistry::builtin();
+  CHECK(r.has("coulomb_friction"));
+  auto e = r.create(config("coulomb_friction", {{"force_x_n", 3, 8, 1}}));
+  CHECK(e->id() == "coulomb_friction");
+  try {
+    r.create(config("magic", {}));
+    FAIL("accepted an unknown id");
+  } catch (const ConfigError& ex) {
+    CHECK(ex.line() == 7);
+    CHECK_THAT(ex.what(), Catch::StartsWith("fx.toml:7:1:") && Catch::Contains("magic"));
+  }
+  try {
+    r.create(config("coulomb_friction", {{"force_x_n", 3, 8, 1}, {"mu", 0.5, 9, 1}}));
+    FAIL("accepted an unknown parameter");
+  } catch (const ConfigError& ex) {
+    CHECK(ex.line() == 9);
+    CHECK_THAT(ex.what(), Catch::Contains("'mu'"));
+  }
+  CHECK_THROWS_AS(r.create(config("screw_dead_band", {})), ConfigError);  // required parameter
+  CHECK_THROWS_AS(r.create(config("coulomb_friction", {{"force_y_n", -1, 8, 1}})), ConfigError);
+  EffectRegistry mine;
+  register_builtin_effects(mine);
+  CHECK_THROWS_AS(register_builtin_effects(mine), std::invalid_argument);  // duplicate ids
+}
+
+TEST_CASE("Coulomb friction: holds below the level, sliding at (tau - F) / D above, stops without reversing") {
+  const Vec3 F(20, 6, 0.5);
+  const Model m = make_model(RobotParams{}, kSand, {std::make_shared<CoulombFriction>(F)});
+  DynamicsData data(m);
+  Vec3 eta = Vec3::Zero(), zeta = Vec3::Zero();
+  // Forward drive of 0.812 * 4 * 5 = 16.2 N < 20 N: the robot does not move at all.
+  const Vec4 slow(-5, -5, 5, 5);
+  for (int k = 0; k < 100; ++k) dynamics_step(m, data, eta, zeta, slow, 0.01);
+  CHECK(zeta.norm() == 0.0);
+  CHECK(eta.norm() == 0.0);
+  CHECK(data.tau_effect_n.x() == Approx(-m.SB.row(0).dot(slow)));
+  // 15 rpm: 48.7 N > 20 N, steady u = (tau - F) / D_x.
+  const Vec4 fast(-15, -15, 15, 15);
+  for (int k = 0; k < 300; ++k) dynamics_step(m, data, eta, zeta, fast, 0.01);
+  CHECK(zeta.x() == Approx((m.SB.row(0).dot(fast) - F.x()) / m.D_diag.x()).epsilon(1e-9));
+  // Screws stopped: it decelerates faster than viscous alone, reaches zero in finite time and stays.
+  bool reversed = false;
+  int stopped_at = -1;
+  for (int k = 0; k < 100; ++k) {
+    dynamics_step(m, data, eta, zeta, Vec4::Zero(), 0.01);
+    reversed = reversed || zeta.x() < 0;
+    if (stopped_at < 0 && zeta.x() == 0.0) stopped_at = k;
+  }
+  CHECK_FALSE(reversed);
+  CHECK(stopped_at >= 0);
+  CHECK(stopped_at < 10);  // viscous alone would take about 5 time constants (25 steps) to 1 %
+  CHECK(zeta.x() == 0.0);
+}
+
+TEST_CASE("dead band removes the force of slow screws only") {
+  const Model m = make_model(RobotParams{}, kSand, {std::make_shared<ScrewDeadBand>(2.0)});
+  DynamicsData data(m);
+  Vec3 tau;
+  const Vec4 omega(1.5, -10, 1.9, 12);
+  drive_force(m, data, omega, 0.01, tau);
+  CHECK((tau - m.SB * Vec4(0, -10, 0, 12)).norm() < 1e-12);
+}
+
+TEST_CASE("IMU heading bias changes what the IMU reports, not the pose") {
+  const Model m = make_model(RobotParams{}, kSand, {std::make_shared<ImuHeadingBias>(0.2)});
+  SensorValues v;
+  predict_sensors(m, Vec3(1, 2, 3.1), Vec3(0, 0, 0.3), v);
+  CHECK(v.pose == Vec3(1, 2, 3.1));
+  CHECK(v.imu_psi_rad == Approx(wrap_angle(3.3)));
+  CHECK(v.imu_r_radps == 0.3);
+}
