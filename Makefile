@@ -12,6 +12,7 @@
 #   make fuzz        run the protocol parser fuzzer (FUZZ_RUNS, default unbounded: Ctrl-C)
 #   make bench-protocol   XOR byte vs CRC-16 corruption figures (docs/protocol.md)
 #   make bench-firmware   firmware cycles, edge rates, CPU load, simulation speed (docs/benchmarks.md)
+#   make bench-host       instructions and time per host controller step (callgrind)
 SHELL := /bin/bash
 .SHELLFLAGS := -eu -o pipefail -c
 JOBS ?= $(shell nproc)
@@ -24,7 +25,7 @@ AVR_CFLAGS := -mmcu=atmega328p -DF_CPU=16000000UL -std=c99 -Os -Wall -Wextra -We
 HOST_WARN := -Wall -Wextra -Werror -pedantic
 
 .PHONY: all deps firmware flash host asan check-protocol fuzz fuzz-smoke test test-full demo \
-        bench-protocol bench-firmware pid-units clean
+        bench-protocol bench-firmware bench-host pid-units clean
 
 all: host
 
@@ -100,6 +101,9 @@ bench-protocol: host
 
 bench-firmware: host
 	$(BUILD)/bench/fw_bench
+
+bench-host: host
+	scripts/bench-host-step.sh $(BUILD)
 
 # The paper's PID gains under every reading of their units (docs/firmware.md).
 pid-units: host

@@ -15,6 +15,8 @@ packages=(
   libeigen3-dev libtomlplusplus-dev libserial-dev catch2
   # fuzzing (libFuzzer) and sanitizers
   clang libclang-rt-14-dev
+  # benchmarks (instruction counts)
+  valgrind
 )
 
 missing=()
