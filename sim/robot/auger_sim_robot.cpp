@@ -1,0 +1,199 @@
+// auger-sim-robot: the demo's simulated robot (docs/robot-sim.md). Four firmware-in-the-loop
+// modules on ptys (augerd opens them as it would /dev/ttyUSB*), the true robot on a terrain,
+// paced to real time; the simulated camera and IMU are fed to augerd's sensors socket in the
+// line protocol of docs/daemon-protocol.md; the true trajectory is written as a robot log.
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <iostream>
+#include <string>
+
+#include "auger/model_file.hpp"
+#include "scheduler.hpp"
+#include "simmod.h"
+
+namespace {
+
+volatile sig_atomic_t g_stop = 0;
+void on_signal(int) { g_stop = 1; }
+
+void usage() {
+  std::fprintf(stderr,
+               "usage: auger-sim-robot --pty-dir DIR [--terrain sand|frozen_grass] [--model PATH]\n"
+               "       [--elf PATH] [--sensor-socket PATH] [--log PATH] [--seconds S] [--seed N]\n"
+               "       [--blocking-rpm X]   (default 1.5 on sand, 0 = off elsewhere)\n"
+               "Four simulated modules running the firmware on ptys DIR/module0..3 (reset when a\n"
+               "host opens one), the true robot paced to real time, camera and IMU lines sent to\n"
+               "augerd's sensors socket (reconnecting until it exists), the true trajectory logged.\n"
+               "Runs until SIGINT/SIGTERM or --seconds of simulated time.\n");
+}
+
+double unix_now_s() {
+  timespec ts;
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return ts.tv_sec + ts.tv_nsec * 1e-9;
+}
+
+// The sensors socket client: connects when the socket exists, drops lines it cannot send
+// without blocking (sensor data is perishable), prints what augerd answers (errors only).
+class SensorLink {
+ public:
+  explicit SensorLink(std::string path) : path_(std::move(path)) {}
+  ~SensorLink() {
+    if (fd_ >= 0) close(fd_);
+  }
+  void send(const std::string& line, double now_s) {
+    if (path_.empty()) return;
+    if (fd_ < 0 && now_s >= next_try_s_) try_connect(now_s);
+    if (fd_ < 0) return;
+    const ssize_t n = ::send(fd_, line.data(), line.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+    if (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK) {
+      std::fprintf(stderr, "auger-sim-robot: sensors socket %s: %s; reconnecting\n", path_.c_str(), std::strerror(errno));
+      close(fd_);
+      fd_ = -1;
+      next_try_s_ = now_s + 0.5;
+      return;
+    }
+    char buf[512];
+    const ssize_t r = recv(fd_, buf, sizeof(buf) - 1, MSG_DONTWAIT);
+    if (r > 0) {
+      buf[r] = 0;
+      std::fprintf(stderr, "auger-sim-robot: augerd says: %s", buf);
+    } else if (r == 0) {
+      close(fd_);
+      fd_ = -1;
+      next_try_s_ = now_s + 0.5;
+    }
+  }
+
+ private:
+  void try_connect(double now_s) {
+    next_try_s_ = now_s + 0.5;
+    const int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+    if (fd < 0) return;
+    sockaddr_un a{};
+    a.sun_family = AF_UNIX;
+    std::snprintf(a.sun_path, sizeof(a.sun_path), "%s", path_.c_str());
+    if (connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a)) != 0) {
+      close(fd);
+      return;
+    }
+    fd_ = fd;
+    std::fprintf(stderr, "auger-sim-robot: connected to the sensors socket %s\n", path_.c_str());
+  }
+  std::string path_;
+  int fd_ = -1;
+  double next_try_s_ = 0;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string pty_dir, terrain = "sand", model_path = AUGER_DEFAULT_MODEL, elf = AUGER_DEFAULT_ELF;
+  std::string socket_path, log_path;
+  double seconds = -1, blocking_rpm = -1;
+  unsigned long long seed = 1;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "auger-sim-robot: %s needs a value\n", a.c_str());
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    if (a == "--pty-dir") pty_dir = value();
+    else if (a == "--terrain") terrain = value();
+    else if (a == "--model") model_path = value();
+    else if (a == "--elf") elf = value();
+    else if (a == "--sensor-socket") socket_path = value();
+    else if (a == "--log") log_path = value();
+    else if (a == "--seconds") seconds = std::atof(value().c_str());
+    else if (a == "--seed") seed = std::strtoull(value().c_str(), nullptr, 10);
+    else if (a == "--blocking-rpm") blocking_rpm = std::atof(value().c_str());
+    else if (a == "-h" || a == "--help") {
+      usage();
+      return 0;
+    } else {
+      std::fprintf(stderr, "auger-sim-robot: unknown argument '%s'\n", a.c_str());
+      usage();
+      return 2;
+    }
+  }
+  if (pty_dir.empty()) {
+    usage();
+    return 2;
+  }
+  try {
+    const auger::ModelFile file = auger::load_model_file(model_path);
+    const auger::Model model = auger::build_model(file, terrain);
+    auger::sim::TruthParams truth;
+    if (blocking_rpm < 0) blocking_rpm = terrain == "sand" ? 1.5 : 0.0;
+    truth.blocking.on = blocking_rpm > 0;
+    truth.blocking.omega_block_rpm = blocking_rpm;
+    auger::sim::SchedulerConfig sc;
+    sc.mode = auger::sim::ScrewMode::fil;
+    sc.elf_path = elf;
+    sc.realtime = true;
+    sc.pty_dir = pty_dir;
+    sc.reset_on_open = true;
+    sc.seed = seed;
+    sc.terrain = terrain;
+    sc.log_truth = true;
+    sc.threads = 1;
+    auger::sim::Scheduler sched(model, truth, sc);
+    sched.set_keep_history(false);
+    const double t0_unix_s = unix_now_s();  // simulated t = 0 (simmod paces from creation)
+    for (int i = 0; i < 4; ++i)
+      std::printf("%d %s %s\n", i, simmod_pty_link(sched.modules(), i), simmod_pty_path(sched.modules(), i));
+    std::fflush(stdout);
+
+    std::ofstream log;
+    if (!log_path.empty()) {
+      log.open(log_path);
+      if (!log) throw std::runtime_error("cannot write " + log_path);
+      sched.set_log(&log);
+    }
+    SensorLink link(socket_path);
+    char line[256];
+    sched.set_sensor_sink([&](double t_s, const auger::sim::ImuReading* imu, const auger::sim::PoseReading* pose) {
+      const double now = t0_unix_s + t_s;
+      if (pose) {
+        std::snprintf(line, sizeof(line), "pose %.6f %.6f %.6f %.6f %.6f %.6f %.6f\n", t0_unix_s + pose->t_capture_s,
+                      pose->pose[0], pose->pose[1], pose->pose[2], pose->std_dev[0], pose->std_dev[1], pose->std_dev[2]);
+        link.send(line, now);
+      }
+      if (imu) {
+        std::snprintf(line, sizeof(line), "imu %.6f %.6f %.6f\n", t0_unix_s + imu->t_s, imu->psi_rad, imu->r_radps);
+        link.send(line, now);
+      }
+    });
+
+    struct sigaction sa{};
+    sa.sa_handler = on_signal;
+    sigaction(SIGINT, &sa, nullptr);
+    sigaction(SIGTERM, &sa, nullptr);
+    signal(SIGPIPE, SIG_IGN);
+    int flush_count = 0;
+    while (!g_stop && (seconds < 0 || sched.t_s() < seconds - 1e-9)) {
+      sched.tick();
+      if (log.is_open() && ++flush_count % 100 == 0) log.flush();  // lose at most 1 s on a crash
+    }
+    if (log.is_open()) log.flush();
+    std::fprintf(stderr, "auger-sim-robot: stopped at t = %.2f s, pose %.3f %.3f %.3f\n", sched.t_s(),
+                 sched.robot().state().eta[0], sched.robot().state().eta[1], sched.robot().state().eta[2]);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "auger-sim-robot: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

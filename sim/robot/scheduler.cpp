@@ -1,0 +1,218 @@
+// Lock-step scheduler: see scheduler.hpp.
+#include "scheduler.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <thread>
+
+#include "protocol.h"
+#include "simmod.h"
+
+namespace auger::sim {
+
+struct Scheduler::ModuleLink {
+  proto_parser_t parser;
+  bool fresh = false;             // a telemetry frame arrived in this control period
+  proto_telemetry_t last{};
+  bool have_last = false;
+  std::uint16_t seq = 0;
+  bool cleared = false;           // CLEAR_FAULTS sent once, with the first enabling setpoint
+};
+
+Scheduler::Scheduler(const Model& nominal, const TruthParams& truth, const SchedulerConfig& config)
+    : cfg_(config),
+      robot_(nominal, truth),
+      imu_(config.imu, config.seed * 2654435761ULL + 1),
+      camera_(config.camera, config.seed * 2654435761ULL + 2) {
+  if (!(cfg_.coupling_step_s > 0) || !(cfg_.control_period_s >= cfg_.coupling_step_s))
+    throw std::invalid_argument("Scheduler: need 0 < coupling_step_s <= control_period_s");
+  if (cfg_.mode == ScrewMode::fil) {
+    simmod_config_t sc;
+    simmod_config_default(&sc);
+    sc.elf_path = cfg_.elf_path.c_str();
+    sc.count = 4;
+    sc.threads = cfg_.threads;
+    sc.realtime = cfg_.realtime ? 1 : 0;
+    sc.pty_dir = cfg_.pty_dir.empty() ? nullptr : cfg_.pty_dir.c_str();
+    sc.reset_on_open = cfg_.reset_on_open ? 1 : 0;
+    sim_ = simmod_create(&sc);
+    if (!sim_) throw std::runtime_error("Scheduler: simmod_create failed for " + cfg_.elf_path);
+    for (int i = 0; i < 4; ++i) {
+      links_.push_back(std::make_unique<ModuleLink>());
+      proto_parser_init(&links_.back()->parser);
+      shaft_angle_rad_[static_cast<std::size_t>(i)] = simmod_shaft_angle_rad(sim_, i);
+    }
+    simmod_set_uart_callback(sim_, &Scheduler::on_byte, this);
+  }
+}
+
+Scheduler::~Scheduler() {
+  if (sim_) simmod_destroy(sim_);
+}
+
+void Scheduler::set_log(std::ostream* out) {
+  if (!out) {
+    log_.reset();
+    return;
+  }
+  log_ = std::make_unique<RobotLogWriter>(
+      *out, std::vector<std::pair<std::string, std::string>>{{"format", kRobotLogFormat}, {"terrain", cfg_.terrain}});
+}
+
+void Scheduler::on_byte(void* ctx, int module, std::uint8_t byte, double) {
+  auto* self = static_cast<Scheduler*>(ctx);
+  ModuleLink& l = *self->links_.at(static_cast<std::size_t>(module));
+  proto_parser_push(&l.parser, byte);
+  proto_frame_t f;
+  while (proto_parser_pop(&l.parser, &f)) {
+    proto_telemetry_t tm;
+    if (proto_decode_telemetry(&f, &tm)) {
+      l.last = tm;
+      l.have_last = true;
+      l.fresh = true;
+    }
+  }
+}
+
+void Scheduler::advance(double dt_s) {
+  const double h = dt_s;
+  if (sim_) {
+    for (int i = 0; i < 4; ++i) simmod_set_load_torque(sim_, i, robot_.load_torque_nm()[i]);
+    simmod_step_to(sim_, t_s_ + h);
+    // Mean speed over the step from the shaft angle: what moved the robot in it.
+    for (int i = 0; i < 4; ++i) {
+      const double a = simmod_shaft_angle_rad(sim_, i);
+      omega_true_[i] = (a - shaft_angle_rad_[static_cast<std::size_t>(i)]) / h * 60.0 / (2.0 * kPi);
+      shaft_angle_rad_[static_cast<std::size_t>(i)] = a;
+    }
+  } else {
+    // Ideal speed-controlled screw: omega' = (target - omega) / tau, exact over the step.
+    const double k = 1.0 - std::exp(-h / cfg_.ideal_tau_s);
+    const Vec4 start = omega_true_;
+    omega_true_ = start + k * (target_rpm_ - start);
+    if (cfg_.realtime) std::this_thread::sleep_for(std::chrono::duration<double>(h));
+  }
+  robot_.step(omega_true_, h);
+  t_s_ += h;
+  camera_.observe(t_s_, robot_.state().eta);
+}
+
+void Scheduler::tick() {
+  const double t = t_s_;
+  const TruthState& truth = robot_.state();
+
+  // Sensors delivered by now.
+  const ImuReading imu = imu_.read(t, truth.eta[2], truth.zeta[2]);
+  PoseReading pose{};
+  bool got_pose = false;
+  while (camera_.deliver(t, pose)) got_pose = true;  // keep the newest
+
+  // Telemetry of this period.
+  std::array<ScrewTelemetry, 4> tel{};
+  for (std::size_t i = 0; i < 4; ++i) {
+    if (sim_) {
+      ModuleLink& l = *links_[i];
+      tel[i].valid = l.fresh;
+      tel[i].omega_rpm = l.last.omega_crpm / 100.0;
+    } else {
+      tel[i].valid = true;
+      tel[i].omega_rpm = std::round(omega_true_[static_cast<int>(i)] * 100.0) / 100.0;  // 0.01 rpm
+    }
+  }
+
+  Vec4 cmd = Vec4::Zero();
+  bool enabled = false;
+  if (controller_) {
+    SensorInput in;
+    in.has_imu_psi = in.has_imu_r = true;
+    in.imu_psi_rad = imu.psi_rad;
+    in.imu_r_radps = imu.r_radps;
+    if (got_pose) {
+      in.has_pose = true;
+      in.pose = pose.pose;
+      in.pose_cov = pose.std_dev.cwiseProduct(pose.std_dev).asDiagonal();
+    }
+    const auto& sp = controller_->step(t, tel, in);
+    for (int i = 0; i < 4; ++i) cmd[i] = sp[static_cast<std::size_t>(i)];
+    enabled = controller_->enabled();
+    if (sim_) {
+      for (int i = 0; i < 4; ++i) {
+        ModuleLink& l = *links_[static_cast<std::size_t>(i)];
+        proto_setpoint_t s{};
+        s.seq = ++l.seq;
+        s.omega_crpm = static_cast<std::int16_t>(std::lround(cmd[i] * 100.0));
+        s.flags = enabled ? PROTO_SP_ENABLE : 0;
+        if (enabled && !l.cleared) {
+          s.flags |= PROTO_SP_CLEAR_FAULTS;
+          l.cleared = true;
+        }
+        std::uint8_t buf[PROTO_MAX_FRAME];
+        const std::size_t n = proto_encode_setpoint(&s, buf);
+        simmod_uart_send(sim_, i, buf, n);
+      }
+    } else {
+      for (int i = 0; i < 4; ++i) target_rpm_[i] = std::clamp(cmd[i], -cfg_.omega_max_rpm, cfg_.omega_max_rpm);
+    }
+  }
+  if (sink_) sink_(t, &imu, got_pose ? &pose : nullptr);
+
+  if (log_) {
+    RobotSample r;
+    r.t_s = t;
+    for (std::size_t i = 0; i < 4; ++i) {
+      r.omega_rpm[i] = cfg_.log_truth ? omega_true_[static_cast<int>(i)] : tel[i].omega_rpm;
+      if (controller_) r.cmd_rpm[i] = cmd[static_cast<int>(i)];
+      if (sim_ && links_[i]->have_last) {
+        const proto_telemetry_t& tm = links_[i]->last;
+        r.current_a[i] = tm.current_ma / 1000.0;
+        r.voltage_v[i] = tm.voltage_mv / 1000.0;
+        r.pwm[i] = tm.duty_x10000 / 10000.0;
+        r.status[i] = tm.status;
+        r.seq_ack[i] = tm.seq_ack;
+      }
+    }
+    if (cfg_.log_truth) {
+      r.x_m = truth.eta[0];
+      r.y_m = truth.eta[1];
+      r.psi_rad = wrap_angle(truth.eta[2]);
+    } else if (got_pose) {
+      r.x_m = pose.pose[0];
+      r.y_m = pose.pose[1];
+      r.psi_rad = pose.pose[2];
+    }
+    r.imu_psi_rad = imu.psi_rad;
+    r.imu_r_radps = imu.r_radps;
+    if (controller_ && enabled) {
+      const Vec3& ref = controller_->reference().eta_d;
+      r.xd_m = ref[0];
+      r.yd_m = ref[1];
+      r.psid_rad = wrap_angle(ref[2]);
+    }
+    log_->write(r);
+  }
+  if (keep_history_) {
+    TickRecord rec;
+    rec.t_s = t;
+    rec.eta_true = truth.eta;
+    rec.eta_ref = controller_ ? controller_->reference().eta_d : truth.eta;
+    rec.enabled = enabled;
+    rec.cmd_rpm = cmd;
+    rec.omega_true_rpm = omega_true_;
+    history_.push_back(rec);
+  }
+
+  for (auto& l : links_) l->fresh = false;
+  // Advance the modules and the robot through the period in coupling steps.
+  const int n = std::max(1, static_cast<int>(std::lround(cfg_.control_period_s / cfg_.coupling_step_s)));
+  const double h = cfg_.control_period_s / n;
+  for (int k = 0; k < n; ++k) advance(h);
+}
+
+void Scheduler::run_until(double t_end_s) {
+  stop_ = false;
+  while (t_s_ < t_end_s - 1e-9 && !stop_) tick();
+}
+
+}  // namespace auger::sim

@@ -1,0 +1,186 @@
+// The true robot: see true_robot.hpp and docs/robot-sim.md.
+#include "true_robot.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace auger::sim {
+
+namespace {
+// Smooth unit "sign" of a 2-D velocity: tanh(|c| / eps) c / |c|, 0 at rest. The tanh keeps the
+// dry forces continuous so the fixed-step RK4 needs no event handling; eps sets how fast a
+// force below the breakaway level still creeps (about eps atanh(F / F_max)).
+Eigen::Vector2d smooth_direction(const Eigen::Vector2d& c, double eps) {
+  const double n = c.norm();
+  if (n < 1e-12) return Eigen::Vector2d::Zero();
+  return c * (std::tanh(n / eps) / n);
+}
+}  // namespace
+
+TrueRobot::TrueRobot(const Model& nominal, const TruthParams& params) : m_(nominal), p_(params) {
+  if (!(p_.substep_s > 0)) throw std::invalid_argument("TrueRobot: substep_s must be > 0");
+  const double tan_phi = std::tan(m_.robot.phi_rad);
+  for (int i = 0; i < 4; ++i) {
+    const ScrewMount& sc = m_.screws[static_cast<std::size_t>(i)];
+    pos_[static_cast<std::size_t>(i)] = Eigen::Vector2d(sc.x_m, sc.y_m);
+    s_sign_[static_cast<std::size_t>(i)] = sc.mount_sign;
+    h_sign_[static_cast<std::size_t>(i)] = sc.helix_sign;
+    // (a_i, b_i) of K_i's row (eq. (4)): the contact velocity direction one screw drives.
+    drive_[static_cast<std::size_t>(i)] =
+        Eigen::Vector2d(sc.mount_sign * sc.helix_sign / tan_phi, sc.mount_sign).normalized();
+  }
+  // Drag: each contact ploughs through the ground and resists its own velocity with a quarter
+  // of D_x, D_y (so translation keeps eq. (6)'s D_x, D_y exactly).
+  cdx_ = m_.D_diag[0] / 4.0;
+  cdy_ = m_.D_diag[1] / 4.0;
+  // Yaw: the truth's screw forces act at their real lever arms, about 17x the empirical yaw row
+  // of B (MODEL-NOTES). For the same steady r, D_psi is scaled by the same ratio:
+  // r_ss = T_true / D_true = T_nom / D_psi  =>  D_true = D_psi T_true / T_nom, with T per rpm of
+  // the pure-yaw pattern omega = [1 1 1 1] (it gives no net force in either model).
+  double torque_true = 0.0;
+  for (std::size_t i = 0; i < 4; ++i) {
+    const double fx = m_.terrain.sigma_long * s_sign_[i] * h_sign_[i];
+    const double fy = m_.terrain.sigma_lat * s_sign_[i];
+    torque_true += pos_[i].x() * fy - pos_[i].y() * fx;
+  }
+  const double torque_nom = m_.SB.row(2).sum();
+  if (!(std::fabs(torque_nom) > 0) || !std::isfinite(m_.D_diag[2]))
+    throw std::invalid_argument("TrueRobot: the terrain needs D_psi and a yaw row of B");
+  const double d_psi_true = m_.D_diag[2] * torque_true / torque_nom;
+  double contact_yaw = 0.0;
+  for (const auto& r : pos_) contact_yaw += cdx_ * r.y() * r.y() + cdy_ * r.x() * r.x();
+  d_psi_res_ = d_psi_true - contact_yaw;
+  if (d_psi_res_ < 0)
+    throw std::invalid_argument("TrueRobot: the contact drag alone exceeds the calibrated yaw drag");
+  // RK4 is stable for a real eigenvalue -lambda while lambda h < 2.78. The tanh forms are
+  // stiffest at rest: slope F_max / eps. Translation: friction plus four blocked contacts.
+  const double m = m_.robot.m_kg, g_n = m * kGravity_mps2;
+  double lambda = (m_.D_diag[0] + m_.D_diag[1]) / m;
+  if (p_.friction.on) lambda += p_.friction.stiction_n / p_.friction.eps_mps / m;
+  if (p_.blocking.on) lambda += p_.blocking.mu * g_n / p_.blocking.eps_mps / m;
+  double lambda_z = d_psi_true / m_.robot.I_z_kgm2;
+  if (p_.friction.on) lambda_z += p_.friction.stiction_nm / p_.friction.eps_radps / m_.robot.I_z_kgm2;
+  if (p_.blocking.on)
+    lambda_z += p_.blocking.mu * g_n / p_.blocking.eps_mps * 0.25 * (pos_[0].squaredNorm()) * 4 / m_.robot.I_z_kgm2;
+  if (std::max(lambda, lambda_z) * p_.substep_s > 2.5)
+    throw std::invalid_argument("TrueRobot: substep_s too long for the smoothing eps of the dry forces");
+}
+
+TrueRobot::Deriv TrueRobot::derivative(const TruthState& s, const Vec4& omega_rpm, double t_s,
+                                       Vec4* load_nm) const {
+  const double u = s.zeta[0], v = s.zeta[1], r = s.zeta[2];
+  const double m = m_.robot.m_kg;
+
+  // Normal load: the weight's component normal to the (possibly tilted) ground.
+  Eigen::Vector3d n_world(0, 0, 1);
+  if (p_.incline.on) {
+    const double cr = std::cos(p_.incline.roll_rad), sr = std::sin(p_.incline.roll_rad);
+    const double cp = std::cos(p_.incline.pitch_rad), sp = std::sin(p_.incline.pitch_rad);
+    n_world = Eigen::Vector3d(sp * cr, -sr, cp * cr);  // R_y(pitch) R_x(roll) e_z
+  }
+  const double normal_n = m * kGravity_mps2 * n_world.z();
+
+  Deriv d;
+  // Speed that makes traction: smooth dead band, then the second-order lag.
+  Vec4 w_in = omega_rpm;
+  if (p_.dead_band.on) {
+    const double w0 = p_.dead_band.omega_dead_rpm;
+    for (int i = 0; i < 4; ++i) w_in[i] = omega_rpm[i] - w0 * std::tanh(omega_rpm[i] / w0);
+  }
+  Vec4 w_tr = w_in;
+  if (p_.lag.on) {
+    const double tau = p_.lag.tau_s;
+    w_tr = s.lag_rpm;
+    d.lag_dot = s.lag_rate_rpmps;
+    // tau^2 y'' + 2 zeta tau y' + y = omega: a second-order (not first-order) build-up.
+    d.lag_ddot = (w_in - s.lag_rpm - 2.0 * p_.lag.damping * tau * s.lag_rate_rpmps) / (tau * tau);
+  } else {
+    d.lag_dot.setZero();
+    d.lag_ddot.setZero();
+  }
+
+  Eigen::Vector2d f_body = Eigen::Vector2d::Zero();
+  double m_z = -d_psi_res_ * r;
+  for (std::size_t i = 0; i < 4; ++i) {
+    const Eigen::Vector2d& p = pos_[i];
+    // Traction of screw i from its speed (N per rpm, eq. (7) distributed per screw).
+    double f_long = m_.terrain.sigma_long * w_tr[static_cast<int>(i)];
+    double f_lat = m_.terrain.sigma_lat * w_tr[static_cast<int>(i)];
+    if (p_.saturation.on) {
+      f_long = p_.saturation.long_max_n * std::tanh(f_long / p_.saturation.long_max_n);
+      f_lat = p_.saturation.lat_max_n * std::tanh(f_lat / p_.saturation.lat_max_n);
+    }
+    if (p_.loss.on && static_cast<int>(i) == p_.loss.screw && t_s >= p_.loss.t_on_s) {
+      f_long *= p_.loss.factor;
+      f_lat *= p_.loss.factor;
+    }
+    Eigen::Vector2d f_tr(f_long * s_sign_[i] * h_sign_[i], f_lat * s_sign_[i]);
+    // Contact point velocity (u - r y_i, v + r x_i) (MODEL-NOTES "Frames").
+    const Eigen::Vector2d c(u - r * p.y(), v + r * p.x());
+    Eigen::Vector2d f_block = Eigen::Vector2d::Zero();
+    if (p_.blocking.on && std::fabs(omega_rpm[static_cast<int>(i)]) < p_.blocking.omega_block_rpm)
+      f_block = -(p_.blocking.mu * normal_n / 4.0) * smooth_direction(c, p_.blocking.eps_mps);
+    const Eigen::Vector2d f_drag(-cdx_ * c.x(), -cdy_ * c.y());
+    const Eigen::Vector2d f = f_tr + f_block + f_drag;
+    f_body += f;
+    m_z += p.x() * f.y() - p.y() * f.x();
+    // The ground pushes the robot with f_tr + f_block; the helix feels the reaction along the
+    // screw's drive direction, at the effective radius (positive opposes positive rotation).
+    if (load_nm) (*load_nm)[static_cast<int>(i)] = p_.r_eff_m * drive_[i].dot(f_tr + f_block);
+  }
+
+  const double cpsi = std::cos(s.eta[2]), spsi = std::sin(s.eta[2]);
+  if (p_.incline.on) {
+    // Weight minus its normal part, in the world frame, then into the body frame (J^T).
+    const Eigen::Vector3d g_world(0, 0, -m * kGravity_mps2);
+    const Eigen::Vector3d g_t = g_world - g_world.dot(n_world) * n_world;
+    f_body += Eigen::Vector2d(cpsi * g_t.x() + spsi * g_t.y(), -spsi * g_t.x() + cpsi * g_t.y());
+  }
+  if (p_.friction.on) {
+    const DryFriction& fr = p_.friction;
+    const double load = normal_n / (m * kGravity_mps2);  // friction scales with the normal load
+    const Eigen::Vector2d w(u, v);
+    const double sp = w.norm();
+    const double level = fr.coulomb_n + (fr.stiction_n - fr.coulomb_n) * std::exp(-(sp / fr.stribeck_mps) * (sp / fr.stribeck_mps));
+    f_body -= load * level * smooth_direction(w, fr.eps_mps);
+    const double level_z = fr.coulomb_nm + (fr.stiction_nm - fr.coulomb_nm) *
+                                               std::exp(-(r / fr.stribeck_radps) * (r / fr.stribeck_radps));
+    m_z -= load * level_z * std::tanh(r / fr.eps_radps);
+  }
+
+  // Rigid body in the plane, body frame: m (u' - r v) = F_x, m (v' + r u) = F_y, I r' = M_z.
+  d.zeta_dot = Vec3(f_body.x() / m + r * v, f_body.y() / m - r * u, m_z / m_.robot.I_z_kgm2);
+  // eq. (5): eta' = J(psi) zeta.
+  d.eta_dot = Vec3(cpsi * u - spsi * v, spsi * u + cpsi * v, r);
+  return d;
+}
+
+void TrueRobot::step(const Vec4& omega_rpm, double dt_s) {
+  if (!(dt_s > 0)) return;
+  const int n = std::max(1, static_cast<int>(std::ceil(dt_s / p_.substep_s - 1e-9)));
+  const double h = dt_s / n;
+  auto add = [](const TruthState& s, const Deriv& d, double k) {
+    TruthState o = s;
+    o.eta += k * d.eta_dot;
+    o.zeta += k * d.zeta_dot;
+    o.lag_rpm += k * d.lag_dot;
+    o.lag_rate_rpmps += k * d.lag_ddot;
+    return o;
+  };
+  for (int k = 0; k < n; ++k) {
+    // Classical RK4 with the screw speeds held over the sub-step.
+    const Deriv k1 = derivative(s_, omega_rpm, t_s_, nullptr);
+    const Deriv k2 = derivative(add(s_, k1, h / 2), omega_rpm, t_s_ + h / 2, nullptr);
+    const Deriv k3 = derivative(add(s_, k2, h / 2), omega_rpm, t_s_ + h / 2, nullptr);
+    const Deriv k4 = derivative(add(s_, k3, h), omega_rpm, t_s_ + h, nullptr);
+    s_.eta += h / 6 * (k1.eta_dot + 2 * k2.eta_dot + 2 * k3.eta_dot + k4.eta_dot);
+    s_.zeta += h / 6 * (k1.zeta_dot + 2 * k2.zeta_dot + 2 * k3.zeta_dot + k4.zeta_dot);
+    s_.lag_rpm += h / 6 * (k1.lag_dot + 2 * k2.lag_dot + 2 * k3.lag_dot + k4.lag_dot);
+    s_.lag_rate_rpmps += h / 6 * (k1.lag_ddot + 2 * k2.lag_ddot + 2 * k3.lag_ddot + k4.lag_ddot);
+    t_s_ += h;
+  }
+  const Deriv end = derivative(s_, omega_rpm, t_s_, &load_nm_);
+  zeta_dot_ = end.zeta_dot;
+}
+
+}  // namespace auger::sim

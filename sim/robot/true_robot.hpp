@@ -1,0 +1,117 @@
+// The simulated "true" robot (docs/robot-sim.md): a rigid body in the plane whose screws each
+// push at their own contact point, on one terrain, with switchable physics the paper's linear
+// model lacks. Deliberately NOT the host model (DESIGN.md "Hidden-effect honesty"): per-contact
+// drag plus a residual yaw drag instead of a lumped D, the real lever arms instead of the
+// empirical yaw row of B, Coriolis terms, smooth (tanh / Stribeck) dry friction, a second-order
+// force lag, a 3-D incline. Calibrated so that without extra effects its steady u, v, r equal
+// the nominal model's (MODEL-NOTES.md "Dynamic model").
+#pragma once
+
+#include <array>
+
+#include <Eigen/Core>
+
+#include "auger/model.hpp"
+
+namespace auger::sim {
+
+constexpr double kGravity_mps2 = 9.81;
+
+// Each extra effect: `on` switches it, the rest are its parameters (SI, screw speeds in rpm).
+struct DryFriction {  // body-level, smooth Stribeck curve times tanh (not a hard sign)
+  bool on = false;
+  double coulomb_n = 8.0, stiction_n = 12.0, stribeck_mps = 0.01, eps_mps = 0.0003;
+  double coulomb_nm = 1.0, stiction_nm = 1.5, stribeck_radps = 0.03, eps_radps = 0.002;
+};
+struct Incline {  // the ground is a plane tilted by roll (about world x) then pitch (about world y)
+  bool on = false;
+  double roll_rad = 0.0, pitch_rad = 0.0;
+};
+struct TractionLoss {  // screw `screw` keeps only `factor` of its traction from t_on_s on
+  bool on = false;
+  int screw = 0;
+  double factor = 0.3, t_on_s = 0.0;
+};
+struct TractionSaturation {  // smooth: f = f_max tanh(f_linear / f_max), per screw and axis
+  bool on = false;
+  double long_max_n = 14.0, lat_max_n = 4.0;
+};
+struct ForceLag {  // the traction builds up through a second-order filter of the screw speed
+  bool on = false;
+  double tau_s = 0.15, damping = 0.8;
+};
+struct DeadBand {  // smooth dead band: omega_eff = omega - omega_dead tanh(omega / omega_dead)
+  bool on = false;
+  double omega_dead_rpm = 1.5;
+};
+struct Blocking {  // MODEL-NOTES: |omega| < omega_block: mu m g / 4 dry resistance at the contact
+  bool on = false;
+  double omega_block_rpm = 1.5, mu = 0.5, eps_mps = 0.002;
+};
+
+struct TruthParams {
+  double substep_s = 0.0005;  // RK4 step; stable for the tanh friction down to eps ~ 1.5 mm/s
+  double r_eff_m = 0.0775;    // load torque = r_eff x traction along the screw's drive direction
+  DryFriction friction;
+  Incline incline;
+  TractionLoss loss;
+  TractionSaturation saturation;
+  ForceLag lag;
+  DeadBand dead_band;
+  Blocking blocking;
+};
+
+// State: pose eta (world), body velocity zeta, and the force-lag filter (value, rate per screw).
+struct TruthState {
+  Vec3 eta = Vec3::Zero();
+  Vec3 zeta = Vec3::Zero();
+  Vec4 lag_rpm = Vec4::Zero();
+  Vec4 lag_rate_rpmps = Vec4::Zero();
+};
+
+class TrueRobot {
+ public:
+  // nominal: the robot and terrain (model file); the truth is calibrated against it.
+  TrueRobot(const Model& nominal, const TruthParams& params);
+
+  // Advance by dt_s with the true screw speeds held (sub-steps of params.substep_s).
+  void step(const Vec4& omega_rpm, double dt_s);
+
+  const TruthState& state() const { return s_; }
+  void set_state(const TruthState& s) { s_ = s; }
+  double t_s() const { return t_s_; }
+  TruthParams& params() { return p_; }
+  const TruthParams& params() const { return p_; }
+
+  // Load torque on each screw (N m, positive opposes positive rotation; simmod's sign) at the
+  // state and speeds of the last step.
+  const Vec4& load_torque_nm() const { return load_nm_; }
+  // Body acceleration of the last step's end (for the IMU).
+  const Vec3& zeta_dot() const { return zeta_dot_; }
+
+  // Calibration: per-contact drag coefficients and the residual yaw drag (docs/robot-sim.md).
+  double contact_drag_x() const { return cdx_; }
+  double contact_drag_y() const { return cdy_; }
+  double yaw_drag_residual() const { return d_psi_res_; }
+
+  // Derivative of the full state (exposed for tests); also fills per-screw load torques.
+  struct Deriv {
+    Vec3 eta_dot, zeta_dot;
+    Vec4 lag_dot, lag_ddot;
+  };
+  Deriv derivative(const TruthState& s, const Vec4& omega_rpm, double t_s, Vec4* load_nm) const;
+
+ private:
+  Model m_;
+  TruthParams p_;
+  TruthState s_;
+  double t_s_ = 0;
+  double cdx_ = 0, cdy_ = 0, d_psi_res_ = 0;
+  std::array<Eigen::Vector2d, 4> pos_;    // contact positions (body)
+  std::array<Eigen::Vector2d, 4> drive_;  // unit drive direction (a_i, b_i) of K_i's row
+  std::array<double, 4> s_sign_{}, h_sign_{};
+  Vec4 load_nm_ = Vec4::Zero();
+  Vec3 zeta_dot_ = Vec3::Zero();
+};
+
+}  // namespace auger::sim
