@@ -25,7 +25,10 @@ ModuleLink::ModuleLink(const std::string& port, unsigned baud) : port_(port, bau
     proto_parser_init(&parser_);
 }
 
-void ModuleLink::send_frame(const uint8_t* frame, size_t len) { port_.write_all(frame, len); }
+void ModuleLink::send_frame(const uint8_t* frame, size_t len, double timeout_s)
+{
+    port_.write_all(frame, len, timeout_s);
+}
 
 void ModuleLink::request(uint8_t what)
 {
@@ -47,12 +50,36 @@ std::optional<proto_frame_t> ModuleLink::wait_frame(uint8_t type, double timeout
         double left = end - now_s();
         if (left <= 0) return std::nullopt;
         size_t n = port_.read_some(buf, sizeof buf, left);
+        bytes_received_ += n;
         proto_frame_t f;
         for (size_t i = 0; i < n; ++i) {
             proto_parser_push(&parser_, buf[i]);
             while (proto_parser_pop(&parser_, &f)) frames_.push_back(f);
         }
     }
+}
+
+size_t ModuleLink::pump(std::vector<proto_frame_t>& out)
+{
+    const size_t before = out.size();
+    while (!frames_.empty()) {
+        out.push_back(frames_.front());
+        frames_.pop_front();
+    }
+    uint8_t buf[512];
+    // A full buffer may mean more is waiting; 250000 baud fills 512 bytes in 20 ms, so this
+    // ends after a read or two.
+    for (;;) {
+        size_t n = port_.read_some(buf, sizeof buf, 0.0);
+        bytes_received_ += n;
+        proto_frame_t f;
+        for (size_t i = 0; i < n; ++i) {
+            proto_parser_push(&parser_, buf[i]);
+            while (proto_parser_pop(&parser_, &f)) out.push_back(f);
+        }
+        if (n < sizeof buf) break;
+    }
+    return out.size() - before;
 }
 
 proto_identity_t ModuleLink::identify(double timeout_s)

@@ -9,6 +9,7 @@
 #include <deque>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace auger::io {
 
@@ -30,12 +31,20 @@ public:
     // the module refused them (motor enabled, invalid values) or did not answer.
     proto_config_t write_config(const proto_config_t& cfg, double timeout_s = 2.0);
 
-    void send_frame(const uint8_t* frame, size_t len);
+    // Blocks up to timeout_s for room in the port's buffer (augerd passes 0: never wait).
+    void send_frame(const uint8_t* frame, size_t len, double timeout_s = 1.0);
     // The next frame of `type`, discarding others (telemetry keeps coming), or nothing.
     std::optional<proto_frame_t> wait_frame(uint8_t type, double timeout_s);
 
+    // Non-blocking, for augerd's 100 Hz loop: appends every valid frame the port has now (first
+    // those an earlier wait_frame left queued) and returns how many. Throws std::runtime_error
+    // naming the port when it fails or hangs up (USB unplugged, pty closed).
+    size_t pump(std::vector<proto_frame_t>& out);
+
     // Frames dropped by the host's parser (CRC, length, type).
     uint16_t dropped() const { return proto_parser_dropped(&parser_); }
+    // Bytes received so far: with no valid frame among them, the line delivers only garbage.
+    uint64_t bytes_received() const { return bytes_received_; }
     const std::string& port() const { return port_.path(); }
 
 private:
@@ -43,6 +52,7 @@ private:
     SerialPort port_;
     proto_parser_t parser_;
     std::deque<proto_frame_t> frames_;  // decoded, not yet asked for
+    uint64_t bytes_received_ = 0;
 };
 
 }  // namespace auger::io

@@ -91,6 +91,9 @@ size_t SerialPort::read_some(uint8_t* buf, size_t cap, double timeout_s)
     if (r <= 0) return 0;
     if (p.revents & (POLLERR | POLLNVAL)) fail(path_, "port error (device gone?)");
     ssize_t n = ::read(fd_, buf, cap);
+    // A hung-up line (pty master closed, USB adapter gone) may read as end of file instead
+    // of an error; either way the module is gone.
+    if (n == 0 && (p.revents & POLLHUP)) fail(path_, "hung up (device gone?)");
     if (n < 0) {
         if (errno == EAGAIN || errno == EINTR) return 0;
         fail(path_, std::string("read: ") + std::strerror(errno));

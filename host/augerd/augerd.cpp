@@ -1,0 +1,717 @@
+// augerd: the I/O shell around auger_core's controller (DESIGN.md): four motor modules on
+// serial ports, the 100 Hz loop on CLOCK_MONOTONIC, the command and sensor sockets
+// (docs/daemon-protocol.md), the robot log, and the safety rules. docs/daemon.md.
+#include <algorithm>
+#include <cerrno>
+#include <cinttypes>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <sched.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "auger/controller.hpp"
+#include "auger/effect.hpp"
+#include "auger/log.hpp"
+#include "auger/model_file.hpp"
+#include "config.hpp"
+#include "line_server.hpp"
+#include "lines.hpp"
+#include "module_link.hpp"
+
+namespace augerd {
+namespace {
+
+volatile std::sig_atomic_t g_stop = 0;
+void on_signal(int) { g_stop = 1; }
+
+double clock_s(clockid_t id) {
+  timespec ts;
+  clock_gettime(id, &ts);
+  return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
+
+// Exit codes (docs/daemon.md).
+constexpr int kExitOk = 0, kExitStartup = 1, kExitConfig = 2;
+
+// 16-bit sequence numbers wrap: a is at or after b when the signed difference is >= 0.
+bool seq_at_or_after(uint16_t a, uint16_t b) { return int16_t(uint16_t(a - b)) >= 0; }
+
+std::string fault_bits_text(uint16_t status) {
+  static const std::pair<uint16_t, const char*> names[] = {{PROTO_F_CMD_TIMEOUT, "F_CMD_TIMEOUT"},
+                                                           {PROTO_F_OVERCURRENT, "F_OVERCURRENT"},
+                                                           {PROTO_F_UNDERVOLTAGE, "F_UNDERVOLTAGE"},
+                                                           {PROTO_F_SENSOR, "F_SENSOR"},
+                                                           {PROTO_F_WATCHDOG, "F_WATCHDOG"}};
+  std::string s;
+  for (const auto& [bit, name] : names)
+    if (status & bit) s += (s.empty() ? "" : "+") + std::string(name);
+  return s.empty() ? "fault" : s;
+}
+
+struct Module {
+  std::string port;
+  std::unique_ptr<auger::io::ModuleLink> link;  // null while the port is closed after a failure
+  proto_identity_t identity{};
+  bool identified = false;   // after a reopen: telemetry counts only once the identity matched
+  bool have_tm = false;
+  proto_telemetry_t tm{};    // latest telemetry (keyed on the module's time_ms)
+  bool fresh = false;        // a newer telemetry frame arrived this cycle
+  double last_valid_s = 0;   // loop time of the last valid telemetry
+  uint64_t bytes_at_valid = 0;    // bytes received up to the last valid telemetry
+  bool lost = false;         // no valid telemetry for telemetry_timeout_s, or the port failed
+  double reopen_at_s = 0;    // next reopen attempt after a port failure
+  double request_at_s = 0;   // next identity request after a reopen
+  uint16_t seq = 0;          // next setpoint sequence number
+  bool clearing = false;     // CLEAR_FAULTS is sent until the module acknowledges clear_seq
+  uint16_t clear_seq = 0;
+};
+
+class Daemon {
+ public:
+  Daemon(const DaemonConfig& cfg, auger::Model model)
+      : cfg_(cfg), model_(std::move(model)), ctrl_cfg_(cfg.controller) {
+    controller_ = std::make_unique<auger::Controller>(model_, ctrl_cfg_);
+  }
+
+  // Opens the ports, identifies the modules and maps them by id. Throws runtime_error.
+  void open_modules();
+  void open_sockets() {
+    commands_ = std::make_unique<LineServer>(cfg_.commands_socket);
+    sensors_ = std::make_unique<LineServer>(cfg_.sensors_socket);
+  }
+  void open_log();
+  void run();
+
+ private:
+  void pump(Module& m, int index);
+  void check_safety();
+  void fault(int module, const std::string& reason_token, const std::string& detail);
+  std::string command(const std::string& line);
+  std::string sensor(const std::string& line);
+  std::string status_line() const;
+  void send_setpoints(const std::array<double, 4>& rpm, bool enable);
+  void write_log(const std::array<double, 4>& cmd_rpm);
+  void log_failed(const std::string& what);
+  bool start_log_file();
+
+  const DaemonConfig& cfg_;
+  auger::Model model_;
+  auger::ControllerConfig ctrl_cfg_;
+  std::unique_ptr<auger::Controller> controller_;
+  std::array<Module, 4> modules_;  // index = module id = screw index
+  std::unique_ptr<LineServer> commands_, sensors_;
+
+  double t0_mono_s_ = 0, t0_unix_s_ = 0;
+  double t_s_ = 0;            // loop time of this cycle (CLOCK_MONOTONIC since start)
+  double mono_to_unix_s_ = 0; // CLOCK_REALTIME - CLOCK_MONOTONIC now, for sensor timestamps
+  double loop_dt_s_ = 0;
+  double jitter_max_s_ = 0;   // over the last second, for `status`
+
+  bool enabled_ = false;
+  std::string mode_ = "stopped";  // stopped, idle, vel, goto, follow
+  auger::Vec3 vel_cmd_ = auger::Vec3::Zero();
+  double vel_until_s_ = 0;
+  std::vector<auger::Waypoint> waypoints_;
+  int fault_module_ = -1;
+  std::string fault_reason_ = "none";
+
+  auger::SensorInput sensors_in_;
+  double pose_t_s_ = NAN;
+
+  // log
+  std::unique_ptr<std::ofstream> log_file_;
+  std::unique_ptr<auger::RobotLogWriter> log_;
+  std::string log_path_;
+  int log_index_ = 0;
+  bool log_broken_ = false;
+  double log_retry_at_s_ = 0;
+  double log_flushed_at_s_ = 0;
+  std::array<double, 4> last_cmd_rpm_{};
+};
+
+void Daemon::open_modules() {
+  std::array<std::unique_ptr<auger::io::ModuleLink>, 4> links;
+  // Open every port first: each open resets its module (DTR), so they boot in parallel.
+  for (std::size_t i = 0; i < 4; ++i) links[i] = std::make_unique<auger::io::ModuleLink>(cfg_.ports[i], cfg_.baud);
+  std::array<std::optional<proto_identity_t>, 4> ids;
+  const double start = clock_s(CLOCK_MONOTONIC);
+  bool asked = false;
+  std::vector<proto_frame_t> frames;
+  for (;;) {
+    bool all = true;
+    for (std::size_t i = 0; i < 4; ++i) {
+      frames.clear();
+      links[i]->pump(frames);
+      for (const auto& f : frames) {
+        proto_identity_t id;
+        if (!ids[i] && proto_decode_identity(&f, &id)) ids[i] = id;
+      }
+      all = all && ids[i];
+    }
+    if (all) break;
+    const double waited = clock_s(CLOCK_MONOTONIC) - start;
+    // A module that was not reset by the open (no DTR) never sends one by itself: ask late,
+    // after the bootloader's time, so the request does not go to the bootloader.
+    if (!asked && waited > 0.75 * cfg_.identity_timeout_s) {
+      for (std::size_t i = 0; i < 4; ++i)
+        if (!ids[i]) {
+          uint8_t buf[PROTO_MAX_FRAME];
+          proto_request_t rq{PROTO_T_IDENTITY};
+          links[i]->send_frame(buf, proto_encode_request(&rq, buf));
+        }
+      asked = true;
+    }
+    if (waited > cfg_.identity_timeout_s) {
+      std::string missing;
+      for (std::size_t i = 0; i < 4; ++i)
+        if (!ids[i]) missing += " " + cfg_.ports[i];
+      throw std::runtime_error("no identity frame within " + std::to_string(cfg_.identity_timeout_s) +
+                               " s from the module(s) on" + missing + " (powered? right port and baud?)");
+    }
+    usleep(2000);
+  }
+  std::array<int, 4> port_of_id{-1, -1, -1, -1};
+  for (std::size_t i = 0; i < 4; ++i) {
+    const proto_identity_t& id = *ids[i];
+    if (id.protocol_version != PROTO_VERSION)
+      throw std::runtime_error(cfg_.ports[i] + ": module speaks protocol " + std::to_string(id.protocol_version) +
+                               ", augerd " + std::to_string(PROTO_VERSION));
+    if (id.module_id > 3)
+      throw std::runtime_error(cfg_.ports[i] + ": module id " + std::to_string(id.module_id) +
+                               " is not a screw index 0..3 (set it with auger-module PORT set id=N)");
+    if (port_of_id[id.module_id] >= 0)
+      throw std::runtime_error("duplicate module id " + std::to_string(id.module_id) + " on " +
+                               cfg_.ports[std::size_t(port_of_id[id.module_id])] + " and " + cfg_.ports[i]);
+    port_of_id[id.module_id] = int(i);
+  }
+  // Four ports with four distinct ids in 0..3: every id is present.
+  const double now = clock_s(CLOCK_MONOTONIC);
+  for (std::size_t k = 0; k < 4; ++k) {
+    const std::size_t i = std::size_t(port_of_id[k]);
+    Module& m = modules_[k];
+    m.port = cfg_.ports[i];
+    m.link = std::move(links[i]);
+    m.identity = *ids[i];
+    m.identified = true;
+    m.last_valid_s = now;  // converted to loop time in run()
+    std::fprintf(stderr, "augerd: module %zu on %s (firmware %u.%u.%u, reset cause 0x%02x)\n", k, m.port.c_str(),
+                 m.identity.fw_major, m.identity.fw_minor, m.identity.fw_patch, m.identity.reset_cause);
+  }
+}
+
+// ---- log ----
+
+bool Daemon::start_log_file() {
+  char stamp[32];
+  const std::time_t now = std::time(nullptr);
+  std::tm tm_utc;
+  gmtime_r(&now, &tm_utc);
+  std::strftime(stamp, sizeof stamp, "%Y%m%dT%H%M%SZ", &tm_utc);
+  log_path_ = cfg_.log_dir + "/augerd-" + stamp + "-" + std::to_string(log_index_++) + ".csv";
+  log_.reset();
+  log_file_ = std::make_unique<std::ofstream>(log_path_, std::ios::out | std::ios::trunc);
+  if (!*log_file_) return false;
+  char t0[64];
+  std::snprintf(t0, sizeof t0, "%.6f", t0_unix_s_);
+  log_ = std::make_unique<auger::RobotLogWriter>(
+      *log_file_, std::vector<std::pair<std::string, std::string>>{{"format", auger::kRobotLogFormat},
+                                                                   {"terrain", cfg_.terrain},
+                                                                   {"t0_unix_s", t0},
+                                                                   {"writer", "augerd"}});
+  log_->flush();
+  return bool(*log_file_);
+}
+
+void Daemon::open_log() {
+  struct stat st;
+  if (::stat(cfg_.log_dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
+    throw std::runtime_error("log directory " + cfg_.log_dir + " does not exist");
+  if (::access(cfg_.log_dir.c_str(), W_OK) != 0)
+    throw std::runtime_error("log directory " + cfg_.log_dir + " is not writable");
+  t0_unix_s_ = clock_s(CLOCK_REALTIME);
+  if (!start_log_file()) throw std::runtime_error("cannot create the log file " + log_path_);
+  std::fprintf(stderr, "augerd: logging to %s\n", log_path_.c_str());
+}
+
+void Daemon::log_failed(const std::string& what) {
+  // Reported once per failure; control goes on without the log and a new file is tried later.
+  if (!log_broken_)
+    std::fprintf(stderr, "augerd: log %s: %s failed (%s); control goes on, retrying every 10 s\n", log_path_.c_str(),
+                 what.c_str(), std::strerror(errno));
+  log_broken_ = true;
+  log_.reset();
+  log_file_.reset();
+  log_retry_at_s_ = t_s_ + 10.0;
+}
+
+void Daemon::write_log(const std::array<double, 4>& cmd_rpm) {
+  if (log_broken_) {
+    if (t_s_ < log_retry_at_s_) return;
+    if (!start_log_file()) {
+      log_retry_at_s_ = t_s_ + 10.0;
+      return;
+    }
+    log_broken_ = false;
+    std::fprintf(stderr, "augerd: logging again, to %s\n", log_path_.c_str());
+  }
+  auger::RobotSample s;
+  s.t_s = t_s_;
+  for (std::size_t i = 0; i < 4; ++i) {
+    const Module& m = modules_[i];
+    s.cmd_rpm[i] = cmd_rpm[i];
+    if (!m.have_tm || m.lost) continue;
+    s.omega_rpm[i] = m.tm.omega_crpm / 100.0;
+    s.current_a[i] = m.tm.current_ma / 1000.0;
+    s.voltage_v[i] = m.tm.voltage_mv / 1000.0;
+    s.pwm[i] = m.tm.duty_x10000 / 10000.0;
+    s.status[i] = m.tm.status;
+    s.seq_ack[i] = m.tm.seq_ack;
+  }
+  if (sensors_in_.has_pose) {
+    s.x_m = sensors_in_.pose[0];
+    s.y_m = sensors_in_.pose[1];
+    s.psi_rad = sensors_in_.pose[2];
+  }
+  if (sensors_in_.has_imu_psi) s.imu_psi_rad = sensors_in_.imu_psi_rad;
+  if (sensors_in_.has_imu_r) s.imu_r_radps = sensors_in_.imu_r_radps;
+  if (controller_->enabled()) {
+    const auto& eta_d = controller_->reference().eta_d;
+    s.xd_m = eta_d[0];
+    s.yd_m = eta_d[1];
+    s.psid_rad = eta_d[2];
+  }
+  s.loop_dt_s = loop_dt_s_;
+  log_->write(s);
+  if (t_s_ - log_flushed_at_s_ >= cfg_.log_flush_interval_s) {
+    log_->flush();
+    log_flushed_at_s_ = t_s_;
+  }
+  if (!*log_file_) return log_failed("write");
+  if (std::uint64_t(log_file_->tellp()) >= cfg_.log_rotate_bytes) {
+    log_->flush();
+    if (!*log_file_) return log_failed("write");
+    if (!start_log_file()) return log_failed("rotation");
+  }
+}
+
+// ---- modules ----
+
+void Daemon::fault(int module, const std::string& reason_token, const std::string& detail) {
+  const bool first = fault_module_ < 0;
+  if (first || enabled_) {
+    fault_module_ = module;
+    fault_reason_ = reason_token;
+  }
+  // Every event is printed; `status` keeps the one that stopped the robot.
+  std::fprintf(stderr, "augerd: t=%.3f s: module %d (%s): %s; all screws stopped until `enable`\n", t_s_, module,
+               modules_[std::size_t(module)].port.c_str(), detail.c_str());
+  enabled_ = false;
+  mode_ = "stopped";
+  controller_->set_enabled(false);
+}
+
+void Daemon::pump(Module& m, int index) {
+  if (!m.link) {
+    if (t_s_ < m.reopen_at_s) return;
+    m.reopen_at_s = t_s_ + 1.0;
+    try {
+      m.link = std::make_unique<auger::io::ModuleLink>(m.port, cfg_.baud);
+      m.identified = false;
+      m.request_at_s = t_s_ + 0.75 * cfg_.identity_timeout_s;
+      std::fprintf(stderr, "augerd: t=%.3f s: reopened %s, waiting for module %d's identity\n", t_s_, m.port.c_str(),
+                   index);
+    } catch (const std::exception&) {
+      return;  // still gone; no message every second
+    }
+  }
+  static thread_local std::vector<proto_frame_t> frames;
+  frames.clear();
+  try {
+    m.link->pump(frames);
+  } catch (const std::exception& e) {
+    m.link.reset();
+    m.lost = true;
+    m.reopen_at_s = t_s_ + 1.0;
+    fault(index, "port-error", e.what());
+    return;
+  }
+  for (const auto& f : frames) {
+    proto_identity_t id;
+    proto_telemetry_t tm;
+    if (proto_decode_identity(&f, &id)) {
+      if (id.module_id != index) {
+        m.link.reset();
+        m.lost = true;
+        m.reopen_at_s = t_s_ + 1.0;
+        fault(index, "wrong-id", "the module now on this port has id " + std::to_string(id.module_id));
+        return;
+      }
+      if (m.identified) {
+        // An identity frame nobody asked for: the module has rebooted (power, watchdog).
+        fault(index, "reset", "the module reset (reset cause 0x" + std::to_string(id.reset_cause) + ")");
+      }
+      m.identified = true;
+      m.identity = id;
+      m.have_tm = false;  // its clock restarted: the next telemetry is not "older"
+    } else if (proto_decode_telemetry(&f, &tm) && m.identified) {
+      // Key on the module's clock: a frame not newer than the last one is stale or repeated.
+      if (m.have_tm) {
+        const int32_t step_ms = int32_t(tm.time_ms - m.tm.time_ms);
+        if (step_ms <= 0 && step_ms > -1000) continue;
+        // Far back: the module restarted and its identity frame was lost.
+        if (step_ms <= -1000) fault(index, "reset", "the module's clock went back " + std::to_string(-step_ms) + " ms");
+      }
+      m.tm = tm;
+      m.have_tm = true;
+      m.fresh = true;
+      m.last_valid_s = t_s_;
+      m.bytes_at_valid = m.link->bytes_received();
+    }
+  }
+  if (m.link && !m.identified && t_s_ >= m.request_at_s) {
+    uint8_t buf[PROTO_MAX_FRAME];
+    proto_request_t rq{PROTO_T_IDENTITY};
+    try {
+      m.link->send_frame(buf, proto_encode_request(&rq, buf), 0.0);
+    } catch (const std::exception&) {
+    }
+    m.request_at_s = t_s_ + 0.5;
+  }
+}
+
+void Daemon::check_safety() {
+  for (int i = 0; i < 4; ++i) {
+    Module& m = modules_[std::size_t(i)];
+    if (m.fresh && m.lost) {
+      m.lost = false;
+      std::fprintf(stderr, "augerd: t=%.3f s: module %d answers again; stays stopped until `enable`\n", t_s_, i);
+    }
+    if (!m.lost && m.link && t_s_ - m.last_valid_s > cfg_.telemetry_timeout_s) {
+      m.lost = true;
+      const int ms = int(std::lround(1000 * (t_s_ - m.last_valid_s)));
+      const uint64_t garbage = m.link->bytes_received() - m.bytes_at_valid;
+      // A frame cut short when the line died is not corruption: ask for two frames' worth.
+      if (garbage >= 2 * PROTO_FRAME_SIZE(PROTO_LEN_TELEMETRY))
+        fault(i, "corrupt-frames", "only corrupt frames for " + std::to_string(ms) + " ms (" +
+                                       std::to_string(garbage) + " bytes without a valid frame)");
+      else
+        fault(i, "no-telemetry", "no telemetry for " + std::to_string(ms) + " ms");
+    }
+    if (m.fresh && m.clearing && seq_at_or_after(m.tm.seq_ack, m.clear_seq)) m.clearing = false;
+    // Latched faults count once the module has seen our CLEAR_FAULTS (they may persist).
+    if (m.fresh && enabled_ && !m.clearing && (m.tm.status & PROTO_F_MASK))
+      fault(i, fault_bits_text(m.tm.status), "reports " + fault_bits_text(m.tm.status));
+  }
+}
+
+void Daemon::send_setpoints(const std::array<double, 4>& rpm, bool enable) {
+  for (int i = 0; i < 4; ++i) {
+    Module& m = modules_[std::size_t(i)];
+    if (!m.link) continue;
+    proto_setpoint_t sp;
+    sp.seq = m.seq++;
+    const double crpm = std::clamp(rpm[std::size_t(i)] * 100.0, -32767.0, 32767.0);
+    sp.omega_crpm = int16_t(std::lround(crpm));
+    sp.flags = uint8_t((enable ? PROTO_SP_ENABLE : 0) | (m.clearing ? PROTO_SP_CLEAR_FAULTS : 0));
+    uint8_t buf[PROTO_MAX_FRAME];
+    const std::size_t n = proto_encode_setpoint(&sp, buf);
+    try {
+      // No waiting: a port that cannot take 11 bytes is not draining (module gone).
+      m.link->send_frame(buf, n, 0.0);
+    } catch (const std::exception& e) {
+      m.link.reset();
+      m.lost = true;
+      m.reopen_at_s = t_s_ + 1.0;
+      fault(i, "port-error", e.what());
+    }
+  }
+}
+
+// ---- sockets ----
+
+std::string Daemon::command(const std::string& line) {
+  Command c;
+  const std::string err = parse_command(line, c);
+  if (!err.empty()) return "error: " + err;
+  switch (c.kind) {
+    case CommandKind::status:
+      return status_line();
+    case CommandKind::enable:
+      for (int i = 0; i < 4; ++i) {
+        const Module& m = modules_[std::size_t(i)];
+        if (m.lost || !m.link)
+          return "error: module " + std::to_string(i) + " (" + m.port + ") is not answering; cannot enable";
+      }
+      for (auto& m : modules_) {
+        m.clearing = true;
+        m.clear_seq = m.seq;
+      }
+      if (fault_module_ >= 0)
+        std::fprintf(stderr, "augerd: t=%.3f s: enable: clearing fault of module %d (%s)\n", t_s_, fault_module_,
+                     fault_reason_.c_str());
+      fault_module_ = -1;
+      fault_reason_ = "none";
+      enabled_ = true;
+      mode_ = "idle";
+      controller_->set_enabled(false);
+      return "ok";
+    case CommandKind::stop:
+      enabled_ = false;
+      mode_ = "stopped";
+      controller_->set_enabled(false);
+      return "ok";
+    case CommandKind::vel:
+      if (!enabled_) return "error: not enabled (send enable first): '" + line + "'";
+      controller_->set_enabled(false);
+      vel_cmd_ = auger::Vec3(c.a, c.b, c.c);
+      vel_until_s_ = t_s_ + cfg_.vel_timeout_s;
+      mode_ = "vel";
+      return "ok";
+    case CommandKind::go_to:
+      if (!enabled_) return "error: not enabled (send enable first): '" + line + "'";
+      waypoints_ = {auger::Waypoint{0.0, auger::Vec3(c.a, c.b, c.c)}};
+      controller_->set_waypoints(waypoints_);
+      controller_->set_enabled(true);
+      mode_ = "goto";
+      return "ok";
+    case CommandKind::follow: {
+      if (!enabled_) return "error: not enabled (send enable first): '" + line + "'";
+      std::vector<auger::Waypoint> w;
+      try {
+        w = auger::load_waypoints_csv(c.text);
+        auger::check_waypoints(w);
+        if (w.empty()) return "error: " + c.text + ": no waypoints";
+      } catch (const std::exception& e) {
+        return std::string("error: ") + e.what();
+      }
+      waypoints_ = std::move(w);
+      controller_->set_waypoints(waypoints_);
+      controller_->set_enabled(true);
+      mode_ = "follow";
+      return "ok";
+    }
+    case CommandKind::allocator: {
+      // The core's controller takes its configuration at construction: a new one, started
+      // from the current estimate. Only between motions, so no trajectory restarts.
+      if (mode_ == "goto" || mode_ == "follow")
+        return "error: cannot switch the allocator during " + mode_ + " (stop or wait: '" + line + "')";
+      ctrl_cfg_.allocator.kind =
+          c.text == "pinv" ? auger::AllocatorKind::pseudo_inverse : auger::AllocatorKind::null_space;
+      const auger::Vec3 eta = controller_->eta_estimate();
+      controller_ = std::make_unique<auger::Controller>(model_, ctrl_cfg_);
+      controller_->reset(eta);
+      return "ok";
+    }
+  }
+  return "error: internal";
+}
+
+std::string Daemon::sensor(const std::string& line) {
+  SensorMessage m;
+  const std::string err = parse_sensor(line, m);
+  if (!err.empty()) return "error: " + err;
+  // Wall-clock stamp to the loop's clock (CLOCK_MONOTONIC since start).
+  const double t_loop_s = m.t_unix_s - mono_to_unix_s_ - t0_mono_s_;
+  const double age_s = t_s_ - t_loop_s;
+  if (age_s < -0.5) return "error: timestamp " + std::to_string(m.t_unix_s) + " is in the future by " +
+                           std::to_string(-age_s) + " s (clocks in sync?): '" + line + "'";
+  if (age_s > 2.0)
+    return "error: timestamp " + std::to_string(m.t_unix_s) + " is " + std::to_string(age_s) + " s old: '" + line + "'";
+  if (m.kind == SensorKind::pose) {
+    sensors_in_.has_pose = true;
+    sensors_in_.pose = auger::Vec3(m.x_m, m.y_m, m.psi_rad);
+    sensors_in_.pose_cov = auger::Vec3(m.sx_m * m.sx_m, m.sy_m * m.sy_m, m.spsi_rad * m.spsi_rad).asDiagonal();
+  } else {
+    sensors_in_.has_imu_psi = sensors_in_.has_imu_r = true;
+    sensors_in_.imu_psi_rad = m.imu_psi_rad;
+    sensors_in_.imu_r_radps = m.imu_r_radps;
+  }
+  return "";
+}
+
+std::string Daemon::status_line() const {
+  const auto& eta = controller_->eta_estimate();
+  const auto& eta_d = controller_->reference().eta_d;
+  char buf[512];
+  const std::string fault =
+      fault_module_ < 0 ? std::string("none") : std::to_string(fault_module_) + ":" + fault_reason_;
+  std::snprintf(buf, sizeof buf,
+                "status t_s=%.3f enabled=%d mode=%s x_m=%.4f y_m=%.4f psi_rad=%.4f xd_m=%.4f yd_m=%.4f "
+                "psid_rad=%.4f fault=%s loop_dt_s=%.5f loop_jitter_max_s=%.5f",
+                t_s_, enabled_ ? 1 : 0, mode_.c_str(), eta[0], eta[1], eta[2], eta_d[0], eta_d[1], eta_d[2],
+                fault.c_str(), loop_dt_s_, jitter_max_s_);
+  return buf;
+}
+
+// ---- the loop ----
+
+void Daemon::run() {
+  if (cfg_.realtime_priority > 0) {
+    // Fewer late cycles on a busy machine; needs CAP_SYS_NICE (or an rtprio limit), so a
+    // refusal is a warning: the loop still runs, with more jitter.
+    sched_param sp{};
+    sp.sched_priority = cfg_.realtime_priority;
+    if (sched_setscheduler(0, SCHED_FIFO, &sp) != 0)
+      std::fprintf(stderr, "augerd: warning: SCHED_FIFO priority %d refused (%s); running without\n",
+                   cfg_.realtime_priority, std::strerror(errno));
+    if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
+      std::fprintf(stderr, "augerd: warning: mlockall refused (%s)\n", std::strerror(errno));
+  }
+  const long period_ns = std::lround(cfg_.period_s * 1e9);
+  timespec next;
+  clock_gettime(CLOCK_MONOTONIC, &next);
+  t0_mono_s_ = double(next.tv_sec) + 1e-9 * double(next.tv_nsec);
+  for (auto& m : modules_) m.last_valid_s -= t0_mono_s_;
+  double prev_s = 0;
+  // Period statistics for the exit report.
+  long cycles = 0;
+  double sum_dt = 0, sum_dt2 = 0, max_dt = 0, min_dt = 1e9, jitter_window_max = 0, window_start = 0;
+  std::array<double, 4> zero{};
+  while (!g_stop) {
+    next.tv_nsec += period_ns;
+    while (next.tv_nsec >= 1000000000L) next.tv_nsec -= 1000000000L, ++next.tv_sec;
+    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr) == EINTR && !g_stop) {
+    }
+    const double mono = clock_s(CLOCK_MONOTONIC);
+    mono_to_unix_s_ = clock_s(CLOCK_REALTIME) - mono;
+    t_s_ = mono - t0_mono_s_;
+    loop_dt_s_ = t_s_ - prev_s;
+    prev_s = t_s_;
+    // A stall longer than a period (debugger, overloaded machine): restart the schedule
+    // from now instead of running the missed cycles back to back.
+    const double late_s = mono - (double(next.tv_sec) + 1e-9 * double(next.tv_nsec));
+    if (late_s > cfg_.period_s) clock_gettime(CLOCK_MONOTONIC, &next);
+    if (cycles > 0) {
+      sum_dt += loop_dt_s_;
+      sum_dt2 += loop_dt_s_ * loop_dt_s_;
+      max_dt = std::max(max_dt, loop_dt_s_);
+      min_dt = std::min(min_dt, loop_dt_s_);
+      jitter_window_max = std::max(jitter_window_max, std::fabs(loop_dt_s_ - cfg_.period_s));
+      if (t_s_ - window_start >= 1.0) {
+        jitter_max_s_ = jitter_window_max;
+        jitter_window_max = 0;
+        window_start = t_s_;
+      }
+    }
+    ++cycles;
+
+    for (int i = 0; i < 4; ++i) modules_[std::size_t(i)].fresh = false;
+    for (int i = 0; i < 4; ++i) pump(modules_[std::size_t(i)], i);
+    check_safety();
+
+    commands_->serve([this](const std::string& l) { return command(l); });
+    sensors_->serve([this](const std::string& l) { return sensor(l); });
+
+    std::array<auger::ScrewTelemetry, 4> tel;
+    for (std::size_t i = 0; i < 4; ++i) {
+      tel[i].valid = modules_[i].fresh;
+      tel[i].omega_rpm = modules_[i].tm.omega_crpm / 100.0;
+    }
+    const std::array<double, 4>& ctrl_rpm = controller_->step(t_s_, tel, sensors_in_);
+
+    std::array<double, 4> cmd_rpm = zero;
+    if (enabled_ && mode_ == "vel") {
+      if (t_s_ > vel_until_s_) {
+        mode_ = "idle";  // dead-man: the command was not repeated
+      } else {
+        // Open loop, eq. (4): the core's controller tracks poses only.
+        const auger::Vec4 w = auger::kinematic_screw_speeds_rpm(model_, vel_cmd_);
+        const double peak = w.cwiseAbs().maxCoeff();
+        const double lim = ctrl_cfg_.allocator.omega_max_rpm;
+        const double scale = peak > lim ? lim / peak : 1.0;  // keep the direction when saturated
+        for (std::size_t i = 0; i < 4; ++i) cmd_rpm[i] = w[int(i)] * scale;
+      }
+    } else if (enabled_ && (mode_ == "goto" || mode_ == "follow")) {
+      cmd_rpm = ctrl_rpm;
+    }
+    send_setpoints(cmd_rpm, enabled_);
+    write_log(cmd_rpm);
+    sensors_in_ = auger::SensorInput{};
+  }
+  // Leave the motors stopped at once rather than after the modules' timeout.
+  enabled_ = false;
+  send_setpoints(zero, false);
+  if (log_) log_->flush();
+  if (cycles > 1) {
+    const double n = double(cycles - 1), mean = sum_dt / n;
+    std::fprintf(stderr,
+                 "augerd: %ld cycles; loop period mean %.4f ms, std %.4f ms, min %.4f ms, max %.4f ms\n", cycles,
+                 1e3 * mean, 1e3 * std::sqrt(std::max(0.0, sum_dt2 / n - mean * mean)), 1e3 * min_dt, 1e3 * max_dt);
+  }
+}
+
+void usage(std::FILE* f) {
+  std::fprintf(f,
+               "usage: augerd [--config PATH] [--check]\n"
+               "  --config PATH  configuration file (default /etc/augerd.toml; docs/daemon.md)\n"
+               "  --check        read and check the configuration and the model, then exit\n");
+}
+
+}  // namespace
+}  // namespace augerd
+
+int main(int argc, char** argv) {
+  using namespace augerd;
+  std::string config_path = "/etc/augerd.toml";
+  bool check_only = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--config" && i + 1 < argc) config_path = argv[++i];
+    else if (a == "--check") check_only = true;
+    else if (a == "--help" || a == "-h") {
+      usage(stdout);
+      return kExitOk;
+    } else {
+      std::fprintf(stderr, "augerd: unknown argument '%s'\n", a.c_str());
+      usage(stderr);
+      return kExitConfig;
+    }
+  }
+  DaemonConfig cfg;
+  std::optional<auger::Model> model;
+  try {
+    cfg = load_daemon_config(config_path);
+    const auger::ModelFile mf = auger::load_model_file(cfg.model_file);
+    model = auger::build_model(mf, cfg.terrain);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "augerd: configuration error: %s\n", e.what());
+    return kExitConfig;
+  }
+  if (check_only) {
+    std::printf("augerd: %s is valid\n", config_path.c_str());
+    return kExitOk;
+  }
+  struct sigaction sa{};
+  sa.sa_handler = on_signal;
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+  std::signal(SIGPIPE, SIG_IGN);
+  // A file-size limit reached by the log is a write error to survive, like a full disk.
+  std::signal(SIGXFSZ, SIG_IGN);
+  try {
+    Daemon d(cfg, std::move(*model));
+    d.open_modules();
+    d.open_sockets();
+    d.open_log();
+    std::fprintf(stderr, "augerd: running (commands %s, sensors %s)\n", cfg.commands_socket.c_str(),
+                 cfg.sensors_socket.c_str());
+    d.run();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "augerd: %s\n", e.what());
+    return kExitStartup;
+  }
+  std::fprintf(stderr, "augerd: stopped\n");
+  return kExitOk;
+}

@@ -1,0 +1,262 @@
+// Reader of augerd's TOML configuration (toml++ stays inside this file, as in model_file.cpp).
+#include "config.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <map>
+
+#include <toml++/toml.h>
+
+#include "auger/effect.hpp"
+#include "auger/model_file.hpp"
+
+namespace augerd {
+namespace {
+
+using auger::ConfigError;
+
+std::string shortest(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%g", v);
+  return b;
+}
+
+struct Reader {
+  std::string file;
+
+  [[noreturn]] void fail(const toml::node& n, const std::string& msg) const {
+    throw ConfigError(file, static_cast<int>(n.source().begin.line), static_cast<int>(n.source().begin.column),
+                      msg);
+  }
+  double number(const toml::node& n, const std::string& key, double lo, double hi) const {
+    if (!n.is_number()) fail(n, "'" + key + "' must be a number");
+    const double v = *n.value<double>();
+    if (!std::isfinite(v) || v < lo || v > hi)
+      fail(n, "'" + key + "' = " + shortest(v) + " is outside " + shortest(lo) + ".." + shortest(hi));
+    return v;
+  }
+  std::string text(const toml::node& n, const std::string& key) const {
+    if (!n.is_string()) fail(n, "'" + key + "' must be a string");
+    std::string s = *n.value<std::string>();
+    if (s.empty()) fail(n, "'" + key + "' must not be empty");
+    return s;
+  }
+  auger::Vec3 vec3(const toml::node& n, const std::string& key, double lo, double hi) const {
+    const toml::array* a = n.as_array();
+    if (!a || a->size() != 3) fail(n, "'" + key + "' must be an array of 3 numbers (x, y, yaw)");
+    auger::Vec3 v;
+    for (int i = 0; i < 3; ++i) v[i] = number(*a->get(static_cast<std::size_t>(i)), key, lo, hi);
+    return v;
+  }
+  // Calls the handler of each key; an unknown key is an error listing the known ones.
+  void keys(const toml::table& t, const std::string& where,
+            const std::map<std::string, std::function<void(const toml::node&)>>& handlers) const {
+    for (auto&& [k, v] : t) {
+      const std::string key(k.str());
+      auto it = handlers.find(key);
+      if (it == handlers.end()) {
+        std::string known;
+        for (const auto& h : handlers) known += (known.empty() ? "" : ", ") + h.first;
+        fail(v, "unknown key '" + key + "' in " + where + " (known: " + known + ")");
+      }
+      it->second(v);
+    }
+  }
+  const toml::table& table(const toml::node& n, const std::string& key) const {
+    if (!n.is_table()) fail(n, "'" + key + "' must be a table [" + key + "]");
+    return *n.as_table();
+  }
+};
+
+std::string resolve(const std::string& config_path, const std::string& p) {
+  if (p.empty() || p[0] == '/') return p;
+  const auto slash = config_path.rfind('/');
+  return slash == std::string::npos ? p : config_path.substr(0, slash + 1) + p;
+}
+
+}  // namespace
+
+DaemonConfig load_daemon_config(const std::string& path) {
+  DaemonConfig c;
+  c.path = path;
+  Reader r{path};
+  toml::table root;
+  try {
+    root = toml::parse_file(path);
+  } catch (const toml::parse_error& e) {
+    const auto& src = e.source();
+    throw ConfigError(path, static_cast<int>(src.begin.line), static_cast<int>(src.begin.column),
+                      std::string(e.description()));
+  }
+
+  bool have_ports = false, have_model = false, have_cmd = false, have_sens = false, have_log = false;
+  // Controller keys are applied after the model file's defaults are known.
+  std::vector<std::function<void()>> control_overrides;
+  std::string allocator_text;
+
+  r.keys(root, "the top level",
+         {{"schema",
+           [&](const toml::node& n) {
+             if (r.number(n, "schema", 1, 1) != 1) r.fail(n, "schema must be 1");
+           }},
+          {"serial",
+           [&](const toml::node& n) {
+             r.keys(r.table(n, "serial"), "[serial]",
+                    {{"ports",
+                      [&](const toml::node& v) {
+                        const toml::array* a = v.as_array();
+                        if (!a || a->size() != 4) r.fail(v, "'ports' must be an array of 4 port paths");
+                        for (std::size_t i = 0; i < 4; ++i) c.ports[i] = r.text(*a->get(i), "ports");
+                        for (std::size_t i = 0; i < 4; ++i)
+                          for (std::size_t j = 0; j < i; ++j)
+                            if (c.ports[i] == c.ports[j]) r.fail(v, "port '" + c.ports[i] + "' is listed twice");
+                        have_ports = true;
+                      }},
+                     {"baud", [&](const toml::node& v) { c.baud = unsigned(r.number(v, "baud", 1200, 4000000)); }},
+                     {"identity_timeout_s",
+                      [&](const toml::node& v) { c.identity_timeout_s = r.number(v, "identity_timeout_s", 0.1, 30); }},
+                     {"telemetry_timeout_s", [&](const toml::node& v) {
+                        c.telemetry_timeout_s = r.number(v, "telemetry_timeout_s", 0.02, 0.25);
+                      }}});
+           }},
+          {"model",
+           [&](const toml::node& n) {
+             r.keys(r.table(n, "model"), "[model]",
+                    {{"file",
+                      [&](const toml::node& v) {
+                        c.model_file = resolve(path, r.text(v, "file"));
+                        have_model = true;
+                      }},
+                     {"terrain", [&](const toml::node& v) { c.terrain = r.text(v, "terrain"); }}});
+           }},
+          {"control",
+           [&](const toml::node& n) {
+             const toml::table& t = r.table(n, "control");
+             r.keys(t, "[control]",
+                    {{"period_s", [&](const toml::node& v) { c.period_s = r.number(v, "period_s", 0.002, 0.1); }},
+                     {"vel_timeout_s",
+                      [&](const toml::node& v) { c.vel_timeout_s = r.number(v, "vel_timeout_s", 0.05, 5); }},
+                     {"realtime_priority",
+                      [&](const toml::node& v) {
+                        c.realtime_priority = int(r.number(v, "realtime_priority", 0, 99));
+                      }},
+                     {"allocator",
+                      [&](const toml::node& v) {
+                        allocator_text = r.text(v, "allocator");
+                        if (allocator_text != "pinv" && allocator_text != "nullspace")
+                          r.fail(v, "allocator must be \"pinv\" or \"nullspace\", not \"" + allocator_text + "\"");
+                      }},
+                     {"priority",
+                      [&](const toml::node& v) {
+                        std::string p = r.text(v, "priority");
+                        if (p != "yaw" && p != "translation")
+                          r.fail(v, "priority must be \"yaw\" or \"translation\", not \"" + p + "\"");
+                        control_overrides.push_back([&c, p] {
+                          c.controller.allocator.priority =
+                              p == "yaw" ? auger::AllocationPriority::yaw : auger::AllocationPriority::translation;
+                        });
+                      }},
+                     {"estimator",
+                      [&](const toml::node& v) {
+                        std::string e = r.text(v, "estimator");
+                        auger::EstimatorKind k;
+                        if (e == "ekf") k = auger::EstimatorKind::ekf;
+                        else if (e == "dead_reckoning") k = auger::EstimatorKind::dead_reckoning;
+                        else if (e == "dead_reckoning_imu") k = auger::EstimatorKind::dead_reckoning_imu;
+                        else r.fail(v, "estimator must be ekf, dead_reckoning or dead_reckoning_imu, not \"" + e + "\"");
+                        control_overrides.push_back([&c, k] { c.controller.estimator = k; });
+                      }},
+                     {"omega_max_rpm",
+                      [&](const toml::node& v) {
+                        double x = r.number(v, "omega_max_rpm", 0.1, 327);
+                        control_overrides.push_back([&c, x] { c.controller.allocator.omega_max_rpm = x; });
+                      }},
+                     {"omega_min_rpm",
+                      [&](const toml::node& v) {
+                        double x = r.number(v, "omega_min_rpm", 0, 327);
+                        control_overrides.push_back([&c, x] { c.controller.allocator.omega_min_rpm = x; });
+                      }},
+                     {"engage_rpm",
+                      [&](const toml::node& v) {
+                        double x = r.number(v, "engage_rpm", 0, 327);
+                        control_overrides.push_back([&c, x] { c.controller.allocator.engage_rpm = x; });
+                      }},
+                     {"gamma_per_s",
+                      [&](const toml::node& v) {
+                        auger::Vec3 x = r.vec3(v, "gamma_per_s", 1e-3, 100);
+                        control_overrides.push_back([&c, x] { c.controller.gamma_per_s = x; });
+                      }},
+                     {"kp",
+                      [&](const toml::node& v) {
+                        auger::Vec3 x = r.vec3(v, "kp", 0, 1e6);
+                        control_overrides.push_back([&c, x] { c.controller.gains.kp = x; });
+                      }},
+                     {"ki",
+                      [&](const toml::node& v) {
+                        auger::Vec3 x = r.vec3(v, "ki", 0, 1e6);
+                        control_overrides.push_back([&c, x] { c.controller.gains.ki = x; });
+                      }},
+                     {"kd",
+                      [&](const toml::node& v) {
+                        auger::Vec3 x = r.vec3(v, "kd", 0, 1e6);
+                        control_overrides.push_back([&c, x] { c.controller.gains.kd = x; });
+                      }},
+                     {"integral_limit", [&](const toml::node& v) {
+                        auger::Vec3 x = r.vec3(v, "integral_limit", 0, 1e6);
+                        control_overrides.push_back([&c, x] { c.controller.gains.integral_limit = x; });
+                      }}});
+           }},
+          {"sockets",
+           [&](const toml::node& n) {
+             r.keys(r.table(n, "sockets"), "[sockets]",
+                    {{"commands",
+                      [&](const toml::node& v) {
+                        c.commands_socket = resolve(path, r.text(v, "commands"));
+                        have_cmd = true;
+                      }},
+                     {"sensors", [&](const toml::node& v) {
+                        c.sensors_socket = resolve(path, r.text(v, "sensors"));
+                        have_sens = true;
+                      }}});
+           }},
+          {"log", [&](const toml::node& n) {
+             r.keys(r.table(n, "log"), "[log]",
+                    {{"dir",
+                      [&](const toml::node& v) {
+                        c.log_dir = resolve(path, r.text(v, "dir"));
+                        have_log = true;
+                      }},
+                     {"rotate_bytes",
+                      [&](const toml::node& v) {
+                        c.log_rotate_bytes = std::uint64_t(r.number(v, "rotate_bytes", 4096, 1e12));
+                      }},
+                     {"flush_interval_s", [&](const toml::node& v) {
+                        c.log_flush_interval_s = r.number(v, "flush_interval_s", 0.01, 1.0);
+                      }}});
+           }}});
+
+  auto missing = [&](const std::string& what) { throw ConfigError(path, 1, 1, "missing " + what); };
+  if (!have_ports) missing("[serial] ports (four port paths)");
+  if (!have_model) missing("[model] file");
+  if (!have_cmd) missing("[sockets] commands");
+  if (!have_sens) missing("[sockets] sensors");
+  if (!have_log) missing("[log] dir");
+  if (c.commands_socket == c.sensors_socket) throw ConfigError(path, 1, 1, "the two sockets need different paths");
+  // sockaddr_un holds 108 bytes including the terminating zero.
+  for (const auto* s : {&c.commands_socket, &c.sensors_socket})
+    if (s->size() > 107) throw ConfigError(path, 1, 1, "socket path too long (max 107 bytes): " + *s);
+
+  // The model file (its own errors name that file); then this file's overrides.
+  const auger::ModelFile model = auger::load_model_file(c.model_file);
+  if (!model.find_terrain(c.terrain))
+    throw ConfigError(path, 1, 1, "terrain '" + c.terrain + "' is not in " + c.model_file);
+  c.controller = auger::controller_config(model, c.terrain);
+  for (auto& f : control_overrides) f();
+  if (allocator_text == "pinv") c.controller.allocator.kind = auger::AllocatorKind::pseudo_inverse;
+  if (allocator_text == "nullspace") c.controller.allocator.kind = auger::AllocatorKind::null_space;
+  return c;
+}
+
+}  // namespace augerd

@@ -1,0 +1,113 @@
+#include "lines.hpp"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+
+namespace augerd {
+namespace {
+
+std::string quote(const std::string& s) {
+  // Answers are one line: control characters of the input must not break them.
+  std::string q = "'";
+  for (char ch : s) q += (static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f) ? '?' : ch;
+  if (q.size() > 201) q = q.substr(0, 200) + "...";
+  return q + "'";
+}
+
+// A finite number, the whole field; else an error naming the field.
+bool number(const std::string& field, const char* name, double& out, std::string& err) {
+  const char* s = field.c_str();
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(s, &end);
+  if (end == s || *end != '\0' || errno == ERANGE || !std::isfinite(v)) {
+    err = name + std::string(" must be a finite number, got ") + quote(field);
+    return false;
+  }
+  out = v;
+  return true;
+}
+
+}  // namespace
+
+std::vector<std::string> split_fields(const std::string& line) {
+  std::vector<std::string> f;
+  std::string cur;
+  for (char ch : line) {
+    if (ch == ' ' || ch == '\t' || ch == '\r') {
+      if (!cur.empty()) f.push_back(cur), cur.clear();
+    } else {
+      cur += ch;
+    }
+  }
+  if (!cur.empty()) f.push_back(cur);
+  return f;
+}
+
+std::string parse_command(const std::string& line, Command& out) {
+  const auto f = split_fields(line);
+  if (f.empty()) return "empty command (enable, stop, vel, goto, follow, allocator, status)";
+  const std::string& w = f[0];
+  auto arity = [&](std::size_t n, const char* usage) -> std::string {
+    if (f.size() != n + 1) return "'" + w + "' takes " + std::to_string(n) + " argument(s): " + usage + ", got " + quote(line);
+    return "";
+  };
+  std::string err;
+  Command c;
+  if (w == "enable" || w == "stop" || w == "status") {
+    if (!(err = arity(0, w.c_str())).empty()) return err;
+    c.kind = w == "enable" ? CommandKind::enable : w == "stop" ? CommandKind::stop : CommandKind::status;
+  } else if (w == "vel" || w == "goto") {
+    const bool vel = w == "vel";
+    if (!(err = arity(3, vel ? "vel <u_mps> <v_mps> <r_radps>" : "goto <x_m> <y_m> <psi_rad>")).empty()) return err;
+    c.kind = vel ? CommandKind::vel : CommandKind::go_to;
+    if (!number(f[1], vel ? "u_mps" : "x_m", c.a, err) || !number(f[2], vel ? "v_mps" : "y_m", c.b, err) ||
+        !number(f[3], vel ? "r_radps" : "psi_rad", c.c, err))
+      return err;
+  } else if (w == "follow") {
+    if (!(err = arity(1, "follow <csv_path>")).empty()) return err;
+    c.kind = CommandKind::follow;
+    c.text = f[1];
+  } else if (w == "allocator") {
+    if (!(err = arity(1, "allocator pinv|nullspace")).empty()) return err;
+    if (f[1] != "pinv" && f[1] != "nullspace") return "allocator must be pinv or nullspace, got " + quote(f[1]);
+    c.kind = CommandKind::allocator;
+    c.text = f[1];
+  } else {
+    return "unknown command " + quote(w) + " (enable, stop, vel, goto, follow, allocator, status)";
+  }
+  out = c;
+  return "";
+}
+
+std::string parse_sensor(const std::string& line, SensorMessage& out) {
+  const auto f = split_fields(line);
+  if (f.empty()) return "empty sensor message (pose, imu)";
+  std::string err;
+  SensorMessage m;
+  if (f[0] == "pose") {
+    if (f.size() != 8)
+      return "pose takes 7 fields: pose <t_unix_s> <x_m> <y_m> <psi_rad> <sx_m> <sy_m> <spsi_rad>, got " + quote(line);
+    m.kind = SensorKind::pose;
+    if (!number(f[1], "t_unix_s", m.t_unix_s, err) || !number(f[2], "x_m", m.x_m, err) ||
+        !number(f[3], "y_m", m.y_m, err) || !number(f[4], "psi_rad", m.psi_rad, err) ||
+        !number(f[5], "sx_m", m.sx_m, err) || !number(f[6], "sy_m", m.sy_m, err) ||
+        !number(f[7], "spsi_rad", m.spsi_rad, err))
+      return err;
+    if (!(m.sx_m > 0 && m.sy_m > 0 && m.spsi_rad > 0))
+      return "standard deviations must be > 0, got " + quote(line);
+  } else if (f[0] == "imu") {
+    if (f.size() != 4) return "imu takes 3 fields: imu <t_unix_s> <psi_rad> <r_radps>, got " + quote(line);
+    m.kind = SensorKind::imu;
+    if (!number(f[1], "t_unix_s", m.t_unix_s, err) || !number(f[2], "psi_rad", m.imu_psi_rad, err) ||
+        !number(f[3], "r_radps", m.imu_r_radps, err))
+      return err;
+  } else {
+    return "unknown sensor message " + quote(f[0]) + " (pose, imu)";
+  }
+  out = m;
+  return "";
+}
+
+}  // namespace augerd

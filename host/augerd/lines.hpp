@@ -1,0 +1,34 @@
+// Parsing of the two line protocols of docs/daemon-protocol.md, kept free of I/O so that the
+// tests can check every malformed input without a running daemon.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace augerd {
+
+enum class CommandKind { enable, stop, vel, go_to, follow, allocator, status };
+
+struct Command {
+  CommandKind kind = CommandKind::status;
+  double a = 0, b = 0, c = 0;  // vel: u_mps v_mps r_radps; goto: x_m y_m psi_rad
+  std::string text;            // follow: csv path; allocator: pinv | nullspace
+};
+
+enum class SensorKind { pose, imu };
+
+struct SensorMessage {
+  SensorKind kind = SensorKind::pose;
+  double t_unix_s = 0;
+  double x_m = 0, y_m = 0, psi_rad = 0, sx_m = 0, sy_m = 0, spsi_rad = 0;  // pose
+  double imu_psi_rad = 0, imu_r_radps = 0;                                  // imu
+};
+
+// Each returns an empty string on success, else the error text (without "error: ").
+std::string parse_command(const std::string& line, Command& out);
+std::string parse_sensor(const std::string& line, SensorMessage& out);
+
+// Splits at runs of spaces and tabs.
+std::vector<std::string> split_fields(const std::string& line);
+
+}  // namespace augerd
