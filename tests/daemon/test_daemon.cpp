@@ -172,6 +172,16 @@ bool all_stopped(SimRig& rig) {
   }
   return true;
 }
+// Every module's last report has its motor disabled at duty 0 (however old: a closed port's
+// module stops by its own timeout and reports nothing more).
+bool motors_off(SimRig& rig) {
+  for (int m = 0; m < 4; ++m) {
+    auto v = rig.module(m);
+    if (enabled(v.tm) || v.tm.duty_x10000 != 0) return false;
+  }
+  return true;
+}
+
 bool all_driven(SimRig& rig) {
   for (int m = 0; m < 4; ++m) {
     auto v = rig.module(m);
@@ -290,13 +300,7 @@ TEST_CASE("augerd runs four simulated modules in real time and stops safely", "[
       // Every screw stops: the healthy modules get setpoints without ENABLE; the silent one
       // still receives them too (muting cuts only its answers), a closed one times out.
       const bool stopped = wait_until(
-          [&] {
-            for (int m = 0; m < 4; ++m) {
-              auto v = rig.module(m);
-              if (enabled(v.tm) || v.tm.duty_x10000 != 0) return false;
-            }
-            return true;
-          },
+          [&] { return motors_off(rig); },
           0.6);
       const double stop_s = SimRig::wall_s() - t_fault;
       CHECK(stopped);
@@ -346,13 +350,7 @@ TEST_CASE("augerd runs four simulated modules in real time and stops safely", "[
       REQUIRE(kill(d.pid, SIGKILL) == 0);
       const double t_kill = SimRig::wall_s();
       const bool stopped = wait_until(
-          [&] {
-            for (int m = 0; m < 4; ++m) {
-              auto v = rig.module(m);
-              if (enabled(v.tm) || v.tm.duty_x10000 != 0) return false;
-            }
-            return true;
-          },
+          [&] { return motors_off(rig); },
           1.0);
       const double stop_s = SimRig::wall_s() - t_kill;
       double since_setpoint_s = 0;
