@@ -3,7 +3,7 @@
 #   make test        everything CI runs: deps, builds, unit + protocol tests (also under
 #                    ASan+UBSan), header checks with avr-gcc and g++, a bounded fuzz run
 #   make test-full   longer suites (see docs/benchmarks.md)
-#   make demo        the simulated robot (arrives with the daemon, issue 4)
+#   make demo        the simulated robot on sand driven by augerd (scripts/demo.sh)
 #   make firmware    build the motor-module image (firmware/build/auger-module.elf, .hex)
 #   make flash PORT=/dev/ttyUSB0 [ID=n]   flash a module through Optiboot, set its id
 #   make deps        install missing Debian packages (scripts/install-deps.sh)
@@ -91,10 +91,10 @@ test: deps check-protocol host asan fuzz-smoke
 test-full: test
 	$(MAKE) fuzz FUZZ_RUNS=5000000
 
-demo:
-	@echo "make demo: the simulated robot driven by augerd arrives with the daemon (issue 4)." >&2
-	@echo "Nothing to run yet; see README.md." >&2
-	@exit 1
+# The simulated robot on sand driven by augerd: a square and the helix diagonal with each
+# allocator, tracking errors printed (scripts/demo.sh; about 90 s after the build).
+demo: host
+	scripts/demo.sh $(BUILD)
 
 bench-protocol: host
 	$(BUILD)/tests/protocol/proto_corruption 1000000
