@@ -13,6 +13,7 @@
 #   make bench-protocol   XOR byte vs CRC-16 corruption figures (docs/protocol.md)
 #   make bench-firmware   firmware cycles, edge rates, CPU load, simulation speed (docs/benchmarks.md)
 #   make bench-host       instructions and time per host controller step (callgrind)
+#   make bench-robot      speed of the whole simulated robot in lock-step
 SHELL := /bin/bash
 .SHELLFLAGS := -eu -o pipefail -c
 JOBS ?= $(shell nproc)
@@ -25,7 +26,7 @@ AVR_CFLAGS := -mmcu=atmega328p -DF_CPU=16000000UL -std=c99 -Os -Wall -Wextra -We
 HOST_WARN := -Wall -Wextra -Werror -pedantic
 
 .PHONY: all deps firmware flash host asan check-protocol fuzz fuzz-smoke test test-full demo \
-        bench-protocol bench-firmware bench-host pid-units clean
+        bench-protocol bench-firmware bench-host bench-robot pid-units clean
 
 all: host
 
@@ -104,6 +105,9 @@ bench-firmware: host
 
 bench-host: host
 	scripts/bench-host-step.sh $(BUILD)
+
+bench-robot: host
+	$(BUILD)/bench/robot_speed 20 2
 
 # The paper's PID gains under every reading of their units (docs/firmware.md).
 pid-units: host

@@ -1,0 +1,56 @@
+// Speed of the whole simulated robot in lock-step simulated time, as a multiple of real time:
+// four modules (firmware in the loop, or ideal screws), the true robot on frozen grass, the
+// sensors and the host controller at 100 Hz tracking a 0.5 m square (docs/benchmarks.md,
+// make bench-robot).   robot_speed [SECONDS] [THREADS]
+#include "auger/controller.hpp"
+#include "auger/model_file.hpp"
+#include "scheduler.hpp"
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+
+using namespace auger;
+
+namespace {
+
+double run(sim::ScrewMode mode, double seconds, int threads, const ModelFile& file)
+{
+    const Model model = build_model(file, "frozen_grass");
+    Controller c(model, controller_config(file, "frozen_grass"));
+    sim::TruthParams truth;
+    sim::SchedulerConfig sc;
+    sc.mode = mode;
+    sc.elf_path = AUGER_FIRMWARE_ELF;
+    sc.threads = threads;
+    sc.terrain = "frozen_grass";
+    sim::Scheduler s(model, truth, sc);
+    s.set_keep_history(false);
+    s.set_controller(&c);
+    s.run_until(0.1);  // modules boot
+    c.set_waypoints({{0, Vec3(0, 0, 0)}, {10, Vec3(0.5, 0, 0)}, {20, Vec3(0.5, 0.5, 0)},
+                     {30, Vec3(0, 0.5, 0)}, {40, Vec3(0, 0, 0)}});
+    c.set_enabled(true);
+    auto t0 = std::chrono::steady_clock::now();
+    s.run_until(0.1 + seconds);
+    double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return seconds / wall_s;
+}
+
+}  // namespace
+
+int main(int argc, char** argv)
+{
+    const double seconds = argc > 1 ? std::atof(argv[1]) : 20.0;
+    const int threads = argc > 2 ? std::atoi(argv[2]) : 2;
+    if (seconds <= 0 || threads < 1) {
+        std::fprintf(stderr, "usage: robot_speed [SECONDS > 0] [THREADS >= 1]\n");
+        return 2;
+    }
+    const ModelFile file = load_model_file(AUGER_MODELS_DIR "/robot.toml");
+    std::printf("| screws | threads | simulated s | x real time |\n|---|---|---|---|\n");
+    std::printf("| firmware in the loop | %d | %.0f | %.1fx |\n", threads, seconds,
+                run(sim::ScrewMode::fil, seconds, threads, file));
+    std::printf("| ideal | - | %.0f | %.0fx |\n", seconds, run(sim::ScrewMode::ideal, seconds, 1, file));
+    return 0;
+}
