@@ -42,6 +42,7 @@ commands = "$work/commands.sock"
 sensors = "$work/sensors.sock"
 [log]
 dir = "$work/logs"
+rotate_bytes = 65536
 CONF
 "$build/host/augerd/augerd" --config "$work/augerd.toml" > "$work/augerd.out" 2>&1 &
 pids+=($!)
@@ -69,5 +70,14 @@ awk -F, -v s="$status" '
     printf "e2e_goto: true pose %.3f m from the goal, estimate %.3f m from the truth, fault=%s\n", err, est, v["fault"]
     exit !(hdr && err < 0.03 && est < 0.03 && v["fault"] == "none" && v["enabled"] == 1)
   }' "$work/truth.csv" || fail "the robot did not arrive"
-# The log has rows with the camera pose and the reference.
-"$build/host/tools/auger-track" "$work"/logs/*.csv || fail "no trackable log"
+# The log, rotated at 64 KiB: several files, each a whole robot log (its own metadata and
+# header, readable alone, with camera pose and reference rows).
+kill -TERM "${pids[1]}"
+wait "${pids[1]}" || true
+logs=("$work"/logs/*.csv)
+((${#logs[@]} >= 2)) || fail "expected rotated logs, got ${#logs[@]} file(s)"
+for f in "${logs[@]}"; do
+  head -1 "$f" | grep -q '^# format: auger-robot-log v1' || fail "$f does not start with the format line"
+done
+"$build/host/tools/auger-track" "${logs[@]}" || fail "a rotated log is not a readable robot log"
+echo "e2e_goto: ${#logs[@]} log files after rotation at 64 KiB"
