@@ -360,6 +360,9 @@ TEST_CASE("augerd runs four simulated modules in real time and stops safely", "[
       WARN("kill -9: every motor stopped " << stop_s * 1000 << " ms after the kill, at most "
                                           << since_setpoint_s * 1000 << " ms after its last setpoint");
       CHECK(stop_s < 0.3);  // the 250 ms timeout, plus one module period and the pty
+      // Against the last setpoint each module received: its 250 ms command timeout, seen
+      // through telemetry that trails the motor by up to one 10 ms period, plus pty latency.
+      CHECK(since_setpoint_s < 0.27);
       for (int m = 0; m < 4; ++m) CHECK((rig.module(m).tm.status & PROTO_F_CMD_TIMEOUT) != 0);
     }
     CHECK(d.wait_exit(1.0) == 128 + SIGKILL);
