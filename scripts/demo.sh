@@ -13,7 +13,7 @@ sim=$build/sim/robot/auger-sim-robot
 augerd=$build/host/augerd/augerd
 auger=$build/host/augerd/auger
 track=$build/host/tools/auger-track
-module_tool=$build/host/tools/auger-module
+module_tool=$build/host/tools/auger-module  # sim_start commissions with it
 elf=$root/firmware/build/auger-module.elf
 for f in "$sim" "$augerd" "$auger" "$track" "$module_tool" "$elf"; do
   [[ -x $f || -r $f ]] || { echo "demo: $f is missing (make host)" >&2; exit 1; }
@@ -46,54 +46,21 @@ t_s,x_m,y_m,psi_rad
 0,0.4414,0.2351,0
 EOF
 
-wait_for() {  # PATH... : wait until every path exists (10 s)
-  local t=0
-  for p in "$@"; do
-    while [[ ! -e $p ]]; do
-      sleep 0.1
-      t=$((t + 1))
-      ((t < 100)) || { echo "demo: $p did not appear" >&2; return 1; }
-    done
-  done
-}
+AUGER_BUILD=$build AUGER_SRC=$root
+# shellcheck source=sim-robot.sh
+. "$root/scripts/sim-robot.sh"
 
 # run_case NAME ALLOCATOR TRAJECTORY SECONDS
 run_case() {
   local name=$1 alloc=$2 traj=$3 seconds=$4 d=$work/$1
-  mkdir -p "$d/pty" "$d/logs"
-  "$sim" --pty-dir "$d/pty" --terrain sand --model "$root/models/robot.toml" --elf "$elf" \
-    --sensor-socket "$d/sensors.sock" --log "$d/truth.csv" --seconds $((seconds + 20)) \
-    > "$d/sim.out" 2>&1 &
-  local sim_pid=$!
-  wait_for "$d/pty/module0" "$d/pty/module1" "$d/pty/module2" "$d/pty/module3"
-  # Commissioning, as after `make flash ID=n`: each simulated module (screw position n) gets
-  # its id in EEPROM. A fresh module boots with the build default, id 0.
-  for i in 0 1 2 3; do
-    "$module_tool" "$d/pty/module$i" set "id=$i" > "$d/commission.out" 2>&1 \
-      || { cat "$d/commission.out" >&2; return 1; }
-  done
-  # The ports in another order than the ids: augerd maps modules by the id they report.
-  cat > "$d/augerd.toml" <<EOF
-schema = 1
-[serial]
-ports = ["$d/pty/module2", "$d/pty/module0", "$d/pty/module3", "$d/pty/module1"]
-[model]
-file = "$root/models/robot.toml"
-terrain = "sand"
-[control]
-allocator = "$alloc"
+  mkdir -p "$d"
+  sim_start "$d" sand $((seconds + 20))
+  local sim_pid=$SIM_PID
+  augerd_start "$d" sand "allocator = \"$alloc\"
 gamma_per_s = [0.2, 0.2, 0.2]
 omega_min_rpm = 3.0
-engage_rpm = 1.5
-[sockets]
-commands = "$d/commands.sock"
-sensors = "$d/sensors.sock"
-[log]
-dir = "$d/logs"
-EOF
-  "$augerd" --config "$d/augerd.toml" > "$d/augerd.out" 2>&1 &
-  local augerd_pid=$!
-  wait_for "$d/commands.sock"
+engage_rpm = 1.5" ""
+  local augerd_pid=$AUGERD_PID
   "$auger" cmd --socket "$d/commands.sock" enable "follow $work/$traj.csv" > "$d/commands.out"
   sleep "$seconds"
   "$auger" cmd --socket "$d/commands.sock" status stop >> "$d/commands.out"

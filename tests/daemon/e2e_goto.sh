@@ -15,39 +15,16 @@ cleanup() {
 trap cleanup EXIT
 fail() { echo "e2e_goto: $*" >&2; for f in "$work"/*.out; do echo "--- $f" >&2; tail -5 "$f" >&2; done; exit 1; }
 
-mkdir -p "$work/pty"
-"$build/sim/robot/auger-sim-robot" --pty-dir "$work/pty" --terrain frozen_grass \
-  --model "$src/models/robot.toml" --elf "$src/firmware/build/auger-module.elf" \
-  --sensor-socket "$work/sensors.sock" --log "$work/truth.csv" --seconds 40 > "$work/sim.out" 2>&1 &
-sim_pid=$!
+AUGER_BUILD=$build AUGER_SRC=$src
+# shellcheck source=../../scripts/sim-robot.sh
+. "$src/scripts/sim-robot.sh"
+sim_start "$work" frozen_grass 40 || fail "the simulated robot did not start"
+sim_pid=$SIM_PID
 pids+=($sim_pid)
-for i in $(seq 100); do [[ -e $work/pty/module3 ]] && break; sleep 0.1; done
-[[ -e $work/pty/module3 ]] || fail "simulated modules did not start"
-for i in 0 1 2 3; do
-  "$build/host/tools/auger-module" "$work/pty/module$i" set "id=$i" > "$work/commission.out" 2>&1 ||
-    fail "could not set the id of module $i"
-done
-mkdir -p "$work/logs"
-cat > "$work/augerd.toml" <<CONF
-schema = 1
-[serial]
-ports = ["$work/pty/module3", "$work/pty/module1", "$work/pty/module0", "$work/pty/module2"]
-[model]
-file = "$src/models/robot.toml"
-terrain = "frozen_grass"
-[control]
-gamma_per_s = [0.5, 0.5, 0.5]
-[sockets]
-commands = "$work/commands.sock"
-sensors = "$work/sensors.sock"
-[log]
-dir = "$work/logs"
-rotate_bytes = 65536
-CONF
-"$build/host/augerd/augerd" --config "$work/augerd.toml" > "$work/augerd.out" 2>&1 &
-pids+=($!)
-for i in $(seq 100); do [[ -S $work/commands.sock ]] && break; sleep 0.1; done
-[[ -S $work/commands.sock ]] || fail "augerd did not start"
+augerd_start "$work" frozen_grass "gamma_per_s = [0.5, 0.5, 0.5]" "rotate_bytes = 65536" ||
+  fail "augerd did not start"
+augerd_pid=$AUGERD_PID
+pids+=($augerd_pid)
 auger=$build/host/augerd/auger
 "$auger" cmd --socket "$work/commands.sock" enable "goto 0.2 0.1 0" > "$work/cmd.out" || fail "commands refused"
 sleep 12
@@ -72,8 +49,8 @@ awk -F, -v s="$status" '
   }' "$work/truth.csv" || fail "the robot did not arrive"
 # The log, rotated at 64 KiB: several files, each a whole robot log (its own metadata and
 # header, readable alone, with camera pose and reference rows).
-kill -TERM "${pids[1]}"
-wait "${pids[1]}" || true
+kill -TERM "$augerd_pid"
+wait "$augerd_pid" || true
 logs=("$work"/logs/*.csv)
 ((${#logs[@]} >= 2)) || fail "expected rotated logs, got ${#logs[@]} file(s)"
 for f in "${logs[@]}"; do

@@ -1,0 +1,62 @@
+# The simulated robot and augerd on its ptys, as `make demo` and the end-to-end test run them.
+# Source this file with AUGER_BUILD (the CMake build directory) and AUGER_SRC (the source tree)
+# set; the functions report on stderr and return non-zero on failure.
+
+# sim_wait_for PATH... : wait up to 10 s until every path exists.
+sim_wait_for() {
+  local p t=0
+  for p in "$@"; do
+    while [[ ! -e $p ]]; do
+      sleep 0.1
+      t=$((t + 1))
+      ((t < 100)) || { echo "sim-robot: $p did not appear" >&2; return 1; }
+    done
+  done
+}
+
+# sim_start DIR TERRAIN SECONDS : the simulated robot on TERRAIN with four modules running the
+# firmware on ptys DIR/pty/module0..3, its camera and IMU sent to DIR/sensors.sock, its true
+# trajectory logged to DIR/truth.csv; then each module commissioned with its id (screw position
+# n gets id n), as `make flash ID=n` does on the robot: a fresh module boots with id 0.
+# Sets SIM_PID.
+sim_start() {
+  local d=$1 terrain=$2 seconds=$3 i
+  mkdir -p "$d/pty"
+  "$AUGER_BUILD/sim/robot/auger-sim-robot" --pty-dir "$d/pty" --terrain "$terrain" \
+    --model "$AUGER_SRC/models/robot.toml" --elf "$AUGER_SRC/firmware/build/auger-module.elf" \
+    --sensor-socket "$d/sensors.sock" --log "$d/truth.csv" --seconds "$seconds" \
+    > "$d/sim.out" 2>&1 &
+  SIM_PID=$!
+  sim_wait_for "$d/pty/module0" "$d/pty/module1" "$d/pty/module2" "$d/pty/module3" || return 1
+  for i in 0 1 2 3; do
+    "$AUGER_BUILD/host/tools/auger-module" "$d/pty/module$i" set "id=$i" > "$d/commission.out" 2>&1 ||
+      { echo "sim-robot: could not set the id of module $i:" >&2; cat "$d/commission.out" >&2; return 1; }
+  done
+}
+
+# augerd_start DIR TERRAIN CONTROL_LINES LOG_LINES : augerd on the ptys of sim_start, listed in
+# another order than the ids (it maps modules by the id they report), with the given extra
+# lines in [control] and [log]; waits for its commands socket DIR/commands.sock. Sets AUGERD_PID.
+augerd_start() {
+  local d=$1 terrain=$2 control=$3 log=$4
+  mkdir -p "$d/logs"
+  cat > "$d/augerd.toml" <<CONF
+schema = 1
+[serial]
+ports = ["$d/pty/module2", "$d/pty/module0", "$d/pty/module3", "$d/pty/module1"]
+[model]
+file = "$AUGER_SRC/models/robot.toml"
+terrain = "$terrain"
+[control]
+$control
+[sockets]
+commands = "$d/commands.sock"
+sensors = "$d/sensors.sock"
+[log]
+dir = "$d/logs"
+$log
+CONF
+  "$AUGER_BUILD/host/augerd/augerd" --config "$d/augerd.toml" > "$d/augerd.out" 2>&1 &
+  AUGERD_PID=$!
+  sim_wait_for "$d/commands.sock" || { cat "$d/augerd.out" >&2; return 1; }
+}
