@@ -93,8 +93,11 @@ test: deps check-protocol host asan fuzz-smoke
 	cd $(ASAN_BUILD) && ctest --output-on-failure -L unit -j $(JOBS)
 	cd $(BUILD) && ctest --output-on-failure
 
+# Longer suites (docs/benchmarks.md has their times): the parser fuzzer for 5 million inputs,
+# and the sand diagonal with the firmware in the loop across the blocking thresholds.
 test-full: test
 	$(MAKE) fuzz FUZZ_RUNS=5000000
+	$(BUILD)/tests/robot/test_robot_fil "[.full]"
 
 # The simulated robot on sand driven by augerd: a square and the helix diagonal with each
 # allocator, tracking errors printed (scripts/demo.sh; about 90 s after the build).
