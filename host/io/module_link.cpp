@@ -3,17 +3,9 @@
 #include <cstring>
 #include <stdexcept>
 
-#include <time.h>
 
 namespace auger::io {
 namespace {
-
-double now_s()
-{
-    timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
-}
 
 // DESIGN.md: after the DTR reset the bootloader waits about 1 s; allow 2 s before asking.
 constexpr double kBootWait_s = 2.0;
@@ -39,7 +31,7 @@ void ModuleLink::request(uint8_t what)
 
 std::optional<proto_frame_t> ModuleLink::wait_frame(uint8_t type, double timeout_s)
 {
-    const double end = now_s() + timeout_s;
+    const double end = monotonic_s() + timeout_s;
     uint8_t buf[256];
     for (;;) {
         while (!frames_.empty()) {
@@ -47,7 +39,7 @@ std::optional<proto_frame_t> ModuleLink::wait_frame(uint8_t type, double timeout
             frames_.pop_front();
             if (f.type == type) return f;
         }
-        double left = end - now_s();
+        double left = end - monotonic_s();
         if (left <= 0) return std::nullopt;
         size_t n = port_.read_some(buf, sizeof buf, left);
         bytes_received_ += n;
@@ -84,13 +76,13 @@ size_t ModuleLink::pump(std::vector<proto_frame_t>& out)
 
 proto_identity_t ModuleLink::identify(double timeout_s)
 {
-    const double end = now_s() + timeout_s;
+    const double end = monotonic_s() + timeout_s;
     double wait_s = std::min(kBootWait_s, timeout_s);
     proto_identity_t id;
     for (;;) {
         auto f = wait_frame(PROTO_T_IDENTITY, wait_s);
         if (f && proto_decode_identity(&*f, &id)) return id;
-        double left = end - now_s();
+        double left = end - monotonic_s();
         if (left <= 0)
             throw std::runtime_error(port() + ": no identity frame from the module within " +
                                      std::to_string(timeout_s) + " s (powered? right port and baud?)");

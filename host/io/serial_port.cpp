@@ -19,14 +19,14 @@ namespace {
     throw std::runtime_error(path + ": " + what);
 }
 
-double now_s()
+}  // namespace
+
+double monotonic_s()
 {
     timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
 }
-
-}  // namespace
 
 SerialPort::SerialPort(const std::string& path, unsigned baud) : path_(path)
 {
@@ -67,7 +67,7 @@ SerialPort::~SerialPort()
 
 void SerialPort::write_all(const uint8_t* data, size_t len, double timeout_s)
 {
-    const double end = now_s() + timeout_s;
+    const double end = monotonic_s() + timeout_s;
     while (len > 0) {
         ssize_t n = ::write(fd_, data, len);
         if (n > 0) {
@@ -76,7 +76,7 @@ void SerialPort::write_all(const uint8_t* data, size_t len, double timeout_s)
             continue;
         }
         if (n < 0 && errno != EAGAIN && errno != EINTR) fail(path_, std::string("write: ") + std::strerror(errno));
-        double left = end - now_s();
+        double left = end - monotonic_s();
         if (left <= 0) fail(path_, "write timed out");
         pollfd p{fd_, POLLOUT, 0};
         ::poll(&p, 1, int(left * 1000) + 1);

@@ -31,6 +31,9 @@ private:
     int fd_ = -1;
 };
 
+// Seconds on CLOCK_MONOTONIC: the clock of every timeout in host/io.
+double monotonic_s();
+
 // Sets an arbitrary baud rate on an open tty (termios2, BOTHER). False if the driver refuses.
 bool set_any_baud(int fd, unsigned baud);
 
