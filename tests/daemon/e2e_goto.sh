@@ -25,7 +25,7 @@ augerd_start "$work" frozen_grass "gamma_per_s = [0.5, 0.5, 0.5]" "rotate_bytes 
   fail "augerd did not start"
 augerd_pid=$AUGERD_PID
 pids+=($augerd_pid)
-auger=$build/host/augerd/auger
+auger=$build/host/auger/auger
 "$auger" cmd --socket "$work/commands.sock" enable "goto 0.2 0.1 0" > "$work/cmd.out" || fail "commands refused"
 sleep 12
 status=$("$auger" cmd --socket "$work/commands.sock" status)

@@ -1,5 +1,5 @@
-// auger: the minimal command-line client of augerd's sockets (docs/daemon-protocol.md).
-//   auger cmd [--socket PATH] LINE...     one answer per line, printed; exit 1 on any error:
+// The client of augerd's sockets (docs/daemon-protocol.md):
+//   auger cmd [--socket PATH] LINE...     one answer per line, printed; exit 1 on any error
 //   auger sensor [--socket PATH] LINE...  only errors come back; exit 1 if any
 #include <cerrno>
 #include <cstdio>
@@ -12,13 +12,15 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include "subcommand.hpp"
+
 namespace {
 
 constexpr const char* kDefaultCommands = "/run/augerd/commands.sock";
 constexpr const char* kDefaultSensors = "/run/augerd/sensors.sock";
 constexpr int kAnswerTimeout_ms = 5000;  // augerd answers within a loop period or two
 
-int usage(std::FILE* f, int code) {
+int client_usage(std::FILE* f, int code) {
   std::fprintf(f,
                "usage: auger cmd [--socket PATH] LINE...     (default %s)\n"
                "       auger sensor [--socket PATH] LINE...  (default %s)\n"
@@ -56,21 +58,17 @@ bool read_line(int fd, std::string& buf, std::string& line) {
   }
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  if (argc < 2) return usage(stderr, 2);
-  const std::string mode = argv[1];
-  if (mode == "--help" || mode == "-h") return usage(stdout, 0);
-  if (mode != "cmd" && mode != "sensor") return usage(stderr, 2);
+int run_client(int argc, char** argv) {
+  const std::string mode = argv[0];
   std::string path = mode == "cmd" ? kDefaultCommands : kDefaultSensors;
   std::vector<std::string> lines;
-  for (int i = 2; i < argc; ++i) {
+  for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
+    if (a == "--help" || a == "-h") return client_usage(stdout, 0);
     if (a == "--socket" && i + 1 < argc) path = argv[++i];
     else lines.push_back(a);
   }
-  if (lines.empty()) return usage(stderr, 2);
+  if (lines.empty()) return client_usage(stderr, 2);
   sockaddr_un addr{};
   addr.sun_family = AF_UNIX;
   if (path.size() >= sizeof addr.sun_path) {
@@ -112,4 +110,13 @@ int main(int argc, char** argv) {
   std::fflush(stdout);
   ::close(fd);
   return status;
+}
+
+}  // namespace
+
+std::vector<auger::cli::Subcommand> auger::cli::client_subcommands() {
+  return {
+      {"cmd", "[--socket PATH] LINE...", "send command lines to augerd, print its answers", run_client},
+      {"sensor", "[--socket PATH] LINE...", "send sensor lines (pose, imu) to augerd", run_client},
+  };
 }
