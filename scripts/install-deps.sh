@@ -17,7 +17,14 @@ packages=(
   clang libclang-rt-14-dev
   # benchmarks (instruction counts)
   valgrind
+  # workbench reports (plots), field tools (terminal UI) and their tmux-driven tests
+  gnuplot-nox libncurses-dev tmux
 )
+# The board (aarch64) build: a cross compiler and qemu-user to run its binaries in the tests.
+# On an arm64 machine the native compiler builds for the board and runs the binaries itself.
+if [[ $(dpkg --print-architecture) != arm64 ]]; then
+  packages+=(g++-aarch64-linux-gnu qemu-user)
+fi
 
 missing=()
 for p in "${packages[@]}"; do
