@@ -134,6 +134,11 @@ void motor_set_load(motor_t *m, double load_nm)
 	m->model.load_nm = load_nm;
 }
 
+double motor_pwm_quiet_s(const motor_t *m)
+{
+	return (double)(m->avr->cycle - m->last_edge) / (double)m->avr->frequency;
+}
+
 double motor_pwm_duty(const motor_t *m)
 {
 	avr_cycle_count_t quiet = avr_usec_to_cycles(m->avr, 4000);

@@ -67,6 +67,8 @@ void motor_set_load(motor_t *m, double load_nm);
  * processes its timers, up to an instruction late: averaging removes that jitter), 0..1,
  * or the pin level after 4 ms without an edge. */
 double motor_pwm_duty(const motor_t *m);
+/* Seconds since the PWM pin last changed level. */
+double motor_pwm_quiet_s(const motor_t *m);
 
 #ifdef __cplusplus
 }

@@ -843,6 +843,11 @@ double simmod_pwm_duty(const simmod_t *sim, int module)
 	return motor_pwm_duty(&sim->mod[module]->motor);
 }
 
+double simmod_pwm_quiet_s(const simmod_t *sim, int module)
+{
+	return motor_pwm_quiet_s(&sim->mod[module]->motor);
+}
+
 int simmod_dir_pin(const simmod_t *sim, int module)
 {
 	return sim->mod[module]->motor.dir_level;

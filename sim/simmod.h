@@ -70,6 +70,9 @@ double simmod_battery_current_a(const simmod_t *sim, int module); /* what the IN
 double simmod_battery_voltage_v(const simmod_t *sim, int module); /* terminal */
 double simmod_pwm_duty(const simmod_t *sim, int module);  /* from PB1's edges, 0..1 */
 int simmod_dir_pin(const simmod_t *sim, int module);      /* PB0 level */
+/* Seconds of the module's clock since PB1 last changed level: with the pin low and this
+ * beyond one PWM period, the motor has been off for that long (when exactly it stopped). */
+double simmod_pwm_quiet_s(const simmod_t *sim, int module);
 /* Load torque on the screw, N m; positive opposes positive rotation. */
 void simmod_set_load_torque(simmod_t *sim, int module, double torque_nm);
 /* Charge the pack has delivered since creation, coulombs: the mean pack current over a

@@ -167,7 +167,9 @@ void SimRig::loop() {
           while (proto_parser_pop(&p, &f))
             if (f.type == PROTO_T_SETPOINT) {
               std::lock_guard<std::mutex> lock(mutex_);
-              views_[std::size_t(m)].last_setpoint_wall_s = wall_s();
+              // In the module's time (mapped to wall time), when it receives the frame: under
+              // load the paced simulation may trail the wall clock by a few ms.
+              views_[std::size_t(m)].last_setpoint_wall_s = t0_wall_s_ + simmod_time_s(sim_);
               ++views_[std::size_t(m)].setpoints;
             }
         }
@@ -178,6 +180,19 @@ void SimRig::loop() {
       if (v >= 0) simmod_set_battery_voltage(sim_, m, v);
     }
     simmod_step_to(sim_, wall_s() - t0_wall_s_);
+    {
+      // The motor's own pin, not its telemetry (which trails by up to one 10 ms period): the
+      // kill -9 test times the stop from here.
+      const double now_wall_s = t0_wall_s_ + simmod_time_s(sim_);
+      std::lock_guard<std::mutex> lock(mutex_);
+      for (int m = 0; m < 4; ++m) {
+        const double quiet_s = simmod_pwm_quiet_s(sim_, m);
+        const bool off = simmod_pwm_duty(sim_, m) == 0.0 && quiet_s > 0.004;
+        double& off_wall_s = views_[std::size_t(m)].pwm_off_wall_s;
+        if (!off) off_wall_s = 0;
+        else if (off_wall_s == 0) off_wall_s = now_wall_s - quiet_s;
+      }
+    }
     usleep(500);
   }
 }

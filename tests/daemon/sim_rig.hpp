@@ -20,8 +20,12 @@ class SimRig {
     proto_telemetry_t tm{};
     double tm_wall_s = 0;          // wall time (CLOCK_MONOTONIC) of the latest telemetry frame
     long tm_count = 0;
-    double last_setpoint_wall_s = 0;  // when the module last received a valid setpoint
+    double last_setpoint_wall_s = 0;  // when the module last received a valid setpoint (its
+                                      // simulated time, mapped to wall time like pwm_off_wall_s)
     long setpoints = 0;
+    // Wall time at which the motor's PWM pin last went quiet (low for more than 4 ms: the
+    // motor is off since then), taken from the simulated pin itself; 0 while it is driven.
+    double pwm_off_wall_s = 0;
   };
 
   // ids[m]: the id module m is given (EEPROM) before any host connects. Port k of the rig
