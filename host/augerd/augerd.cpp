@@ -533,6 +533,7 @@ std::string Daemon::sensor(const std::string& line) {
     sensors_in_.has_pose = true;
     sensors_in_.pose = auger::Vec3(m.x_m, m.y_m, m.psi_rad);
     sensors_in_.pose_cov = auger::Vec3(m.sx_m * m.sx_m, m.sy_m * m.sy_m, m.spsi_rad * m.spsi_rad).asDiagonal();
+    sensors_in_.pose_t_s = t_loop_s;  // the EKF compares it with its prediction for that time
   } else {
     sensors_in_.has_imu_psi = sensors_in_.has_imu_r = true;
     sensors_in_.imu_psi_rad = m.imu_psi_rad;

@@ -2,6 +2,7 @@
 #include "auger/controller.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace auger {
 
@@ -15,6 +16,7 @@ void Controller::reset(const Vec3& eta) {
   dr_.zeta.setZero();
   dr_.dyn.reset(model_);
   ekf_reset(config_.ekf, ekf_, eta);
+  pose_history_.clear();
   reference_reset(ref_, eta);
   pid_ = PidState{};
   eta_ = eta;
@@ -73,7 +75,14 @@ const std::array<double, 4>& Controller::step(double t_s, const std::array<Screw
       ekf_predict(model_, config_.ekf, ekf_, dr_.dyn, omega_meas_rpm_, dt);
       if (sensors.has_imu_psi) ekf_update_imu_psi(model_, config_.ekf, ekf_, sensors.imu_psi_rad);
       if (sensors.has_imu_r) ekf_update_imu_r(model_, config_.ekf, ekf_, sensors.imu_r_radps);
-      if (sensors.has_pose) ekf_update_pose(model_, ekf_, sensors.pose, sensors.pose_cov);
+      if (sensors.has_pose) {
+        if (std::isnan(sensors.pose_t_s))
+          ekf_update_pose(model_, ekf_, sensors.pose, sensors.pose_cov);
+        else if (!ekf_update_pose_delayed(model_, ekf_, pose_history_, sensors.pose, sensors.pose_cov,
+                                          sensors.pose_t_s))
+          ++stale_poses_;
+      }
+      pose_history_.push(t_s, ekf_h_pose(model_, ekf_.x, nullptr));
       eta_ = ekf_.x.head<3>();
       zeta_ = ekf_.x.tail<3>();
       break;

@@ -147,4 +147,57 @@ void ekf_update_pose(const Model& model, Ekf& ekf, const Vec3& pose, const Mat3&
   ekf_update<3>(ekf, nu, H, covariance);
 }
 
+void PoseHistory::push(double t, const Vec3& h_pose) {
+  t_s[std::size_t(next)] = t;
+  h[std::size_t(next)] = h_pose;
+  next = (next + 1) % kSize;
+  count = std::min(count + 1, kSize);
+}
+
+bool PoseHistory::at(double t, Vec3& h_pose) const {
+  if (count == 0) return false;
+  auto idx = [&](int age) { return std::size_t((next - 1 - age + 2 * kSize) % kSize); };  // age 0: newest
+  const double newest_s = t_s[idx(0)], oldest_s = t_s[idx(count - 1)];
+  if (t < oldest_s || t > newest_s + 1e-3) return false;
+  if (t >= newest_s) {
+    h_pose = h[idx(0)];
+    return true;
+  }
+  // Newest to oldest: the first entry at or before t and the one after it.
+  for (int age = 1; age < count; ++age) {
+    const std::size_t a = idx(age), b = idx(age - 1);
+    if (t_s[a] > t) continue;
+    const double span_s = t_s[b] - t_s[a];
+    const double w = span_s > 0 ? (t - t_s[a]) / span_s : 0.0;
+    h_pose.head<2>() = h[a].head<2>() + w * (h[b].head<2>() - h[a].head<2>());
+    h_pose.z() = wrap_angle(h[a].z() + w * wrap_angle(h[b].z() - h[a].z()));
+    return true;
+  }
+  h_pose = h[idx(count - 1)];
+  return true;
+}
+
+void PoseHistory::shift(const Vec3& delta) {
+  for (int i = 0; i < count; ++i) {
+    h[std::size_t(i)] += delta;
+    h[std::size_t(i)].z() = wrap_angle(h[std::size_t(i)].z());
+  }
+}
+
+bool ekf_update_pose_delayed(const Model& model, Ekf& ekf, PoseHistory& history, const Vec3& pose,
+                             const Mat3& covariance, double t_capture_s) {
+  Vec3 h_then;
+  if (!history.at(t_capture_s, h_then)) return false;
+  Eigen::Matrix<double, 3, 6> H;
+  ekf_h_pose(model, ekf.x, &H);
+  Vec3 nu = pose - h_then;
+  nu.z() = wrap_angle(nu.z());
+  const Vec3 before = ekf.x.head<3>();
+  ekf_update<3>(ekf, nu, H, covariance);
+  Vec3 delta = ekf.x.head<3>() - before;
+  delta.z() = wrap_angle(delta.z());
+  history.shift(delta);
+  return true;
+}
+
 }  // namespace auger

@@ -133,6 +133,7 @@ void Scheduler::tick() {
       in.has_pose = true;
       in.pose = pose.pose;
       in.pose_cov = pose.std_dev.cwiseProduct(pose.std_dev).asDiagonal();
+      in.pose_t_s = pose.t_capture_s;  // the camera's latency: compared with the prediction then
     }
     const auto& sp = controller_->step(t, tel, in);
     for (int i = 0; i < 4; ++i) cmd[i] = sp[static_cast<std::size_t>(i)];

@@ -38,6 +38,9 @@ struct SensorInput {
   bool has_pose = false;
   Vec3 pose = Vec3::Zero();  // external tracking (camera), world frame
   Mat3 pose_cov = Mat3::Identity() * 1e-4;
+  // When the pose was captured, on the step's clock (NaN: treat it as current). The EKF
+  // compares it with its prediction for that time (PoseHistory).
+  double pose_t_s = kNotMeasured;
   bool has_imu_psi = false;
   double imu_psi_rad = 0;
   bool has_imu_r = false;
@@ -64,6 +67,9 @@ class Controller {
   const PidTerms& pid_terms() const { return pid_terms_; }
   const AllocationResult& allocation() const { return alloc_; }
   const ControllerConfig& config() const { return config_; }
+  // Timestamped poses the EKF could not use: captured before the kept history (2.56 s) or
+  // after the step they arrived in.
+  long stale_poses() const { return stale_poses_; }
   bool enabled() const { return enabled_; }
 
  private:
@@ -71,6 +77,8 @@ class Controller {
   ControllerConfig config_;
   DeadReckoning dr_;
   Ekf ekf_;
+  PoseHistory pose_history_;
+  long stale_poses_ = 0;
   ReferenceState ref_;
   PidState pid_;
   PidTerms pid_terms_{};

@@ -5,6 +5,8 @@
 //   external pose (the paper's proposed future work).
 #pragma once
 
+#include <array>
+
 #include <Eigen/Core>
 
 #include "auger/dynamics.hpp"
@@ -64,5 +66,33 @@ Vec3 ekf_h_pose(const Model& model, const Vec6& x, Eigen::Matrix<double, 3, 6>* 
 void ekf_update_imu_psi(const Model& model, const EkfConfig& cfg, Ekf& ekf, double imu_psi_rad);
 void ekf_update_imu_r(const Model& model, const EkfConfig& cfg, Ekf& ekf, double imu_r_radps);
 void ekf_update_pose(const Model& model, Ekf& ekf, const Vec3& pose, const Mat3& covariance);
+
+// What the filter predicted the pose sensor would read over the last kSize steps (2.56 s at
+// 100 Hz: augerd accepts sensor messages up to 2 s old). A camera delivers a frame tens of ms
+// after it captured it; comparing that frame with the prediction for *now* reads the robot's
+// motion during the latency as an error and drags the estimate back (at 0.1 m/s and 30 ms:
+// 3 mm, as large as the camera's noise). Fixed size: no allocation in the 100 Hz step.
+struct PoseHistory {
+  static constexpr int kSize = 256;
+  std::array<double, kSize> t_s{};
+  std::array<Vec3, kSize> h{};
+  int next = 0, count = 0;
+
+  void clear() { next = count = 0; }
+  void push(double t, const Vec3& h_pose);
+  // The prediction at time t, interpolated (headings unwrapped); false when t lies outside
+  // what is kept (older than the oldest entry, or newer than the newest by more than 1 ms).
+  bool at(double t, Vec3& h_pose) const;
+  // A correction of the estimate applies to the kept past too, so that the next delayed frame
+  // does not count it a second time.
+  void shift(const Vec3& delta);
+};
+
+// A pose captured at t_capture_s: the innovation against the prediction for its capture time,
+// applied to the current state with the current gain (the usual latency compensation when the
+// latency is short against the dynamics' error growth). false (nothing changed) when the
+// capture time lies outside the history.
+bool ekf_update_pose_delayed(const Model& model, Ekf& ekf, PoseHistory& history, const Vec3& pose,
+                             const Mat3& covariance, double t_capture_s);
 
 }  // namespace auger
