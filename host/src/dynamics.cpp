@@ -42,6 +42,27 @@ void drive_force(const Model& model, DynamicsData& data, const Vec4& omega_rpm, 
                                   data.effect_state.data() + model.effect_state_offset[k]);
 }
 
+void effect_body_force(const Model& model, DynamicsData& data, const Vec3& eta, const Vec3& zeta,
+                       const Vec4& omega_rpm, double dt_s) {
+  EffectContext& c = data.ctx;
+  c.eta = eta;
+  c.zeta = zeta;
+  c.omega_rpm = omega_rpm;
+  c.tau_drive_n = data.tau_drive_n;
+  c.dt_s = dt_s;
+  for (int k = 0; k < 3; ++k)
+    c.zeta_free[k] = first_order_step(model.M_diag[k], model.D_diag[k], zeta[k], data.tau_drive_n[k], dt_s,
+                                      &c.gain[k]);
+  // Each effect sees the velocity the forces before it leave, so effects compose in order.
+  Vec3 force = Vec3::Zero();
+  data.tau_effect_n.setZero();
+  for (std::size_t k = 0; k < model.effects.size(); ++k) {
+    model.effects[k]->body_force(model, c, force, data.effect_state.data() + model.effect_state_offset[k]);
+    data.tau_effect_n += force;
+    c.zeta_free += c.gain.cwiseProduct(force);
+  }
+}
+
 void dynamics_step(const Model& model, DynamicsData& data, Vec3& eta, Vec3& zeta,
                    const Vec4& omega_rpm, double dt_s, int n_sub) {
   if (!(dt_s > 0)) return;
@@ -50,23 +71,7 @@ void dynamics_step(const Model& model, DynamicsData& data, Vec3& eta, Vec3& zeta
   EffectContext& c = data.ctx;
   for (int s = 0; s < n_sub; ++s) {
     drive_force(model, data, omega_rpm, h, data.tau_drive_n);
-    c.eta = eta;
-    c.zeta = zeta;
-    c.omega_rpm = omega_rpm;
-    c.tau_drive_n = data.tau_drive_n;
-    c.dt_s = h;
-    for (int k = 0; k < 3; ++k)
-      c.zeta_free[k] = first_order_step(model.M_diag[k], model.D_diag[k], zeta[k],
-                                        data.tau_drive_n[k], h, &c.gain[k]);
-    // Each effect sees the velocity the forces before it leave, so effects compose in order.
-    Vec3 force = Vec3::Zero();
-    data.tau_effect_n.setZero();
-    for (std::size_t k = 0; k < model.effects.size(); ++k) {
-      model.effects[k]->body_force(model, c, force,
-                                   data.effect_state.data() + model.effect_state_offset[k]);
-      data.tau_effect_n += force;
-      c.zeta_free += c.gain.cwiseProduct(force);
-    }
+    effect_body_force(model, data, eta, zeta, omega_rpm, h);
     const Vec3 tau = data.tau_drive_n + data.tau_effect_n;
     // Closed-form velocity at any time inside the sub-step, for the pose integration.
     auto zeta_at = [&](double t) {

@@ -82,6 +82,12 @@ void ekf_predict(const Model& model, const EkfConfig& cfg, Ekf& ekf, DynamicsDat
                  const Vec4& omega_rpm, double dt) {
   if (!(dt > 0)) return;
   drive_force(model, dyn, omega_rpm, dt, ekf.tau_n);  // eq. (7) with the drive effects
+  // eq. (6)'s body forces of the model's effects (dry friction, a slope, ...) for the estimated
+  // state, held over the step. F treats them as constant: their derivative is a Coulomb
+  // friction's jump at rest, which the process noise covers.
+  dyn.tau_drive_n = ekf.tau_n;
+  effect_body_force(model, dyn, ekf.x.head<3>(), ekf.x.tail<3>(), omega_rpm, dt);
+  ekf.tau_n += dyn.tau_effect_n;
   ekf.x = ekf_process(model, ekf.x, ekf.tau_n, dt, &ekf.F);
   ekf.x[2] = wrap_angle(ekf.x[2]);
   Vec6 q;

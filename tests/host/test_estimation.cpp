@@ -75,6 +75,30 @@ TEST_CASE("EKF process model agrees with the sub-stepped dynamics") {
   CHECK((x.tail<3>() - zeta).norm() < 1e-12);
 }
 
+TEST_CASE("EKF prediction includes the model's body-force effects (dry friction)") {
+  // A model with Coulomb friction: the EKF's prediction alone (no measurements) must follow the
+  // dynamics with that friction, and differ from the frictionless model's.
+  const Model m = make_model(RobotParams{}, kSand, {std::make_shared<CoulombFriction>(Vec3(6.0, 3.0, 0.5))});
+  const Model plain = make_model(RobotParams{}, kSand);
+  DynamicsData dyn_truth(m), dyn_ekf(m), dyn_plain(plain);
+  Vec3 eta = Vec3::Zero(), zeta = Vec3::Zero();
+  EkfConfig cfg;
+  Ekf ekf, ekf_plain;
+  ekf_reset(cfg, ekf, eta);
+  ekf_reset(cfg, ekf_plain, eta);
+  for (int k = 0; k < 300; ++k) {
+    const Vec4 omega = k < 200 ? Vec4(-15, -10, 15, 10) : Vec4::Zero();  // drive, then coast
+    dynamics_step(m, dyn_truth, eta, zeta, omega, 0.01, 1);
+    ekf_predict(m, cfg, ekf, dyn_ekf, omega, 0.01);
+    ekf_predict(plain, cfg, ekf_plain, dyn_plain, omega, 0.01);
+  }
+  INFO("truth " << eta.transpose() << ", EKF " << ekf.x.head<3>().transpose() << ", EKF without friction "
+                << ekf_plain.x.head<3>().transpose());
+  CHECK((ekf.x.head<2>() - eta.head<2>()).norm() < 2e-3);
+  CHECK((ekf_plain.x.head<2>() - eta.head<2>()).norm() > 0.02);
+  CHECK(ekf.x.tail<3>().norm() < 1e-9);  // stopped by the friction after coasting, as the truth
+}
+
 TEST_CASE("EKF measurement Jacobians match finite differences (with a sensor effect)") {
   const Model m = make_model(RobotParams{}, kSand, {std::make_shared<ImuHeadingBias>(0.05)});
   Vec6 x;

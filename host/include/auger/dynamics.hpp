@@ -30,6 +30,11 @@ struct DynamicsData {
 // eq. (7) with the drive effects: the body force of the screw speeds.
 void drive_force(const Model& model, DynamicsData& data, const Vec4& omega_rpm, double dt_s, Vec3& tau_n);
 
+// eq. (6)'s added body forces: the model's effects for the state (eta, zeta) over a step of dt_s
+// with omega_rpm and data.tau_drive_n held; the sum lands in data.tau_effect_n.
+void effect_body_force(const Model& model, DynamicsData& data, const Vec3& eta, const Vec3& zeta,
+                       const Vec4& omega_rpm, double dt_s);
+
 // One step of eqs. (5)-(7) over dt_s with omega_rpm held, in n_sub equal sub-steps (effects
 // re-evaluated per sub-step). eta (world) and zeta (body) are updated in place.
 void dynamics_step(const Model& model, DynamicsData& data, Vec3& eta, Vec3& zeta,
