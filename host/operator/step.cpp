@@ -114,9 +114,12 @@ void run_augerd(const std::string& socket, bool enable, int module, double from_
   while (now_s() - t0 < kBefore_s + hold_s) {
     const double rpm = now_s() - t0 < kBefore_s ? from_rpm : to_rpm;
     std::snprintf(line, sizeof line, "spin %d %.3f", module, rpm);
-    const std::string a = c.request(line);
+    // Both lines at once: augerd answers them in the same cycle, so one sample per cycle.
+    std::string a, st;
+    if (!c.send_line(line) || !c.send_line("status all") || !c.read_line(a) || !c.read_line(st))
+      throw std::runtime_error("augerd did not answer");
     if (a != "ok") throw std::runtime_error("augerd: " + a);
-    const auto kv = cli::parse_status(c.request("status all"));
+    const auto kv = cli::parse_status(st);
     if (kv.count("fault") && kv.at("fault") != "none") throw std::runtime_error("augerd reports fault=" + kv.at("fault"));
     const double tms = cli::status_number(kv, m + "time_ms"), cmd = cli::status_number(kv, m + "omega_cmd_rpm");
     if (std::isnan(tms)) throw std::runtime_error("augerd's status all has no " + m + "time_ms (an older augerd?)");
@@ -197,6 +200,7 @@ int run_step(int argc, char** argv) {
       const std::string cmd = "gnuplot -e \"" + term + "; set datafile separator ','; set key autotitle columnhead; "
                               "set xlabel 't (s)'; set ylabel 'omega (rpm)'; plot '" + csv +
                               "' using 1:2 with lines, '' using 1:3 with steps\"";
+      std::fflush(stdout);
       if (std::system(cmd.c_str()) != 0) std::fprintf(stderr, "auger step: gnuplot failed (%s)\n", cmd.c_str());
       else if (plot != "-") std::printf("  plot: %s\n", plot.c_str());
       if (out.empty()) std::remove(csv.c_str());

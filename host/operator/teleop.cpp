@@ -5,18 +5,17 @@
 // u, v, r while button 0 (the dead-man) is held; button 1 enable, button 2 stop.
 // Like any other motion, the run is in augerd's log.
 #include <curses.h>
-#include <fcntl.h>
-#include <linux/joystick.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <string>
 
 #include "augerd_client.hpp"
 #include "common.hpp"
+#include "joystick.hpp"
 #include "operator.hpp"
 
 namespace auger::op {
@@ -27,31 +26,6 @@ namespace {
 constexpr double kSpeedSteps_mps[] = {0.01, 0.02, 0.04, 0.06, 0.08, 0.1};
 constexpr double kYawPerLinear = 2.0;  // r step in rad/s per m/s of the linear step
 constexpr int kSteps = sizeof kSpeedSteps_mps / sizeof kSpeedSteps_mps[0];
-
-struct Joystick {
-  int fd = -1;
-  double axis[8] = {};
-  bool button[8] = {};
-  double last_send_s = 0;
-  void open_dev(const std::string& dev) { fd = ::open(dev.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC); }
-  ~Joystick() {
-    if (fd >= 0) ::close(fd);
-  }
-  // Reads every pending event; returns the buttons newly pressed as a bit mask.
-  unsigned poll_events() {
-    unsigned pressed = 0;
-    js_event e;
-    while (fd >= 0 && ::read(fd, &e, sizeof e) == sizeof e) {
-      const unsigned type = e.type & ~JS_EVENT_INIT;
-      if (type == JS_EVENT_AXIS && e.number < 8) axis[e.number] = e.value / 32767.0;
-      if (type == JS_EVENT_BUTTON && e.number < 8) {
-        if (e.value && !button[e.number] && !(e.type & JS_EVENT_INIT)) pressed |= 1u << e.number;
-        button[e.number] = e.value != 0;
-      }
-    }
-    return pressed;
-  }
-};
 
 }  // namespace
 
@@ -88,7 +62,8 @@ int run_teleop(int argc, char** argv) {
     return 3;
   }
   Joystick js;
-  js.open_dev(joystick);
+  double js_sent_s = 0;
+  js.open(joystick);
   initscr();
   cbreak();
   noecho();
@@ -140,12 +115,12 @@ int run_teleop(int argc, char** argv) {
     if (pressed & 4u) send("stop");
     // Joystick: refresh at 10 Hz while the dead-man button is held; released = no refresh,
     // and augerd's dead-man stops the screws.
-    if (js.fd >= 0 && js.button[0] && now_s() - js.last_send_s >= 0.1) {
+    if (js.is_open() && js.button(0) && now_s() - js_sent_s >= 0.1) {
       const double top = kSpeedSteps_mps[kSteps - 1];
-      std::snprintf(line, sizeof line, "vel %.4f %.4f %.4f", -js.axis[1] * top, -js.axis[0] * top,
-                    -js.axis[3] * kYawPerLinear * top);
+      std::snprintf(line, sizeof line, "vel %.4f %.4f %.4f", -js.axis(1) * top, -js.axis(0) * top,
+                    -js.axis(3) * kYawPerLinear * top);
       send(line);
-      js.last_send_s = now_s();
+      js_sent_s = now_s();
     }
     if (now_s() - status_at_s > 0.2) {
       try {
@@ -157,7 +132,7 @@ int run_teleop(int argc, char** argv) {
     }
     const auto kv = cli::parse_status(status_text);
     erase();
-    mvprintw(0, 0, "auger teleop  %s   joystick: %s", socket.c_str(), js.fd >= 0 ? joystick.c_str() : "none");
+    mvprintw(0, 0, "auger teleop  %s   joystick: %s", socket.c_str(), js.is_open() ? joystick.c_str() : "none");
     mvprintw(2, 0, "speed step %d/%d: u,v %.2f m/s, r %.2f rad/s", step + 1, kSteps, lin, yaw);
     mvprintw(3, 0, "last command: %s -> %s", last_cmd.c_str(), last_answer.c_str());
     mvprintw(5, 0, "mode=%s enabled=%s fault=%s", kv.count("mode") ? kv.at("mode").c_str() : "?",
