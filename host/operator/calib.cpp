@@ -344,7 +344,10 @@ int run_calib(int argc, char** argv) {
         const int32_t start = sp.last.position_counts;
         const double target = turns * cpr;
         std::printf("  counts per revolution: spinning %.1f turns by the module's count (%.0f counts)\n", turns, target);
-        sp.spin(rpm, 120.0, nullptr, 0, [&] { return std::fabs(double(sp.last.position_counts - start)) >= target; });
+        // The last 20 % slowly, so that the screw stops close to the mark (it coasts).
+        sp.spin(rpm, 120.0, nullptr, 0, [&] { return std::fabs(double(sp.last.position_counts - start)) >= 0.8 * target; });
+        sp.spin(std::min(rpm, 1.5), 120.0, nullptr, 0,
+                [&] { return std::fabs(double(sp.last.position_counts - start)) >= target; });
         sp.off();
         const double counted = double(sp.last.position_counts - start);
         std::printf("  How many turns did the marked screw make? ");

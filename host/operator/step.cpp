@@ -110,24 +110,33 @@ void run_augerd(const std::string& socket, bool enable, int module, double from_
   }
   const double t0 = now_s();
   bool stepped = false;
-  char line[64];
+  // Two requests in flight: augerd serves the socket once per cycle, so one pair is always
+  // waiting for the next cycle and every cycle yields a sample.
+  auto send_pair = [&] {
+    char line[64];
+    std::snprintf(line, sizeof line, "spin %d %.3f", module, now_s() - t0 < kBefore_s ? from_rpm : to_rpm);
+    if (!c.send_line(line) || !c.send_line("status all")) throw std::runtime_error("augerd went away");
+  };
+  send_pair();
+  send_pair();
   while (now_s() - t0 < kBefore_s + hold_s) {
-    const double rpm = now_s() - t0 < kBefore_s ? from_rpm : to_rpm;
-    std::snprintf(line, sizeof line, "spin %d %.3f", module, rpm);
-    // Both lines at once: augerd answers them in the same cycle, so one sample per cycle.
     std::string a, st;
-    if (!c.send_line(line) || !c.send_line("status all") || !c.read_line(a) || !c.read_line(st))
-      throw std::runtime_error("augerd did not answer");
+    if (!c.read_line(a) || !c.read_line(st)) throw std::runtime_error("augerd did not answer");
     if (a != "ok") throw std::runtime_error("augerd: " + a);
+    send_pair();
     const auto kv = cli::parse_status(st);
     if (kv.count("fault") && kv.at("fault") != "none") throw std::runtime_error("augerd reports fault=" + kv.at("fault"));
     const double tms = cli::status_number(kv, m + "time_ms"), cmd = cli::status_number(kv, m + "omega_cmd_rpm");
     if (std::isnan(tms)) throw std::runtime_error("augerd's status all has no " + m + "time_ms (an older augerd?)");
     rec.add(uint32_t(tms), cli::status_number(kv, m + "omega_rpm"), cmd);
-    if (!stepped && rpm == to_rpm && std::fabs(cmd - to_rpm) < 0.01) {
+    if (!stepped && std::fabs(cmd - to_rpm) < 0.01 && !rec.samples.empty()) {
       t_step_s = rec.samples.back().t_s;
       stepped = true;
     }
+  }
+  for (int i = 0; i < 4; ++i) {  // the two pairs still in flight
+    std::string a;
+    c.read_line(a);
   }
   c.request("spin " + std::to_string(module) + " 0");
   if (enable) c.request("stop");

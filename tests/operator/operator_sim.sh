@@ -55,7 +55,7 @@ T capture-pane -p -t mon > "$work/monitor1.out"
 for i in 0 1 2 3; do
   grep -Eq "^$i +.*/pty/module$i +-?[0-9]+\.[0-9]+ " "$work/monitor1.out" || fail "monitor does not show module $i"
 done
-grep -q "fault=none" "$work/monitor1.out" || fail "monitor does not show fault=none"
+grep -Eq "mode=stopped  arrived=0  fault=(none|[0-3]:no-telemetry)" "$work/monitor1.out" || fail "monitor does not show the robot's state"
 grep -Eq "loop period [0-9]+\.[0-9]+ ms, jitter" "$work/monitor1.out" || fail "monitor does not show the loop period"
 T resize-window -t mon -x 100 -y 20
 sleep 0.5
@@ -73,9 +73,9 @@ ok "monitor shows the four modules, the loop period, survives a resize, quits on
 cat "$work/step.out"
 rise=$(sed -n 's/.*rise time (10-90 %) *\([0-9.]*\) s.*/\1/p' "$work/step.out")
 awk -v r="$rise" 'BEGIN { exit !(r > 0 && r <= 0.3) }' || fail "rise time '$rise' not within the firmware test's 0.3 s"
-# Samples once per augerd cycle (100 Hz); a loaded machine misses some: at least 60 per second.
+# Samples once per augerd cycle (100 Hz); a loaded machine misses some: at least 50 per second.
 n=$(($(wc -l < "$work/step.csv") - 1))
-((n >= 120)) || fail "only $n samples in 2 s"
+((n >= 100)) || fail "only $n samples in 2 s"
 ok "step: rise time $rise s, $n samples"
 
 # ---- teleop: Up held, then released ----
@@ -105,6 +105,13 @@ awk -v a="$released" -v b="$stopped" -v x0="$x0" -v x1="$x1" -v y0="$y0" -v y1="
 }' || fail "teleop: wrong motion or no stop after release (see above)"
 grep -q "last command: vel 0.0200 0.0000 0.0000 -> ok" "$work/teleop.out" || fail "teleop screen"
 ok "teleop forward, stopped by the dead-man"
+
+# ---- the commissioning check: +u, +v, +r move forward, left, counter-clockwise ----
+"$auger" calib --check-motion --socket "$sock" --seconds 1.5 > "$work/motion.out" 2>&1 ||
+  fail "calib --check-motion: exit $?: $(cat "$work/motion.out")"
+cat "$work/motion.out"
+(($(grep -c ": ok$" "$work/motion.out") == 3)) || fail "calib --check-motion did not report three ok"
+ok "commissioning check"
 
 # A short goto so that the log exercises the controller, then augerd stops (complete log).
 cmd enable "goto 0.1 0.05 0.1" > /dev/null
