@@ -153,7 +153,7 @@ class Daemon {
   static constexpr int kEvDisabled = 1, kEvWaypoints = 2, kEvRebuilt = 4;
   int ctrl_events_ = 0;
   auger::Vec3 goal_ = auger::Vec3::Constant(NAN);  // goto of this cycle
-  int traj_n_ = 0;          // follow files copied beside the log (…-traj-N.csv)
+  int traj_n_ = 0;          // follow files copied beside the log (…-follow-N.waypoints)
   int traj_logged_ = -1;    // the follow file of this cycle, -1 none
   std::string run_name_;    // augerd-<UTC start>: names the log files of this run
   std::FILE* events_ = nullptr;
@@ -736,11 +736,11 @@ std::string Daemon::modules_status() const {
   return out;
 }
 
-// Copies a follow trajectory beside the log (…-traj-N.csv), so that auger replay finds the
+// Copies a follow trajectory beside the log (…-follow-N.waypoints: CSV, but not named .csv so that globs of the logs miss it), so that auger replay finds the
 // waypoints this run used. Returns N, or -1 if it could not be written (the motion goes on).
 int Daemon::save_trajectory() {
   const int n = traj_n_++;
-  const std::string path = cfg_.log_dir + "/" + run_name_ + "-traj-" + std::to_string(n) + ".csv";
+  const std::string path = cfg_.log_dir + "/" + run_name_ + "-follow-" + std::to_string(n) + ".waypoints";
   std::FILE* f = std::fopen(path.c_str(), "w");
   if (!f) return -1;
   std::fprintf(f, "t_s,x_m,y_m,psi_rad\n");

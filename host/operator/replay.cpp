@@ -159,7 +159,7 @@ int run_replay(int argc, char** argv) {
           if (!std::isnan(v("goal_x_m"))) {
             ctrl->set_waypoints({Waypoint{0.0, Vec3(v("goal_x_m"), v("goal_y_m"), v("goal_psi_rad"))}});
           } else if (!std::isnan(v("traj_n"))) {
-            const std::string traj = dir + "/" + run + "-traj-" + std::to_string(int(v("traj_n"))) + ".csv";
+            const std::string traj = dir + "/" + run + "-follow-" + std::to_string(int(v("traj_n"))) + ".waypoints";
             ctrl->set_waypoints(load_waypoints_csv(traj));
           } else {
             r.fail_at_field(col("ctrl_events"), "new waypoints but neither goal_x_m nor traj_n");

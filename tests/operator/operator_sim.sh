@@ -6,6 +6,7 @@
 #   monitor  shows the four modules; later a fault, highlighted (reverse video), after resize
 #   step     through augerd: summary within the firmware step test's criteria, ~100 Hz samples
 #   teleop   Up held: the robot moves forward (+x); released: mode idle, screws stopped < 0.7 s
+#   follow   arrives: arrived=1, mode hold (it stayed follow before), an event
 #   replay   the unmodified log reproduces (exit 0); altered cmd column / changed gain: exit 1
 #   calib    a deliberately wrong dir_sign (module 1) is found and fixed; a halved
 #            counts_per_rev (module 2) is found from the operator's count of turns and fixed
@@ -113,22 +114,31 @@ cat "$work/motion.out"
 (($(grep -c ": ok$" "$work/motion.out") == 3)) || fail "calib --check-motion did not report three ok"
 ok "commissioning check"
 
-# A short goto so that the log exercises the controller, then augerd stops (complete log).
-cmd enable "goto 0.1 0.05 0.1" > /dev/null
-sleep 2
+# ---- follow: arrives, reports it, holds the final pose (and the log exercises the controller) ----
+read -r x y psi < <(cmd status | tr ' ' '\n' | sed -n 's/^\(x_m\|y_m\|psi_rad\)=//p' | tr '\n' ' '; echo)
+printf 't_s,x_m,y_m,psi_rad\n0,%s,%s,%s\n1,%s,%s,%s\n' "$x" "$y" "$psi" \
+  "$(awk -v x="$x" 'BEGIN { print x + 0.04 }')" "$y" "$psi" > "$work/traj.csv"
+cmd enable "follow $work/traj.csv" > /dev/null || fail "follow refused"
+for _ in $(seq 60); do [[ $(status_field mode) == hold ]] && break; sleep 0.1; done
+st=$(cmd status)
+[[ $st == *"mode=hold"* && $st == *"arrived=1"* && $st == *"enabled=1"* ]] || fail "follow did not arrive: $st"
+sleep 0.5
+[[ $(status_field mode) == hold ]] || fail "hold did not hold"
+grep -q 'event=arrived action="follow arrived at' "$work"/logs/*-events.log || fail "no arrival in the event log"
 cmd stop > /dev/null
+ok "follow arrived, reported arrived=1, holds (mode hold)"
 kill -TERM "$augerd_pid"
 wait "$augerd_pid" || true
 
 # ---- replay ----
 log=$(ls "$work"/logs/augerd-*-0.csv)
-"$auger" replay "$log" --config "$work/augerd.toml" > "$work/replay1.out" || fail "replay of the unmodified log: exit $?"
+"$auger" replay "$log" --config "$work/augerd.toml" > "$work/replay1.out" 2>&1 || fail "replay of the unmodified log: exit $?: $(cat "$work/replay1.out")"
 grep -q "same: the log is reproduced" "$work/replay1.out" || fail "replay did not say same"
 awk -F, -v OFS=, '/^#/ { print; next } !h { for (i = 1; i <= NF; i++) c[$i] = i; h = 1; print; next }
-  { if ($c["mode"] == 3 && !done) { $c["cmd_rpm_2"] += 0.25; done = 1; line = NR } print }
-  END { print line > "/dev/stderr" }' "$log" > "$work/altered.csv" 2> "$work/altered_line"
+  { if ($c["mode"] == 4 && !done) { $c["cmd_rpm_2"] += 0.25; done = 1; line = NR } print }
+  END { print line > "/dev/stderr" }' "$log" > "$work/logs/altered.csv" 2> "$work/altered_line"
 set +e
-"$auger" replay "$work/altered.csv" --config "$work/augerd.toml" > "$work/replay2.out"
+"$auger" replay "$work/logs/altered.csv" --config "$work/augerd.toml" > "$work/replay2.out"
 code=$?
 set -e
 ((code == 1)) || fail "replay of an altered cmd column: exit $code, expected 1"
