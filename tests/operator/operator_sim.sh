@@ -4,7 +4,8 @@
 # IMU), in real time. Terminal programs run under a private tmux server (send-keys,
 # capture-pane). One robot for all tools, to keep to the time budget:
 #   monitor  shows the four modules; later a fault, highlighted (reverse video), after resize
-#   step     through augerd: summary within the firmware step test's criteria, ~100 Hz samples
+#   step     through augerd and on a port: summary within the firmware step test's criteria,
+#            ~100 Hz samples, an SVG plot
 #   teleop   Up held: the robot moves forward (+x); released: mode idle, screws stopped < 0.7 s
 #   follow   arrives: arrived=1, mode hold (it stayed follow before), an event
 #   replay   the unmodified log reproduces (exit 0); altered cmd column / changed gain: exit 1
@@ -178,6 +179,15 @@ got=$("$module" "$work/pty/module2" show | sed -n 's/.*counts_per_rev=\([0-9.]*\
 awk -v g="$got" -v c="$cpr" 'BEGIN { d = g - c; if (d < 0) d = -d; exit !(d < 0.02 * c) }' ||
   fail "module 2's counts_per_rev $got, expected about $cpr"
 ok "calib: dir_sign of module 1 fixed; counts_per_rev of module 2 $half -> $got (true $cpr)"
+
+# ---- step directly on a port (augerd stopped) ----
+"$auger" step 3 -10 --port "$work/pty/module3" --plot "$work/step.svg" > "$work/step2.out" 2>&1 ||
+  fail "auger step --port: exit $?: $(cat "$work/step2.out")"
+cat "$work/step2.out"
+rise=$(sed -n 's/.*rise time (10-90 %) *\([0-9.]*\) s.*/\1/p' "$work/step2.out")
+awk -v r="$rise" 'BEGIN { exit !(r > 0 && r <= 0.3) }' || fail "rise time '$rise' on the port"
+grep -q "<svg" "$work/step.svg" || fail "no SVG plot"
+ok "step on the port: rise time $rise s, plot written"
 
 # ---- a fault: module 3's under-voltage threshold above its 19.9 V pack ----
 "$module" "$work/pty/module3" set undervoltage_v=21 > /dev/null || fail "could not set module 3's threshold"
