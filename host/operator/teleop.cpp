@@ -24,7 +24,7 @@ namespace {
 // Speed steps (+/-): u and v in m/s, r in rad/s. The robot's top speed at 23 rpm is about
 // 0.1 m/s on sand (MODEL-NOTES.md), so the steps stay below that.
 constexpr double kSpeedSteps_mps[] = {0.01, 0.02, 0.04, 0.06, 0.08, 0.1};
-constexpr double kYawPerLinear = 2.0;  // r step in rad/s per m/s of the linear step
+constexpr double kYawStep_radps_per_mps = 2.0;  // r step in rad/s per m/s of the linear step
 constexpr int kSteps = sizeof kSpeedSteps_mps / sizeof kSpeedSteps_mps[0];
 
 }  // namespace
@@ -85,7 +85,7 @@ int run_teleop(int argc, char** argv) {
   };
   for (;;) {
     const int ch = getch();
-    const double lin = kSpeedSteps_mps[step], yaw = kYawPerLinear * lin;
+    const double lin = kSpeedSteps_mps[step], yaw = kYawStep_radps_per_mps * lin;
     double u = 0, v = 0, r = 0;
     bool move = false;
     switch (ch) {
@@ -118,7 +118,7 @@ int run_teleop(int argc, char** argv) {
     if (js.is_open() && js.button(0) && now_s() - js_sent_s >= 0.1) {
       const double top = kSpeedSteps_mps[kSteps - 1];
       std::snprintf(line, sizeof line, "vel %.4f %.4f %.4f", -js.axis(1) * top, -js.axis(0) * top,
-                    -js.axis(3) * kYawPerLinear * top);
+                    -js.axis(3) * kYawStep_radps_per_mps * top);
       send(line);
       js_sent_s = now_s();
     }

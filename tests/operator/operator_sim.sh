@@ -152,7 +152,14 @@ set +e
 code=$?
 set -e
 ((code == 1)) || fail "replay with a changed gain: exit $code, expected 1"
-ok "replay: same log passes, altered cmd_rpm_2 and changed kp flagged"
+# A robot log without the replay columns (the simulator's truth): refused, naming the column.
+set +e
+"$auger" replay "$work/truth.csv" --model "$src/models/robot.toml" > "$work/replay4.out" 2>&1
+code=$?
+set -e
+((code == 2)) && grep -q "truth.csv:3:1: .*mode" "$work/replay4.out" ||
+  fail "replay of a log without replay columns: exit $code: $(cat "$work/replay4.out")"
+ok "replay: same log passes, altered cmd_rpm_2 and changed kp flagged, a log without replay columns refused"
 
 # ---- calib: a wrong dir_sign on module 1, a halved counts_per_rev on module 2 ----
 "$module" "$work/pty/module1" set dir=-1 > /dev/null || fail "could not set module 1's dir"
