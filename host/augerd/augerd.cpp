@@ -105,6 +105,15 @@ class Daemon {
   void write_log(const std::array<double, 4>& cmd_rpm);
   void log_failed(const std::string& what);
   bool start_log_file();
+  void event(int module, const std::string& what, const std::string& action);
+  std::string modules_status() const;
+  void disable_controller() {
+    controller_->set_enabled(false);
+    ctrl_events_ |= kEvDisabled;
+  }
+  void check_arrival();
+  int save_trajectory();
+  static constexpr double kArrivedM = 0.02, kArrivedRad = 0.05;  // docs/daemon.md, "arrived"
 
   const DaemonConfig& cfg_;
   auger::Model model_;
@@ -124,11 +133,30 @@ class Daemon {
   auger::Vec3 vel_cmd_ = auger::Vec3::Zero();
   double vel_until_s_ = 0;
   std::vector<auger::Waypoint> waypoints_;
+  double motion_t0_s_ = 0;    // goto/follow: loop time the motion started (its waypoint clock)
+  bool arrived_ = false;      // goto/follow: past the last waypoint and at the final pose
+  int spin_module_ = -1;      // `spin`: one module at spin_rpm_, the others 0 (auger step, calib)
+  double spin_rpm_ = 0;
   int fault_module_ = -1;
   std::string fault_reason_ = "none";
 
   auger::SensorInput sensors_in_;
-  double pose_t_s_ = NAN;
+  auger::Vec3 pose_sd_ = auger::Vec3::Constant(NAN);  // standard deviations of this cycle's pose
+  // Latest sensor values whenever they came (status all: calib and teleop checks).
+  double last_imu_t_s_ = NAN, last_imu_r_radps_ = NAN, last_imu_psi_rad_ = NAN;
+  double last_pose_t_s_ = NAN;
+  auger::Vec3 last_pose_ = auger::Vec3::Constant(NAN);
+
+  // What changed the core controller's state this cycle, before its step (log column
+  // ctrl_events, so that auger replay applies the same changes in the same cycle).
+  static constexpr int kEvDisabled = 1, kEvWaypoints = 2, kEvRebuilt = 4;
+  int ctrl_events_ = 0;
+  auger::Vec3 goal_ = auger::Vec3::Constant(NAN);  // goto of this cycle
+  int traj_n_ = 0;          // follow files copied beside the log (…-follow-N.waypoints)
+  int traj_logged_ = -1;    // the follow file of this cycle, -1 none
+  std::string run_name_;    // augerd-<UTC start>: names the log files of this run
+  std::FILE* events_ = nullptr;
+  std::string events_path_;
 
   // log
   std::unique_ptr<std::ofstream> log_file_;
@@ -213,12 +241,32 @@ void Daemon::open_modules() {
 
 // ---- log ----
 
+// Columns beyond LOG-FORMAT.md's (docs/daemon.md "The log"): what `auger replay` needs to run
+// the core's estimator and controller again on this log and compare.
+const std::vector<std::string>& replay_columns() {
+  static const std::vector<std::string> cols = {
+      "mode",      "ctrl_events", "ctrl_enabled", "alloc_nullspace", "goal_x_m",  "goal_y_m",
+      "goal_psi_rad", "traj_n",   "tm_fresh_0",  "tm_fresh_1",      "tm_fresh_2", "tm_fresh_3",
+      "pose_sx_m", "pose_sy_m",   "pose_spsi_rad", "pose_capture_t_s", "vel_u_mps",     "vel_v_mps", "vel_r_radps",
+      "spin_module", "spin_rpm",  "xe_m",        "ye_m",            "psie_rad"};
+  return cols;
+}
+
+// Mode codes of the log's `mode` column.
+int mode_code(const std::string& mode) {
+  static const char* names[] = {"stopped", "idle", "vel", "goto", "follow", "hold", "spin"};
+  for (int i = 0; i < 7; ++i)
+    if (mode == names[i]) return i;
+  return -1;
+}
+
 bool Daemon::start_log_file() {
   char stamp[32];
   const std::time_t now = std::time(nullptr);
   std::tm tm_utc;
   gmtime_r(&now, &tm_utc);
   std::strftime(stamp, sizeof stamp, "%Y%m%dT%H%M%SZ", &tm_utc);
+  if (run_name_.empty()) run_name_ = std::string("augerd-") + stamp;
   log_path_ = cfg_.log_dir + "/augerd-" + stamp + "-" + std::to_string(log_index_++) + ".csv";
   log_.reset();
   log_file_ = std::make_unique<std::ofstream>(log_path_, std::ios::out | std::ios::trunc);
@@ -229,7 +277,9 @@ bool Daemon::start_log_file() {
       *log_file_, std::vector<std::pair<std::string, std::string>>{{"format", auger::kRobotLogFormat},
                                                                    {"terrain", cfg_.terrain},
                                                                    {"t0_unix_s", t0},
-                                                                   {"writer", "augerd"}});
+                                                                   {"writer", "augerd"},
+                                                                   {"run", run_name_}},
+      replay_columns());
   log_->flush();
   return bool(*log_file_);
 }
@@ -243,6 +293,29 @@ void Daemon::open_log() {
   t0_unix_s_ = clock_s(CLOCK_REALTIME);
   if (!start_log_file()) throw std::runtime_error("cannot create the log file " + log_path_);
   std::fprintf(stderr, "augerd: logging to %s\n", log_path_.c_str());
+  // The fault event log: one line per event, flushed at once (a fault is what one reads
+  // after a crash). Not rotated: a few lines per fault.
+  events_path_ = cfg_.log_dir + "/" + run_name_ + "-events.log";
+  events_ = std::fopen(events_path_.c_str(), "a");
+  if (!events_) throw std::runtime_error("cannot create the event log " + events_path_ + ": " + std::strerror(errno));
+  std::fprintf(events_, "# auger event log v1: wall-clock UTC, t_s (the data log's clock), module, port, event, action\n");
+  event(-1, "start", "augerd started, robot stopped; data log " + log_path_);
+}
+
+void Daemon::event(int module, const std::string& what, const std::string& action) {
+  if (!events_) return;
+  const double wall = t0_unix_s_ + t_s_;
+  const std::time_t sec = std::time_t(wall);
+  std::tm tm_utc;
+  gmtime_r(&sec, &tm_utc);
+  char stamp[40];
+  std::strftime(stamp, sizeof stamp, "%Y-%m-%dT%H:%M:%S", &tm_utc);
+  const std::string port = module >= 0 ? modules_[std::size_t(module)].port : "-";
+  const std::string mod = module >= 0 ? std::to_string(module) : "-";
+  std::fprintf(events_, "%s.%03dZ t_s=%.3f module=%s port=%s event=%s action=\"%s\"\n", stamp,
+               int((wall - double(sec)) * 1000), t_s_, mod.c_str(), port.c_str(), what.c_str(), action.c_str());
+  // A write error (full disk) must not stop control: the data log reports it.
+  std::fflush(events_);
 }
 
 void Daemon::log_failed(const std::string& what) {
@@ -293,7 +366,37 @@ void Daemon::write_log(const std::array<double, 4>& cmd_rpm) {
     s.psid_rad = eta_d[2];
   }
   s.loop_dt_s = loop_dt_s_;
-  log_->write(s);
+  static thread_local std::vector<double> extra(replay_columns().size());
+  const auto& eta = controller_->eta_estimate();
+  const bool vel = mode_ == "vel", spin = mode_ == "spin";
+  const double goal_x = (ctrl_events_ & kEvWaypoints) && traj_logged_ < 0 ? goal_[0] : NAN;
+  const double values[] = {double(mode_code(mode_)),
+                           double(ctrl_events_),
+                           controller_->enabled() ? 1.0 : 0.0,
+                           ctrl_cfg_.allocator.kind == auger::AllocatorKind::null_space ? 1.0 : 0.0,
+                           goal_x,
+                           std::isnan(goal_x) ? NAN : goal_[1],
+                           std::isnan(goal_x) ? NAN : goal_[2],
+                           traj_logged_ >= 0 ? double(traj_logged_) : NAN,
+                           modules_[0].fresh ? 1.0 : 0.0,
+                           modules_[1].fresh ? 1.0 : 0.0,
+                           modules_[2].fresh ? 1.0 : 0.0,
+                           modules_[3].fresh ? 1.0 : 0.0,
+                           sensors_in_.has_pose ? pose_sd_[0] : NAN,
+                           sensors_in_.has_pose ? pose_sd_[1] : NAN,
+                           sensors_in_.has_pose ? pose_sd_[2] : NAN,
+                           sensors_in_.has_pose ? sensors_in_.pose_t_s : NAN,
+                           vel ? vel_cmd_[0] : NAN,
+                           vel ? vel_cmd_[1] : NAN,
+                           vel ? vel_cmd_[2] : NAN,
+                           spin ? double(spin_module_) : NAN,
+                           spin ? spin_rpm_ : NAN,
+                           eta[0],
+                           eta[1],
+                           eta[2]};
+  static_assert(sizeof values / sizeof values[0] == 24, "one value per replay column");
+  std::copy(std::begin(values), std::end(values), extra.begin());
+  log_->write(s, extra);
   if (t_s_ - log_flushed_at_s_ >= cfg_.log_flush_interval_s) {
     log_->flush();
     log_flushed_at_s_ = t_s_;
@@ -317,9 +420,12 @@ void Daemon::fault(int module, const std::string& reason_token, const std::strin
   // Every event is printed; `status` keeps the one that stopped the robot.
   std::fprintf(stderr, "augerd: t=%.3f s: module %d (%s): %s; all screws stopped until `enable`\n", t_s_, module,
                modules_[std::size_t(module)].port.c_str(), detail.c_str());
+  event(module, reason_token,
+        detail + (enabled_ ? "; stopped all screws (was " + mode_ + "), waiting for enable"
+                           : "; already stopped, waiting for enable"));
   enabled_ = false;
   mode_ = "stopped";
-  controller_->set_enabled(false);
+  disable_controller();
 }
 
 void Daemon::pump(Module& m, int index) {
@@ -397,6 +503,7 @@ void Daemon::check_safety() {
     if (m.fresh && m.lost) {
       m.lost = false;
       std::fprintf(stderr, "augerd: t=%.3f s: module %d answers again; stays stopped until `enable`\n", t_s_, i);
+      event(i, "answers-again", "stays stopped until enable");
     }
     if (!m.lost && m.link && t_s_ - m.last_valid_s > cfg_.telemetry_timeout_s) {
       m.lost = true;
@@ -447,7 +554,7 @@ std::string Daemon::command(const std::string& line) {
   if (!err.empty()) return "error: " + err;
   switch (c.kind) {
     case CommandKind::status:
-      return status_line();
+      return c.text == "all" ? status_line() + modules_status() : status_line();
     case CommandKind::enable:
       for (int i = 0; i < 4; ++i) {
         const Module& m = modules_[std::size_t(i)];
@@ -458,23 +565,42 @@ std::string Daemon::command(const std::string& line) {
         m.clearing = true;
         m.clear_seq = m.seq;
       }
-      if (fault_module_ >= 0)
+      if (fault_module_ >= 0) {
         std::fprintf(stderr, "augerd: t=%.3f s: enable: clearing fault of module %d (%s)\n", t_s_, fault_module_,
                      fault_reason_.c_str());
+        event(fault_module_, "re-enabled", "fault " + fault_reason_ + " cleared by enable from " +
+                                               commands_->current_peer());
+      } else if (!enabled_) {
+        event(-1, "enable", "enabled by " + commands_->current_peer());
+      }
       fault_module_ = -1;
       fault_reason_ = "none";
       enabled_ = true;
       mode_ = "idle";
-      controller_->set_enabled(false);
+      disable_controller();
       return "ok";
     case CommandKind::stop:
+      if (enabled_) event(-1, "stop", "all screws stopped (was " + mode_ + ") by " + commands_->current_peer());
       enabled_ = false;
       mode_ = "stopped";
-      controller_->set_enabled(false);
+      disable_controller();
+      return "ok";
+    case CommandKind::spin:
+      if (!enabled_) return "error: not enabled (send enable first): '" + line + "'";
+      if (mode_ == "goto" || mode_ == "follow" || mode_ == "hold")
+        return "error: cannot spin one module during " + mode_ + " (stop first): '" + line + "'";
+      // One module alone (step responses, calibration): the robot is not tracking, and the
+      // command expires like `vel` (the dead-man).
+      if (mode_ != "spin") event(int(c.a), "spin", "one module driven alone by " + commands_->current_peer());
+      disable_controller();
+      spin_module_ = int(c.a);
+      spin_rpm_ = c.b;
+      vel_until_s_ = t_s_ + cfg_.vel_timeout_s;
+      mode_ = "spin";
       return "ok";
     case CommandKind::vel:
       if (!enabled_) return "error: not enabled (send enable first): '" + line + "'";
-      controller_->set_enabled(false);
+      disable_controller();
       vel_cmd_ = auger::Vec3(c.a, c.b, c.c);
       vel_until_s_ = t_s_ + cfg_.vel_timeout_s;
       mode_ = "vel";
@@ -484,6 +610,11 @@ std::string Daemon::command(const std::string& line) {
       waypoints_ = {auger::Waypoint{0.0, auger::Vec3(c.a, c.b, c.c)}};
       controller_->set_waypoints(waypoints_);
       controller_->set_enabled(true);
+      ctrl_events_ |= kEvWaypoints;
+      goal_ = waypoints_[0].eta_p;
+      traj_logged_ = -1;
+      motion_t0_s_ = t_s_;
+      arrived_ = false;
       mode_ = "goto";
       return "ok";
     case CommandKind::follow: {
@@ -499,19 +630,24 @@ std::string Daemon::command(const std::string& line) {
       waypoints_ = std::move(w);
       controller_->set_waypoints(waypoints_);
       controller_->set_enabled(true);
+      ctrl_events_ |= kEvWaypoints;
+      traj_logged_ = save_trajectory();
+      motion_t0_s_ = t_s_;
+      arrived_ = false;
       mode_ = "follow";
       return "ok";
     }
     case CommandKind::allocator: {
       // The core's controller takes its configuration at construction: a new one, started
       // from the current estimate. Only between motions, so no trajectory restarts.
-      if (mode_ == "goto" || mode_ == "follow")
+      if (mode_ == "goto" || mode_ == "follow" || mode_ == "hold")
         return "error: cannot switch the allocator during " + mode_ + " (stop or wait: '" + line + "')";
       ctrl_cfg_.allocator.kind =
           c.text == "pinv" ? auger::AllocatorKind::pseudo_inverse : auger::AllocatorKind::null_space;
       const auger::Vec3 eta = controller_->eta_estimate();
       controller_ = std::make_unique<auger::Controller>(model_, ctrl_cfg_);
       controller_->reset(eta);
+      ctrl_events_ |= kEvRebuilt;
       return "ok";
     }
   }
@@ -534,12 +670,85 @@ std::string Daemon::sensor(const std::string& line) {
     sensors_in_.pose = auger::Vec3(m.x_m, m.y_m, m.psi_rad);
     sensors_in_.pose_cov = auger::Vec3(m.sx_m * m.sx_m, m.sy_m * m.sy_m, m.spsi_rad * m.spsi_rad).asDiagonal();
     sensors_in_.pose_t_s = t_loop_s;  // the EKF compares it with its prediction for that time
+    pose_sd_ = auger::Vec3(m.sx_m, m.sy_m, m.spsi_rad);
+    last_pose_ = sensors_in_.pose;
+    last_pose_t_s_ = t_loop_s;
   } else {
     sensors_in_.has_imu_psi = sensors_in_.has_imu_r = true;
     sensors_in_.imu_psi_rad = m.imu_psi_rad;
     sensors_in_.imu_r_radps = m.imu_r_radps;
+    last_imu_t_s_ = t_loop_s;
+    last_imu_psi_rad_ = m.imu_psi_rad;
+    last_imu_r_radps_ = m.imu_r_radps;
   }
   return "";
+}
+
+// A goto or follow has arrived once its waypoint clock is past the last waypoint and the
+// estimate is within tolerance of the final pose; the controller keeps tracking that pose
+// (mode hold) until the next command. Before, follow stayed "follow" for ever.
+void Daemon::check_arrival() {
+  if (!enabled_ || (mode_ != "goto" && mode_ != "follow") || waypoints_.empty()) return;
+  const auger::Waypoint& last = waypoints_.back();
+  if (t_s_ - motion_t0_s_ < last.t_s) return;
+  const auger::Vec3 e = last.eta_p - controller_->eta_estimate();
+  if (std::hypot(e[0], e[1]) > kArrivedM || std::fabs(auger::wrap_angle(e[2])) > kArrivedRad) return;
+  arrived_ = true;
+  char what[160];
+  std::snprintf(what, sizeof what, "%s arrived at x=%.3f y=%.3f psi=%.3f; holding the final pose", mode_.c_str(),
+                last.eta_p[0], last.eta_p[1], last.eta_p[2]);
+  event(-1, "arrived", what);
+  std::fprintf(stderr, "augerd: t=%.3f s: %s\n", t_s_, what);
+  mode_ = "hold";
+}
+
+// Per-module fields of `status all` (docs/daemon-protocol.md): the latest telemetry, the
+// setpoint sent, the link's error counters; then the latest sensor values.
+std::string Daemon::modules_status() const {
+  std::string out;
+  char buf[640];
+  for (int i = 0; i < 4; ++i) {
+    const Module& m = modules_[std::size_t(i)];
+    const proto_telemetry_t& tm = m.tm;
+    const uint16_t crc = m.link ? m.link->parser_stats().crc_errors : 0;
+    const uint16_t hdr = m.link ? m.link->parser_stats().header_errors : 0;
+    const uint16_t skipped = m.link ? m.link->parser_stats().bytes_discarded : 0;
+    const bool ok = m.have_tm && !m.lost;
+    std::snprintf(buf, sizeof buf,
+                  " m%d_port=%s m%d_lost=%d m%d_tm_age_s=%.3f m%d_time_ms=%" PRIu32 " m%d_omega_rpm=%.2f"
+                  " m%d_cmd_rpm=%.2f m%d_omega_cmd_rpm=%.2f m%d_position_counts=%" PRId32
+                  " m%d_current_a=%.3f m%d_voltage_v=%.3f m%d_pwm=%.4f m%d_status=0x%04x m%d_faults=%s"
+                  " m%d_rx_errors=%u m%d_encoder_errors=%u m%d_host_crc_errors=%u m%d_host_header_errors=%u"
+                  " m%d_host_bytes_skipped=%u",
+                  i, m.port.c_str(), i, (m.lost || !m.link) ? 1 : 0, i, ok ? t_s_ - m.last_valid_s : -1.0, i,
+                  tm.time_ms, i, tm.omega_crpm / 100.0, i, last_cmd_rpm_[std::size_t(i)], i,
+                  tm.omega_cmd_crpm / 100.0, i, tm.position_counts, i, tm.current_ma / 1000.0, i,
+                  tm.voltage_mv / 1000.0, i, tm.duty_x10000 / 10000.0, i, tm.status, i,
+                  (tm.status & PROTO_F_MASK) ? fault_bits_text(tm.status).c_str() : "none", i, tm.rx_errors, i,
+                  tm.encoder_errors, i, crc, i, hdr, i, skipped);
+    out += buf;
+  }
+  std::snprintf(buf, sizeof buf,
+                " imu_age_s=%.3f imu_psi_rad=%.4f imu_r_radps=%.4f pose_age_s=%.3f cam_x_m=%.4f cam_y_m=%.4f "
+                "cam_psi_rad=%.4f",
+                t_s_ - last_imu_t_s_, last_imu_psi_rad_, last_imu_r_radps_, t_s_ - last_pose_t_s_, last_pose_[0],
+                last_pose_[1], last_pose_[2]);
+  out += buf;
+  return out;
+}
+
+// Copies a follow trajectory beside the log (…-follow-N.waypoints: CSV, but not named .csv so that globs of the logs miss it), so that auger replay finds the
+// waypoints this run used. Returns N, or -1 if it could not be written (the motion goes on).
+int Daemon::save_trajectory() {
+  const int n = traj_n_++;
+  const std::string path = cfg_.log_dir + "/" + run_name_ + "-follow-" + std::to_string(n) + ".waypoints";
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  if (!f) return -1;
+  std::fprintf(f, "t_s,x_m,y_m,psi_rad\n");
+  for (const auto& w : waypoints_)
+    std::fprintf(f, "%.17g,%.17g,%.17g,%.17g\n", w.t_s, w.eta_p[0], w.eta_p[1], w.eta_p[2]);
+  const bool ok = std::fclose(f) == 0;
+  return ok ? n : -1;
 }
 
 std::string Daemon::status_line() const {
@@ -550,9 +759,9 @@ std::string Daemon::status_line() const {
       fault_module_ < 0 ? std::string("none") : std::to_string(fault_module_) + ":" + fault_reason_;
   std::snprintf(buf, sizeof buf,
                 "status t_s=%.3f enabled=%d mode=%s x_m=%.4f y_m=%.4f psi_rad=%.4f xd_m=%.4f yd_m=%.4f "
-                "psid_rad=%.4f fault=%s loop_dt_s=%.5f loop_jitter_max_s=%.5f",
+                "psid_rad=%.4f fault=%s loop_dt_s=%.5f loop_jitter_max_s=%.5f arrived=%d",
                 t_s_, enabled_ ? 1 : 0, mode_.c_str(), eta[0], eta[1], eta[2], eta_d[0], eta_d[1], eta_d[2],
-                fault.c_str(), loop_dt_s_, jitter_max_s_);
+                fault.c_str(), loop_dt_s_, jitter_max_s_, arrived_ ? 1 : 0);
   return buf;
 }
 
@@ -622,8 +831,15 @@ void Daemon::run() {
     }
     const std::array<double, 4>& ctrl_rpm = controller_->step(t_s_, tel, sensors_in_);
 
+    check_arrival();
     std::array<double, 4> cmd_rpm = zero;
-    if (enabled_ && mode_ == "vel") {
+    if (enabled_ && mode_ == "spin") {
+      if (t_s_ > vel_until_s_) mode_ = "idle";  // dead-man, as for vel
+      else {
+        const double lim = ctrl_cfg_.allocator.omega_max_rpm;
+        cmd_rpm[std::size_t(spin_module_)] = std::clamp(spin_rpm_, -lim, lim);
+      }
+    } else if (enabled_ && mode_ == "vel") {
       if (t_s_ > vel_until_s_) {
         mode_ = "idle";  // dead-man: the command was not repeated
       } else {
@@ -634,17 +850,22 @@ void Daemon::run() {
         const double scale = peak > lim ? lim / peak : 1.0;  // keep the direction when saturated
         for (std::size_t i = 0; i < 4; ++i) cmd_rpm[i] = w[int(i)] * scale;
       }
-    } else if (enabled_ && (mode_ == "goto" || mode_ == "follow")) {
+    } else if (enabled_ && (mode_ == "goto" || mode_ == "follow" || mode_ == "hold")) {
       cmd_rpm = ctrl_rpm;
     }
+    last_cmd_rpm_ = cmd_rpm;
     send_setpoints(cmd_rpm, enabled_);
     write_log(cmd_rpm);
     sensors_in_ = auger::SensorInput{};
+    ctrl_events_ = 0;
+    traj_logged_ = -1;
   }
   // Leave the motors stopped at once rather than after the modules' timeout.
   enabled_ = false;
   send_setpoints(zero, false);
   if (log_) log_->flush();
+  event(-1, "exit", "augerd stopped by signal; setpoints 0 sent");
+  if (events_) std::fclose(events_);
   if (cycles > 1) {
     const double n = double(cycles - 1), mean = sum_dt / n;
     std::fprintf(stderr,

@@ -2,6 +2,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <fstream>
 #include <stdexcept>
 
 #include <fcntl.h>
@@ -60,6 +61,16 @@ LineServer::~LineServer() {
   }
 }
 
+std::string LineServer::peer_text(int fd) {
+  ucred cred{};
+  socklen_t len = sizeof cred;
+  if (::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) != 0) return "unknown client";
+  std::string comm = "?";
+  std::ifstream f("/proc/" + std::to_string(cred.pid) + "/comm");
+  if (f) std::getline(f, comm);
+  return "pid " + std::to_string(cred.pid) + " (" + comm + ") uid " + std::to_string(cred.uid);
+}
+
 void LineServer::drop(std::size_t i) {
   ::close(clients_[i].fd);
   clients_.erase(clients_.begin() + static_cast<std::ptrdiff_t>(i));
@@ -73,7 +84,7 @@ void LineServer::serve(const std::function<std::string(const std::string&)>& han
       ::close(c);
       continue;
     }
-    clients_.push_back(Client{c, {}, {}, false});
+    clients_.push_back(Client{c, peer_text(c), {}, {}, false});
   }
   char buf[2048];
   for (std::size_t i = 0; i < clients_.size();) {
@@ -93,6 +104,7 @@ void LineServer::serve(const std::function<std::string(const std::string&)>& han
       else if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) gone = true;
       break;
     }
+    current_peer_ = cl.peer;
     std::size_t nl;
     while (!gone && (nl = cl.in.find('\n')) != std::string::npos) {
       std::string line = cl.in.substr(0, nl);

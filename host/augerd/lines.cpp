@@ -47,7 +47,7 @@ std::vector<std::string> split_fields(const std::string& line) {
 
 std::string parse_command(const std::string& line, Command& out) {
   const auto f = split_fields(line);
-  if (f.empty()) return "empty command (enable, stop, vel, goto, follow, allocator, status)";
+  if (f.empty()) return "empty command (enable, stop, vel, goto, follow, allocator, status, spin)";
   const std::string& w = f[0];
   auto arity = [&](std::size_t n, const char* usage) -> std::string {
     if (f.size() != n + 1) return "'" + w + "' takes " + std::to_string(n) + " argument(s): " + usage + ", got " + quote(line);
@@ -55,7 +55,12 @@ std::string parse_command(const std::string& line, Command& out) {
   };
   std::string err;
   Command c;
-  if (w == "enable" || w == "stop" || w == "status") {
+  if (w == "status" && f.size() == 2) {
+    // `status all`: the robot's line plus every module's telemetry (auger monitor, auger step).
+    if (f[1] != "all") return "'status' takes nothing or 'all', got " + quote(line);
+    c.kind = CommandKind::status;
+    c.text = "all";
+  } else if (w == "enable" || w == "stop" || w == "status") {
     if (!(err = arity(0, w.c_str())).empty()) return err;
     c.kind = w == "enable" ? CommandKind::enable : w == "stop" ? CommandKind::stop : CommandKind::status;
   } else if (w == "vel" || w == "goto") {
@@ -65,6 +70,11 @@ std::string parse_command(const std::string& line, Command& out) {
     if (!number(f[1], vel ? "u_mps" : "x_m", c.a, err) || !number(f[2], vel ? "v_mps" : "y_m", c.b, err) ||
         !number(f[3], vel ? "r_radps" : "psi_rad", c.c, err))
       return err;
+  } else if (w == "spin") {
+    if (!(err = arity(2, "spin <module 0..3> <omega_rpm>")).empty()) return err;
+    c.kind = CommandKind::spin;
+    if (!number(f[1], "module", c.a, err) || !number(f[2], "omega_rpm", c.b, err)) return err;
+    if (c.a != 0 && c.a != 1 && c.a != 2 && c.a != 3) return "module must be 0, 1, 2 or 3, got " + quote(f[1]);
   } else if (w == "follow") {
     if (!(err = arity(1, "follow <csv_path>")).empty()) return err;
     c.kind = CommandKind::follow;
@@ -75,7 +85,7 @@ std::string parse_command(const std::string& line, Command& out) {
     c.kind = CommandKind::allocator;
     c.text = f[1];
   } else {
-    return "unknown command " + quote(w) + " (enable, stop, vel, goto, follow, allocator, status)";
+    return "unknown command " + quote(w) + " (enable, stop, vel, goto, follow, allocator, status, spin)";
   }
   out = c;
   return "";

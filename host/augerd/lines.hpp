@@ -7,12 +7,12 @@
 
 namespace augerd {
 
-enum class CommandKind { enable, stop, vel, go_to, follow, allocator, status };
+enum class CommandKind { enable, stop, vel, go_to, follow, allocator, status, spin };
 
 struct Command {
   CommandKind kind = CommandKind::status;
-  double a = 0, b = 0, c = 0;  // vel: u_mps v_mps r_radps; goto: x_m y_m psi_rad
-  std::string text;            // follow: csv path; allocator: pinv | nullspace
+  double a = 0, b = 0, c = 0;  // vel: u_mps v_mps r_radps; goto: x_m y_m psi_rad; spin: module rpm
+  std::string text;            // follow: csv path; allocator: pinv | nullspace; status: "" | all
 };
 
 enum class SensorKind { pose, imu };

@@ -43,6 +43,8 @@ public:
 
     // Frames dropped by the host's parser (CRC, length, type).
     uint16_t dropped() const { return proto_parser_dropped(&parser_); }
+    // The host parser's counters (CRC and header errors, bytes skipped), for auger monitor.
+    const proto_parser_t& parser_stats() const { return parser_; }
     // Bytes received so far: with no valid frame among them, the line delivers only garbage.
     uint64_t bytes_received() const { return bytes_received_; }
     const std::string& port() const { return port_.path(); }

@@ -281,6 +281,16 @@ TEST_CASE("augerd runs four simulated modules in real time and stops safely", "[
     CHECK(deadman_s < 0.75);
     CHECK(talk(cmd, "status\n", 1).find("mode=idle") != std::string::npos);
 
+    // spin (auger step, auger calib): one module alone, the others at 0; it expires like vel.
+    {
+      CHECK(talk(cmd, "spin 1 5\n", 1) == "ok");
+      REQUIRE(wait_until([&] { return rig.module(1).tm.omega_cmd_crpm == 500; }, 0.5));
+      for (int m : {0, 2, 3}) CHECK(rig.module(m).tm.omega_cmd_crpm == 0);
+      CHECK(talk(cmd, "status\n", 1).find("mode=spin") != std::string::npos);
+      CHECK(wait_until([&] { return rig.module(1).tm.omega_cmd_crpm == 0; }, 1.0));
+      CHECK(talk(cmd, "status\n", 1).find("mode=idle") != std::string::npos);
+    }
+
     struct LineFault {
       const char* name;
       int port;          // rig port k, wired to module perm[k]
@@ -333,6 +343,10 @@ TEST_CASE("augerd runs four simulated modules in real time and stops safely", "[
       const std::string st = talk(cmd, "status\n", 1);
       INFO(st);
       CHECK(st.find("fault=1:F_UNDERVOLTAGE") != std::string::npos);
+      // status all names the bit per module (auger monitor shows it).
+      const std::string all = talk(cmd, "status all\n", 1);
+      CHECK(all.find(" m1_faults=F_UNDERVOLTAGE ") != std::string::npos);
+      CHECK(all.find(" m0_faults=none ") != std::string::npos);
       rig.set_battery_v(1, 0.0);
       sleep_s(0.2);
       std::string en;
@@ -340,6 +354,24 @@ TEST_CASE("augerd runs four simulated modules in real time and stops safely", "[
       REQUIRE(en == "ok");
       sleep_s(0.1);
       CHECK(talk(cmd, "status\n", 1).find("fault=none") != std::string::npos);
+    }
+
+    // The fault event log beside the data log: each fault with its module, port and what
+    // augerd did, and who enabled again, flushed at once (read while augerd runs).
+    {
+      FILE* p = popen(("cat " + dir + "/log/*-events.log").c_str(), "r");
+      REQUIRE(p);
+      std::string events;
+      char buf[4096];
+      for (size_t n; (n = fread(buf, 1, sizeof buf, p)) > 0;) events.append(buf, n);
+      pclose(p);
+      INFO(events);
+      for (const char* want : {" module=2 port=", "event=no-telemetry action=\"no telemetry for",
+                               " module=0 port=", "event=corrupt-frames", " module=3 port=", "event=port-error",
+                               "event=F_UNDERVOLTAGE action=\"reports F_UNDERVOLTAGE; stopped all screws (was vel), "
+                               "waiting for enable\"",
+                               "event=re-enabled action=\"fault F_UNDERVOLTAGE cleared by enable from pid "})
+        CHECK(events.find(want) != std::string::npos);
     }
 
     // kill -9: nothing stops the motors but their own 250 ms command timeout.

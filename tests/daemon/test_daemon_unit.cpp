@@ -25,10 +25,19 @@ TEST_CASE("command lines", "[daemon][unit]") {
   CHECK(c.text == "pinv");
   CHECK(parse_command("follow /tmp/a.csv", c).empty());
   CHECK(c.text == "/tmp/a.csv");
+  CHECK(parse_command("spin 2 -7.5", c).empty());
+  CHECK(c.kind == CommandKind::spin);
+  CHECK(c.a == 2);
+  CHECK(c.b == -7.5);
+  CHECK(parse_command("status all", c).empty());
+  CHECK((c.kind == CommandKind::status && c.text == "all"));
+  CHECK(parse_command("status", c).empty());
+  CHECK(c.text.empty());  // plain status: the short line
   for (const char* ok : {"enable", "stop", "status", "status\r"}) CHECK(parse_command(ok, c).empty());
   for (const char* bad : {"", "   ", "Enable", "vel", "vel 1 2", "vel 1 2 3 4", "vel 1 2 x", "vel 1 2 3x",
                           "vel nan 0 0", "vel inf 0 0", "vel 1e400 0 0", "goto 1 2", "allocator", "allocator qr",
-                          "follow", "follow a b", "stop now", "status 1"}) {
+                          "follow", "follow a b", "stop now", "status 1", "status all x", "spin", "spin 1",
+                          "spin 4 1", "spin -1 1", "spin 1.5 2", "spin 1 x", "spin 1 nan", "spin 1 2 3"}) {
     Command before;
     before.kind = CommandKind::stop;
     Command out = before;

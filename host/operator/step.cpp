@@ -1,0 +1,229 @@
+// auger step MODULE RPM: a velocity step on one module, directly on its serial port (augerd not
+// running) or through augerd's `spin` command; every telemetry frame recorded (the module sends
+// one per 10 ms), summarised against the firmware's step-test criteria, optionally written to
+// CSV and plotted with gnuplot. docs/operator.md.
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+#include "augerd_client.hpp"
+#include "common.hpp"
+#include "module_link.hpp"
+#include "operator.hpp"
+#include "step_metrics.hpp"
+
+namespace auger::op {
+namespace {
+
+constexpr double kBefore_s = 0.5;  // at the starting speed before the step
+
+void step_usage(std::FILE* f) {
+  std::fprintf(f,
+               "usage: auger step MODULE RPM [--from RPM] [--duration S] [--port DEV [--baud N] | --socket PATH]\n"
+               "                  [--enable] [--out CSV] [--plot SVG|-]\n"
+               "A velocity step of module MODULE (0..3) from --from (default 0) to RPM, held --duration\n"
+               "seconds (default 1.5). --port: directly on the module's serial port (augerd must not run);\n"
+               "else through augerd's commands socket (default %s; the robot must be\n"
+               "enabled and not tracking; --enable sends enable first and stop after). Prints rise time\n"
+               "(10-90 %%), overshoot, steady-state error (mean over the last 0.5 s) and settling time (5 %%\n"
+               "band) against the firmware's criteria; exit 1 if one fails. --plot - draws in the terminal.\n",
+               auger::cli::kDefaultCommandsSocket);
+}
+
+struct Recorder {
+  std::vector<StepSample> samples;
+  std::vector<double> cmd_rpm;
+  uint32_t last_ms = 0;
+  bool have = false;
+  double t0_ms = 0;
+  // Keyed on the module's clock, as augerd does: each telemetry frame once.
+  void add(uint32_t time_ms, double omega_rpm, double cmd) {
+    if (have && int32_t(time_ms - last_ms) <= 0) return;
+    if (!have) t0_ms = time_ms;
+    have = true;
+    last_ms = time_ms;
+    samples.push_back({(double(time_ms) - t0_ms) / 1000.0, omega_rpm});
+    cmd_rpm.push_back(cmd);
+  }
+};
+
+// Directly on the port: setpoints at 100 Hz with ENABLE (and CLEAR_FAULTS on the first).
+void run_direct(const std::string& port, unsigned baud, int module, double from_rpm, double to_rpm, double hold_s,
+                Recorder& rec, double& t_step_s) {
+  io::ModuleLink link(port, baud);
+  const proto_identity_t id = link.identify(4.0);
+  if (id.module_id != module)
+    throw std::runtime_error(port + " has module " + std::to_string(id.module_id) + ", not " + std::to_string(module));
+  const double t0 = now_s();
+  uint16_t seq = 0;
+  std::vector<proto_frame_t> frames;
+  bool stepped = false;
+  for (double next = t0; now_s() - t0 < kBefore_s + hold_s; next += 0.01) {
+    const double t = now_s() - t0;
+    const double rpm = t < kBefore_s ? from_rpm : to_rpm;
+    proto_setpoint_t sp{};
+    sp.seq = seq++;
+    sp.omega_crpm = int16_t(std::lround(rpm * 100));
+    sp.flags = uint8_t(PROTO_SP_ENABLE | (seq == 1 ? PROTO_SP_CLEAR_FAULTS : 0));
+    uint8_t buf[PROTO_MAX_FRAME];
+    link.send_frame(buf, proto_encode_setpoint(&sp, buf));
+    frames.clear();
+    link.pump(frames);
+    for (const auto& f : frames) {
+      proto_telemetry_t tm;
+      if (!proto_decode_telemetry(&f, &tm)) continue;
+      rec.add(tm.time_ms, tm.omega_crpm / 100.0, tm.omega_cmd_crpm / 100.0);
+      if (tm.status & PROTO_F_MASK) throw std::runtime_error(port + ": module reports " + fault_bits_text(tm.status));
+      if (!stepped && rpm == to_rpm && !rec.samples.empty()) {
+        // The step is the first frame whose setpoint in use is the new one.
+        if (std::fabs(tm.omega_cmd_crpm / 100.0 - to_rpm) < 0.01) {
+          t_step_s = rec.samples.back().t_s;
+          stepped = true;
+        }
+      }
+    }
+    sleep_s(next + 0.01 - now_s());
+  }
+  // Motor off: a setpoint 0 without ENABLE.
+  proto_setpoint_t sp{};
+  sp.seq = seq++;
+  uint8_t buf[PROTO_MAX_FRAME];
+  link.send_frame(buf, proto_encode_setpoint(&sp, buf));
+  if (!stepped) throw std::runtime_error(port + ": the module never applied the new setpoint");
+}
+
+// Through augerd: `spin MODULE RPM` refreshed every cycle (it expires like vel), `status all`
+// polled every cycle; answers come once per augerd cycle, so the loop runs at its rate.
+void run_augerd(const std::string& socket, bool enable, int module, double from_rpm, double to_rpm, double hold_s,
+                Recorder& rec, double& t_step_s) {
+  cli::AugerdClient c(socket);
+  const std::string m = "m" + std::to_string(module) + "_";
+  if (enable) {
+    const std::string a = c.request("enable");
+    if (a != "ok") throw std::runtime_error("augerd refused enable: " + a);
+  }
+  const double t0 = now_s();
+  bool stepped = false;
+  // Two requests in flight: augerd serves the socket once per cycle, so one pair is always
+  // waiting for the next cycle and every cycle yields a sample.
+  auto send_pair = [&] {
+    char line[64];
+    std::snprintf(line, sizeof line, "spin %d %.3f", module, now_s() - t0 < kBefore_s ? from_rpm : to_rpm);
+    if (!c.send_line(line) || !c.send_line("status all")) throw std::runtime_error("augerd went away");
+  };
+  send_pair();
+  send_pair();
+  while (now_s() - t0 < kBefore_s + hold_s) {
+    std::string a, st;
+    if (!c.read_line(a) || !c.read_line(st)) throw std::runtime_error("augerd did not answer");
+    if (a != "ok") throw std::runtime_error("augerd: " + a);
+    send_pair();
+    const auto kv = cli::parse_status(st);
+    if (kv.count("fault") && kv.at("fault") != "none") throw std::runtime_error("augerd reports fault=" + kv.at("fault"));
+    const double tms = cli::status_number(kv, m + "time_ms"), cmd = cli::status_number(kv, m + "omega_cmd_rpm");
+    if (std::isnan(tms)) throw std::runtime_error("augerd's status all has no " + m + "time_ms (an older augerd?)");
+    rec.add(uint32_t(tms), cli::status_number(kv, m + "omega_rpm"), cmd);
+    if (!stepped && std::fabs(cmd - to_rpm) < 0.01 && !rec.samples.empty()) {
+      t_step_s = rec.samples.back().t_s;
+      stepped = true;
+    }
+  }
+  for (int i = 0; i < 4; ++i) {  // the two pairs still in flight
+    std::string a;
+    c.read_line(a);
+  }
+  c.request("spin " + std::to_string(module) + " 0");
+  if (enable) c.request("stop");
+  if (!stepped) throw std::runtime_error("the module never applied the new setpoint");
+}
+
+void write_csv(const std::string& path, const Recorder& rec) {
+  std::ofstream f(path);
+  f << "t_s,omega_rpm,omega_cmd_rpm\n";
+  for (std::size_t i = 0; i < rec.samples.size(); ++i)
+    f << rec.samples[i].t_s << "," << rec.samples[i].omega_rpm << "," << rec.cmd_rpm[i] << "\n";
+  if (!f) throw std::runtime_error("cannot write " + path);
+}
+
+}  // namespace
+
+int run_step(int argc, char** argv) {
+  try {
+    std::vector<std::string> pos;
+    std::string port, socket = cli::kDefaultCommandsSocket, out, plot;
+    unsigned baud = io::ModuleLink::kDefaultBaud;
+    double from_rpm = 0, hold_s = 1.5;
+    bool enable = false;
+    for (int i = 1; i < argc; ++i) {
+      const std::string a = argv[i];
+      if (a == "--help" || a == "-h") return step_usage(stdout), 0;
+      if (a == "--port") port = option_value(argc, argv, i);
+      else if (a == "--baud") baud = unsigned(parse_number(a, option_value(argc, argv, i)));
+      else if (a == "--socket") socket = option_value(argc, argv, i);
+      else if (a == "--from") from_rpm = parse_number(a, option_value(argc, argv, i));
+      else if (a == "--duration") hold_s = parse_number(a, option_value(argc, argv, i));
+      else if (a == "--out") out = option_value(argc, argv, i);
+      else if (a == "--plot") plot = option_value(argc, argv, i);
+      else if (a == "--enable") enable = true;
+      else if (a.size() > 1 && a[0] == '-' && !(a[1] >= '0' && a[1] <= '9')) throw UsageError("unknown option " + a);
+      else pos.push_back(a);
+    }
+    if (pos.size() != 2) throw UsageError("expected MODULE and RPM");
+    const double module_d = parse_number("MODULE", pos[0]);
+    if (module_d != 0 && module_d != 1 && module_d != 2 && module_d != 3) throw UsageError("MODULE must be 0..3");
+    const int module = int(module_d);
+    const double to_rpm = parse_number("RPM", pos[1]);
+    if (to_rpm == from_rpm) throw UsageError("RPM equals the starting speed (--from): no step");
+    if (!(hold_s >= 0.6 && hold_s <= 60)) throw UsageError("--duration must be within 0.6 .. 60 s");
+    Recorder rec;
+    double t_step_s = NAN;
+    try {
+      if (!port.empty()) run_direct(port, baud, module, from_rpm, to_rpm, hold_s, rec, t_step_s);
+      else run_augerd(socket, enable, module, from_rpm, to_rpm, hold_s, rec, t_step_s);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "auger step: %s\n", e.what());
+      return 3;
+    }
+    const StepSummary s = summarize_step(rec.samples, t_step_s, from_rpm, to_rpm);
+    const bool rise_ok = s.rise_time_s <= kRiseMax_s, over_ok = s.overshoot_pct <= kOvershootMax_pct,
+               err_ok = s.steady_error_rpm <= kSteadyErrorMax_rpm;
+    std::printf("step module %d: %.2f -> %.2f rpm, %d samples after the step (%.0f Hz)\n", module, from_rpm, to_rpm,
+                s.samples, s.samples > 1 ? (s.samples - 1) / (rec.samples.back().t_s - t_step_s) : 0.0);
+    std::printf("  rise time (10-90 %%)  %.3f s    (<= %.1f s: %s)\n", s.rise_time_s, kRiseMax_s, rise_ok ? "ok" : "FAIL");
+    std::printf("  overshoot           %.1f %%     (<= %.0f %%: %s)\n", s.overshoot_pct, kOvershootMax_pct,
+                over_ok ? "ok" : "FAIL");
+    std::printf("  steady-state error  %.3f rpm  (<= %.1f rpm: %s)\n", s.steady_error_rpm, kSteadyErrorMax_rpm,
+                err_ok ? "ok" : "FAIL");
+    std::printf("  settling time (5 %%) %.3f s\n", s.settling_time_s);
+    std::string csv = out;
+    if (csv.empty() && !plot.empty()) csv = "/tmp/auger-step-" + std::to_string(getpid()) + ".csv";
+    if (!csv.empty()) write_csv(csv, rec);
+    if (!plot.empty()) {
+      const std::string term = plot == "-" ? "set terminal dumb 100 30" : "set terminal svg size 800,480; set output '" + plot + "'";
+      const std::string cmd = "gnuplot -e \"" + term + "; set datafile separator ','; set key autotitle columnhead; "
+                              "set xlabel 't (s)'; set ylabel 'omega (rpm)'; plot '" + csv +
+                              "' using 1:2 with lines, '' using 1:3 with steps\"";
+      std::fflush(stdout);
+      if (std::system(cmd.c_str()) != 0) std::fprintf(stderr, "auger step: gnuplot failed (%s)\n", cmd.c_str());
+      else if (plot != "-") std::printf("  plot: %s\n", plot.c_str());
+      if (out.empty()) std::remove(csv.c_str());
+    }
+    if (!out.empty()) std::printf("  samples: %s\n", out.c_str());
+    return rise_ok && over_ok && err_ok ? 0 : 1;
+  } catch (const UsageError& e) {
+    std::fprintf(stderr, "auger step: %s\n", e.what());
+    step_usage(stderr);
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "auger step: %s\n", e.what());
+    return 3;
+  }
+}
+
+}  // namespace auger::op
