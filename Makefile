@@ -51,7 +51,7 @@ host: deps firmware
 # Only the programs of the `unit` tests are built here (a unit test missing from this list
 # makes `ctest -L unit` below fail, not pass).
 ASAN_TARGETS := test_protocol test_firmware_logic test_host_core test_sim_models \
-                test_robot_unit test_daemon_unit
+                test_robot_unit test_daemon_unit test_operator_unit
 asan: deps firmware
 	cmake -S . -B $(ASAN_BUILD) -G $(CMAKE_GENERATOR) -DCMAKE_BUILD_TYPE=Debug \
 	  -DAUGER_SANITIZE=ON -DAUGER_WITH_SIM=ON
