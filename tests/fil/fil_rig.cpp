@@ -1,5 +1,7 @@
 #include "fil_rig.hpp"
 
+#include "step_metrics.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -134,28 +136,12 @@ const Telemetry& Rig::last(int m) const
 StepMetrics step_metrics(const std::vector<Telemetry>& tel, double t_step_s, double omega0_rpm,
                          double omega1_rpm)
 {
-    const double step = omega1_rpm - omega0_rpm;
-    const double dir = step > 0 ? 1.0 : -1.0;
-    double t10 = NAN, t90 = NAN, peak = omega0_rpm;
-    double t_end = tel.empty() ? 0 : tel.back().t_s;
-    double err_sum = 0;  // signed: steady-state error is the mean offset, not the jitter
-    int err_n = 0;
-    for (const auto& s : tel) {
-        if (s.t_s < t_step_s) continue;
-        double progress = (s.omega_rpm() - omega0_rpm) / step;
-        if (std::isnan(t10) && progress >= 0.1) t10 = s.t_s;
-        if (std::isnan(t90) && progress >= 0.9) t90 = s.t_s;
-        if (dir * (s.omega_rpm() - peak) > 0) peak = s.omega_rpm();
-        if (s.t_s >= t_end - 0.5) {
-            err_sum += s.omega_rpm() - omega1_rpm;
-            ++err_n;
-        }
-    }
-    StepMetrics r;
-    r.rise_time_s = (std::isnan(t10) || std::isnan(t90)) ? INFINITY : t90 - t10;
-    r.overshoot_pct = std::max(0.0, dir * (peak - omega1_rpm) / std::fabs(step) * 100.0);
-    r.steady_error_rpm = err_n ? std::fabs(err_sum / err_n) : INFINITY;
-    return r;
+    // One definition of the figures for this test and `auger step` (host/operator).
+    std::vector<auger::op::StepSample> samples;
+    samples.reserve(tel.size());
+    for (const auto& s : tel) samples.push_back({s.t_s, s.omega_rpm()});
+    const auger::op::StepSummary sum = auger::op::summarize_step(samples, t_step_s, omega0_rpm, omega1_rpm);
+    return StepMetrics{sum.rise_time_s, sum.overshoot_pct, sum.steady_error_rpm};
 }
 
 }  // namespace auger::fil
