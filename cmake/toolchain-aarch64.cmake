@@ -38,3 +38,7 @@ find_program(AUGER_QEMU_AARCH64 qemu-aarch64)
 if(AUGER_QEMU_AARCH64)
   set(CMAKE_CROSSCOMPILING_EMULATOR ${AUGER_QEMU_AARCH64} -L /usr/aarch64-linux-gnu)
 endif()
+
+# pkg-config (pkg_check_modules) must describe the arm64 libraries, not the build machine's.
+set(ENV{PKG_CONFIG_LIBDIR} /usr/lib/aarch64-linux-gnu/pkgconfig:/usr/share/pkgconfig)
+set(ENV{PKG_CONFIG_PATH} "")

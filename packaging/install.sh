@@ -2,7 +2,9 @@
 # `make install` / `make uninstall` (docs/board.md). Installs the board's binaries, the models,
 # the firmware image and the flashing scripts, the configuration (never overwriting one that is
 # there), the systemd unit, the service user's sysusers.d entry and the udev rule example, and
-# writes a manifest of what it added so that uninstall removes exactly that.
+# writes a manifest of what it added so that uninstall removes exactly that. The manifest holds
+# the paths without DESTDIR: a tree staged with DESTDIR and unpacked on the board uninstalls
+# there. Paths must not contain spaces.
 #   packaging/install.sh install|uninstall
 # Environment (the Makefile passes them): FROM (the CMake build holding host/augerd/augerd,
 # host/auger/auger, host/tools/auger-module), DESTDIR (empty), PREFIX (/usr/local),
@@ -31,7 +33,7 @@ make_dir() {
   while [[ ! -d $p ]]; do missing=("$p" "${missing[@]}"); p=$(dirname "$p"); done
   for p in "${missing[@]}"; do
     mkdir -m 0755 "$p"
-    entries+=("d $p")
+    entries+=("d ${p#"$DESTDIR"}")
   done
 }
 # put MODE SOURCE TARGET: copy, or with a sed script in SED substitute the @...@ names.
@@ -45,7 +47,7 @@ put() {
   else
     install -m "$mode" "$from" "$to"
   fi
-  entries+=("f $(sha256sum "$to" | cut -d' ' -f1) $to")
+  entries+=("f $(sha256sum "$to" | cut -d' ' -f1) ${to#"$DESTDIR"}")
 }
 
 do_install() {
@@ -99,6 +101,7 @@ do_uninstall() {
   while read -r kind sum path; do
     case $kind in
       f)
+        path=$DESTDIR$path
         [[ -e $path ]] || continue
         # An edited configuration is the operator's: keep it.
         if [[ $(sha256sum "$path" | cut -d' ' -f1) != "$sum" ]]; then
@@ -106,7 +109,7 @@ do_uninstall() {
         else
           rm -f "$path"
         fi ;;
-      d) dirs=("$sum" "${dirs[@]}") ;;  # "d PATH": the path is the second field
+      d) dirs=("$DESTDIR$sum" "${dirs[@]}") ;;  # "d PATH": the path is the second field
     esac
   done < "$manifest"
   rm -f "$manifest"
@@ -114,8 +117,11 @@ do_uninstall() {
   # was not ours stays.
   local d
   for d in "${dirs[@]}"; do rmdir "$d" 2>/dev/null || echo "install: $d not empty: kept"; done
-  if system_install && [[ -d /run/systemd/system ]]; then systemctl daemon-reload; fi
-  echo "install: uninstalled (the user auger stays, as sysusers.d(5) intends: userdel auger)"
+  echo "install: uninstalled"
+  if system_install; then
+    [[ -d /run/systemd/system ]] && systemctl daemon-reload
+    echo "install: the user auger stays, as sysusers.d(5) intends (userdel auger to remove it)"
+  fi
 }
 
 case $action in
