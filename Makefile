@@ -17,6 +17,7 @@
 # The robot's board (A64-OLinuXino, aarch64; docs/board.md):
 #   make board       augerd, auger, auger-module for aarch64 (cross on x86, native on aarch64),
 #                    in build-aarch64/ (BOARD_BUILD)
+#   make board-test  the unit tests of the board build under qemu-user (or natively)
 #   make install / uninstall   [DESTDIR=] [PREFIX=/usr/local] [SYSCONFDIR=/etc] [INSTALL_FROM=build-aarch64]
 #   make flash-all PORTS="P0 P1 P2 P3"   flash the four modules, ids 0..3 in that order, check them
 #   make bench-board      the controller step's aarch64 instructions (qemu) and an A53 estimate
@@ -33,7 +34,7 @@ HOST_WARN := -Wall -Wextra -Werror -pedantic
 
 .PHONY: all deps firmware flash host asan check-protocol fuzz fuzz-smoke test test-full demo \
         bench-protocol bench-firmware bench-host bench-robot pid-units clean \
-        board board-deps install uninstall flash-all bench-board
+        board board-deps board-test install uninstall flash-all bench-board
 
 all: host
 
@@ -134,9 +135,10 @@ clean:
 # ---- The robot's board: A64-OLinuXino, Cortex-A53, aarch64 Debian 12 (issue 7, docs/board.md) ----
 BOARD_BUILD ?= build-aarch64
 BOARD_TARGETS := augerd auger auger-module
-BOARD_CPU := -mcpu=cortex-a53
+# The same flags as cmake/toolchain-aarch64.cmake (which says why -ffp-contract=off).
+BOARD_FLAGS := -mcpu=cortex-a53 -ffp-contract=off
 ifeq ($(shell uname -m),aarch64)
-BOARD_CMAKE := -DCMAKE_C_FLAGS=$(BOARD_CPU) -DCMAKE_CXX_FLAGS=$(BOARD_CPU)
+BOARD_CMAKE := "-DCMAKE_C_FLAGS=$(BOARD_FLAGS)" "-DCMAKE_CXX_FLAGS=$(BOARD_FLAGS)"
 else
 BOARD_CMAKE := -DCMAKE_TOOLCHAIN_FILE=$(CURDIR)/cmake/toolchain-aarch64.cmake
 endif
@@ -151,6 +153,13 @@ board: board-deps
 	cmake -S . -B $(BOARD_BUILD) -G $(CMAKE_GENERATOR) -DCMAKE_BUILD_TYPE=Release \
 	  -DAUGER_SANITIZE=OFF -DAUGER_WITH_SIM=OFF $(BOARD_CMAKE)
 	cmake --build $(BOARD_BUILD) -j $(JOBS) --target $(BOARD_TARGETS)
+
+# The unit tests of the board build, run under qemu-user (CMAKE_CROSSCOMPILING_EMULATOR of the
+# toolchain file) or natively on aarch64: the host core's arithmetic on the board's ISA.
+BOARD_TEST_TARGETS := test_protocol test_firmware_logic test_host_core
+board-test: board
+	cmake --build $(BOARD_BUILD) -j $(JOBS) --target $(BOARD_TEST_TARGETS)
+	cd $(BOARD_BUILD) && ctest --output-on-failure
 
 # No build here: on the board `make board` as the user, then `sudo make install`; or stage a
 # tree on the workstation with DESTDIR and unpack it on the board. packaging/install.sh.
