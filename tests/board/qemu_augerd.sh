@@ -6,7 +6,7 @@
 # the simulated camera and IMU). auger-module (aarch64) commissions the ids; augerd must
 # identify all four modules, listed out of order, on the right ports; `auger cmd` (aarch64)
 # sends a goto, and the robot must arrive, judged on the simulator's true pose, with augerd's
-# estimate agreeing.
+# estimate agreeing. Also: the installed augerd accepts the installed configuration.
 # Usage: qemu_augerd.sh BUILD_DIR SOURCE_DIR BOARD_BUILD_DIR (AUGER_BOARD_BUILD, if set, overrides it)
 set -euo pipefail
 build=$1 src=$2 board=${AUGER_BOARD_BUILD:-$3}
@@ -47,6 +47,15 @@ auger=$work/bin/host/auger/auger
 # Runs under qemu at all: usage errors exit 2 from the aarch64 programs themselves.
 rc=0; "$auger" cmd > "$work/usage.out" 2>&1 || rc=$?
 ((rc == 2)) || fail "aarch64 auger with bad usage: exit $rc, expected 2"
+
+# The installed configuration is valid for the installed augerd: make install's layout with
+# these binaries into a scratch PREFIX/SYSCONFDIR (no DESTDIR, so the paths written into the
+# configuration are the scratch ones), then augerd --check.
+PREFIX=$work/prefix SYSCONFDIR=$work/etc FROM=$board bash "$src/packaging/install.sh" install > "$work/install.out" ||
+  fail "install of the board binaries failed"
+"${run[@]}" "$work/prefix/bin/augerd" --config "$work/etc/auger/augerd.toml" --check > "$work/check.out" 2>&1 ||
+  fail "the installed augerd refuses the installed configuration"
+grep -q "augerd.toml is valid" "$work/check.out" || fail "augerd --check said nothing"
 
 AUGER_BUILD=$work/bin AUGER_SRC=$src
 # shellcheck source=../../scripts/sim-robot.sh
