@@ -17,7 +17,9 @@ for b in host/augerd/augerd host/auger/auger host/tools/auger-module; do
   printf '#!/bin/sh\necho %s "$@"\n' "$(basename "$b")" > "$from/$b"
   chmod 755 "$from/$b"
 done
-inst() { make --no-print-directory -s -C "$src" "$@" INSTALL_FROM="$from" DESTDIR="$d"; }
+# Run from `make test`, the outer make's command-line variables (MAKEFLAGS) must not leak in.
+unset MAKEFLAGS MFLAGS MAKELEVEL
+inst() { make --no-print-directory -s -C "$src" "$@" INSTALL_FROM="$from" DESTDIR="$d" PREFIX="${t_prefix:-/usr/local}" SYSCONFDIR="${t_sysconfdir:-/etc}"; }
 tree() { (cd "$d" && find . -printf '%y %m %p\n' | sort); }
 
 # 1. A fresh DESTDIR.
@@ -94,7 +96,17 @@ grep -q "augerd.toml changed since install: kept" "$work/out" || fail "no word a
 left=$(cd "$d" && find . -type f)
 [[ $left == "./etc/auger/augerd.toml" ]] || fail "after uninstall with an edited config: $left"
 
-# 4. Nothing built: a clear error naming the file.
+# 4. Another PREFIX and SYSCONFDIR reach the unit and the configuration.
+d=$work/root5
+mkdir -p "$d"
+t_prefix=/usr t_sysconfdir=/etc/opt inst install > /dev/null
+grep -qx 'ExecStart=/usr/bin/augerd --config /etc/opt/auger/augerd.toml' "$d/usr/lib/systemd/system/augerd.service" ||
+  fail "PREFIX=/usr: $(grep ExecStart "$d/usr/lib/systemd/system/augerd.service" 2>&1)"
+grep -qx 'file = "/usr/share/auger/models/robot.toml"' "$d/etc/opt/auger/augerd.toml" || fail "PREFIX=/usr: the config's model"
+t_prefix=/usr t_sysconfdir=/etc/opt inst uninstall > /dev/null
+[[ -z $(find "$d" -mindepth 1) ]] || fail "PREFIX=/usr: uninstall left $(find "$d" -mindepth 1)"
+
+# 5. Nothing built: a clear error naming the file.
 d=$work/root4
 mkdir -p "$d"
 rm "$from/host/auger/auger"
