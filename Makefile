@@ -14,6 +14,13 @@
 #   make bench-firmware   firmware cycles, edge rates, CPU load, simulation speed (docs/benchmarks.md)
 #   make bench-host       instructions and time per host controller step (callgrind)
 #   make bench-robot      speed of the whole simulated robot in lock-step
+# The robot's board (A64-OLinuXino, aarch64; docs/board.md):
+#   make board       augerd, auger, auger-module for aarch64 (cross on x86, native on aarch64),
+#                    in build-aarch64/ (BOARD_BUILD)
+#   make board-test  the unit tests of the board build under qemu-user (or natively)
+#   make install / uninstall   [DESTDIR=] [PREFIX=/usr/local] [SYSCONFDIR=/etc] [INSTALL_FROM=build-aarch64]
+#   make flash-all PORTS="P0 P1 P2 P3"   flash the four modules, ids 0..3 in that order, check them
+#   make bench-board      the controller step's aarch64 instructions (qemu) and an A53 estimate
 SHELL := /bin/bash
 .SHELLFLAGS := -eu -o pipefail -c
 JOBS ?= $(shell nproc)
@@ -26,7 +33,8 @@ AVR_CFLAGS := -mmcu=atmega328p -DF_CPU=16000000UL -std=c99 -Os -Wall -Wextra -We
 HOST_WARN := -Wall -Wextra -Werror -pedantic
 
 .PHONY: all deps firmware flash host asan check-protocol fuzz fuzz-smoke test test-full demo \
-        bench-protocol bench-firmware bench-host bench-robot pid-units clean
+        bench-protocol bench-firmware bench-host bench-robot pid-units clean \
+        board board-deps board-test install uninstall flash-all bench-board
 
 all: host
 
@@ -89,9 +97,9 @@ fuzz-smoke: $(FUZZ_BUILD)/fuzz_parser $(FUZZ_BUILD)/corpus
 	$(FUZZ_BUILD)/fuzz_parser -runs=300000 -seed=1 -max_len=512 -print_final_stats=1 \
 	  $(FUZZ_BUILD)/smoke $(FUZZ_BUILD)/corpus 2>&1 | tail -n 3
 
-test: deps check-protocol host asan fuzz-smoke
+test: deps check-protocol host asan fuzz-smoke board
 	cd $(ASAN_BUILD) && ctest --output-on-failure -L unit -j $(JOBS)
-	cd $(BUILD) && ctest --output-on-failure
+	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) ctest --output-on-failure
 
 # Longer suites (docs/benchmarks.md has their times): the parser fuzzer for 5 million inputs,
 # and the sand diagonal with the firmware in the loop across the blocking thresholds.
@@ -123,3 +131,60 @@ pid-units: host
 clean:
 	rm -rf $(BUILD) $(ASAN_BUILD) $(FUZZ_BUILD)
 	$(MAKE) -C firmware clean
+
+# ---- The robot's board: A64-OLinuXino, Cortex-A53, aarch64 Debian 12 (issue 7, docs/board.md) ----
+BOARD_BUILD ?= build-aarch64
+BOARD_TARGETS := augerd auger auger-module
+# The same flags as cmake/toolchain-aarch64.cmake (which says why -ffp-contract=off).
+BOARD_FLAGS := -mcpu=cortex-a53 -ffp-contract=off
+ifeq ($(shell uname -m),aarch64)
+BOARD_CMAKE := "-DCMAKE_C_FLAGS=$(BOARD_FLAGS)" "-DCMAKE_CXX_FLAGS=$(BOARD_FLAGS)"
+else
+BOARD_CMAKE := -DCMAKE_TOOLCHAIN_FILE=$(CURDIR)/cmake/toolchain-aarch64.cmake
+endif
+
+# Only what building for the board needs (not the simulator, fuzzer or benchmark tools).
+board-deps:
+	@bash scripts/install-deps.sh board
+
+# The simulator and the tests are off: they run on the workstation (tests/board runs these
+# binaries under qemu-user there).
+board: board-deps
+	cmake -S . -B $(BOARD_BUILD) -G $(CMAKE_GENERATOR) -DCMAKE_BUILD_TYPE=Release \
+	  -DAUGER_SANITIZE=OFF -DAUGER_WITH_SIM=OFF $(BOARD_CMAKE)
+	cmake --build $(BOARD_BUILD) -j $(JOBS) --target $(BOARD_TARGETS)
+
+# The unit tests of the board build, run under qemu-user (CMAKE_CROSSCOMPILING_EMULATOR of the
+# toolchain file) or natively on aarch64: the host core's arithmetic on the board's ISA.
+BOARD_TEST_TARGETS := test_protocol test_firmware_logic test_host_core
+board-test: board
+	cmake --build $(BOARD_BUILD) -j $(JOBS) --target $(BOARD_TEST_TARGETS)
+	cd $(BOARD_BUILD) && ctest --output-on-failure
+
+# No build here: on the board `make board` as the user, then `sudo make install`; or stage a
+# tree on the workstation with DESTDIR and unpack it on the board. packaging/install.sh.
+PREFIX ?= /usr/local
+SYSCONFDIR ?= /etc
+DESTDIR ?=
+INSTALL_FROM ?= $(BOARD_BUILD)
+install uninstall:
+	FROM=$(abspath $(INSTALL_FROM)) DESTDIR=$(DESTDIR) PREFIX=$(PREFIX) SYSCONFDIR=$(SYSCONFDIR) \
+	  bash packaging/install.sh $@
+
+# The four modules on PORTS (id n for the n-th); the image is built here when avr-gcc is
+# installed, else firmware/build/auger-module.hex must have been copied from a workstation.
+# auger-module: the installed one, else that of $(BUILD) or $(BOARD_BUILD) that runs here.
+PORTS ?=
+flash-all:
+	@[[ -n "$(PORTS)" ]] || { echo 'make flash-all PORTS="/dev/auger-module-0 ... -3"' >&2; exit 2; }
+	if command -v avr-gcc >/dev/null; then $(MAKE) -C firmware; fi
+	tool=$$(command -v auger-module || true); \
+	for t in $(BUILD)/host/tools/auger-module $(BOARD_BUILD)/host/tools/auger-module; do \
+	  [[ -n "$$tool" ]] || ! "$$t" --help >/dev/null 2>&1 || tool=$$t; \
+	done; \
+	AUGER_MODULE=$${tool:-auger-module} HEX=firmware/build/auger-module.hex scripts/flash-all.sh $(PORTS)
+
+# The 100 Hz step on the board's CPU class: bench/host_step built for aarch64 and counted under
+# qemu-user (instructions, not time), next to the x86 count; docs/benchmarks.md.
+bench-board: board host
+	scripts/bench-board.sh $(BOARD_BUILD) $(BUILD)

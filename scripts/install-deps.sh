@@ -26,6 +26,29 @@ if [[ $(dpkg --print-architecture) != arm64 ]]; then
   packages+=(g++-aarch64-linux-gnu qemu-user)
 fi
 
+# ---- board (issue 7, docs/board.md) ----
+# `scripts/install-deps.sh board` (make board): only what building augerd, auger and
+# auger-module for the board needs, so that the board itself (or a workstation that only
+# builds for it) does not get the simulator, fuzzer and benchmark tools; plus avrdude, to
+# flash the modules from the board. Catch2 because the top-level CMakeLists looks for it.
+# A library that is not header-only and that host/ links (ncurses, if `auger` links it: a
+# host/ CMakeLists asking for Curses) is then needed for arm64: natively libncurses-dev, on
+# another architecture its arm64 package through Debian multiarch (dpkg --add-architecture
+# arm64, only then).
+multiarch=()
+if [[ ${1:-} == board ]]; then
+  packages=(build-essential cmake ninja-build pkg-config libeigen3-dev libtomlplusplus-dev catch2 avrdude)
+  [[ $(dpkg --print-architecture) == arm64 ]] || packages+=(g++-aarch64-linux-gnu qemu-user)
+fi
+if grep -qsi 'curses' "$(dirname "$0")"/../host/*/CMakeLists.txt "$(dirname "$0")"/../host/CMakeLists.txt; then
+  if [[ $(dpkg --print-architecture) == arm64 ]]; then
+    packages+=(libncurses-dev)
+  else
+    multiarch=(libncurses-dev:arm64)
+  fi
+fi
+packages+=("${multiarch[@]}")
+
 missing=()
 for p in "${packages[@]}"; do
   status=$(dpkg-query -W -f='${Status}' "$p" 2>/dev/null || true)
@@ -44,5 +67,9 @@ if [[ $(id -u) -ne 0 ]]; then
   sudo_cmd=(sudo)
 fi
 export DEBIAN_FRONTEND=noninteractive
+if [[ ${#multiarch[@]} -gt 0 ]] && ! dpkg --print-foreign-architectures | grep -qx arm64; then
+  echo "install-deps: adding the arm64 architecture (multiarch) for ${multiarch[*]}"
+  "${sudo_cmd[@]}" dpkg --add-architecture arm64
+fi
 "${sudo_cmd[@]}" apt-get update -qq
 "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}"

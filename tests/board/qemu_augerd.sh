@@ -1,0 +1,110 @@
+#!/usr/bin/env bash
+# The board's binaries proven to work, not only to link: the aarch64 augerd, auger and
+# auger-module of `make board` run under qemu-user (qemu-aarch64 -L /usr/aarch64-linux-gnu, no
+# binfmt registration; natively on an aarch64 machine) against the simulated robot of
+# scripts/sim-robot.sh (x86 build: four simulated modules running the real firmware on ptys,
+# the simulated camera and IMU). auger-module (aarch64) commissions the ids; augerd must
+# identify all four modules, listed out of order, on the right ports; `auger cmd` (aarch64)
+# sends a goto, and the robot must arrive, judged on the simulator's true pose, with augerd's
+# estimate agreeing. Also: the installed augerd accepts the installed configuration.
+# Usage: qemu_augerd.sh BUILD_DIR SOURCE_DIR BOARD_BUILD_DIR (AUGER_BOARD_BUILD, if set, overrides it)
+set -euo pipefail
+build=$1 src=$2 board=${AUGER_BOARD_BUILD:-$3}
+work=$(mktemp -d /tmp/auger-board-XXXXXX)
+pids=()
+cleanup() {
+  for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done
+  wait 2>/dev/null || true
+  rm -rf "$work"
+}
+trap cleanup EXIT
+fail() { echo "qemu_augerd: $*" >&2; for f in "$work"/*.out; do echo "--- $f" >&2; tail -8 "$f" >&2; done; exit 1; }
+
+for b in host/augerd/augerd host/auger/auger host/tools/auger-module; do
+  [[ -x $board/$b ]] || fail "$board/$b missing: build it with \`make board\` (BOARD_BUILD=$board)"
+  readelf -h "$board/$b" | grep -q 'Machine:.*AArch64' || fail "$board/$b is not an aarch64 program"
+done
+
+# A fake build tree for scripts/sim-robot.sh: the simulator from the x86 build, augerd and
+# auger-module from the board build, run through qemu.
+mkdir -p "$work/bin/host/augerd" "$work/bin/host/auger" "$work/bin/host/tools" "$work/bin/sim/robot"
+ln -s "$build/sim/robot/auger-sim-robot" "$work/bin/sim/robot/auger-sim-robot"
+if [[ $(uname -m) == aarch64 ]]; then
+  run=()
+else
+  command -v qemu-aarch64 >/dev/null || fail "qemu-aarch64 missing (qemu-user, scripts/install-deps.sh)"
+  aarch64-linux-gnu-gcc -std=c99 -O2 -Wall -Wextra -Werror -shared -fPIC \
+    "$src/tests/board/qemu_termios2.c" -o "$work/qemu_termios2.so" -ldl
+  run=(qemu-aarch64 -L /usr/aarch64-linux-gnu -E "LD_PRELOAD=$work/qemu_termios2.so")
+fi
+for t in host/augerd/augerd host/tools/auger-module host/auger/auger; do
+  # exec: the pid sim-robot.sh records is the program's (qemu passes signals to it).
+  printf '#!/bin/sh\nexec %s %q "$@"\n' "${run[*]}" "$board/$t" > "$work/bin/$t"
+  chmod +x "$work/bin/$t"
+done
+auger=$work/bin/host/auger/auger
+
+# Runs under qemu at all: usage errors exit 2 from the aarch64 programs themselves.
+rc=0; "$auger" cmd > "$work/usage.out" 2>&1 || rc=$?
+((rc == 2)) || fail "aarch64 auger with bad usage: exit $rc, expected 2"
+
+# The installed configuration is valid for the installed augerd: make install's layout with
+# these binaries into a scratch PREFIX/SYSCONFDIR (no DESTDIR, so the paths written into the
+# configuration are the scratch ones), then augerd --check.
+PREFIX=$work/prefix SYSCONFDIR=$work/etc FROM=$board bash "$src/packaging/install.sh" install > "$work/install.out" ||
+  fail "install of the board binaries failed"
+"${run[@]}" "$work/prefix/bin/augerd" --config "$work/etc/auger/augerd.toml" --check > "$work/check.out" 2>&1 ||
+  fail "the installed augerd refuses the installed configuration"
+grep -q "augerd.toml is valid" "$work/check.out" || fail "augerd --check said nothing"
+
+AUGER_BUILD=$work/bin AUGER_SRC=$src
+# shellcheck source=../../scripts/sim-robot.sh
+. "$src/scripts/sim-robot.sh"
+sim_start "$work" frozen_grass 30 || fail "the simulated robot did not start (or aarch64 auger-module failed)"
+sim_pid=$SIM_PID
+pids+=($sim_pid)
+augerd_start "$work" frozen_grass "gamma_per_s = [0.5, 0.5, 0.5]" "" || fail "aarch64 augerd did not start"
+augerd_pid=$AUGERD_PID
+pids+=($augerd_pid)
+
+# Identified: each id on the port of the simulated module that got it, whatever the port order
+# of the configuration (module2, module0, module3, module1).
+for i in 0 1 2 3; do
+  grep -q "^augerd: module $i on $work/pty/module$i (firmware 0.1.0" "$work/augerd.out" ||
+    fail "augerd did not identify module $i on $work/pty/module$i"
+done
+
+"$auger" cmd --socket "$work/commands.sock" enable "goto 0.2 0.1 0" > "$work/cmd.out" || fail "commands refused"
+status=
+for ((t = 0; t < 30; t++)); do  # up to 15 s; the reference is within 5 mm of the goal after ~8 s
+  sleep 0.5
+  status=$("$auger" cmd --socket "$work/commands.sock" status) || fail "status refused"
+  awk -v s="$status" 'BEGIN { n = split(s, f, " "); for (i = 1; i <= n; i++) { split(f[i], kv, "="); v[kv[1]] = kv[2] }
+    exit !((v["xd_m"] - 0.2) ^ 2 + (v["yd_m"] - 0.1) ^ 2 < 0.005 ^ 2 &&
+           (v["x_m"] - 0.2) ^ 2 + (v["y_m"] - 0.1) ^ 2 < 0.01 ^ 2 || v["fault"] != "none") }' && break
+done
+echo "$status"
+"$auger" cmd --socket "$work/commands.sock" stop > /dev/null || fail "stop refused"
+sleep 1  # the truth log records the robot at rest after the stop
+kill -TERM "$sim_pid"
+wait "$sim_pid" || true
+awk -F, -v s="$status" '
+  /^#/ { next }
+  !hdr { for (i = 1; i <= NF; i++) col[$i] = i; hdr = 1; next }
+  { x = $col["x_m"]; y = $col["y_m"] }
+  END {
+    n = split(s, f, " ")
+    for (i = 1; i <= n; i++) { split(f[i], kv, "="); v[kv[1]] = kv[2] }
+    err = sqrt((x - 0.2) ^ 2 + (y - 0.1) ^ 2)
+    est = sqrt((v["x_m"] - x) ^ 2 + (v["y_m"] - y) ^ 2)
+    printf "qemu_augerd: true pose %.3f m from the goal, estimate %.3f m from the truth, fault=%s\n", err, est, v["fault"]
+    exit !(hdr && err < 0.03 && est < 0.03 && v["fault"] == "none" && v["enabled"] == 1)
+  }' "$work/truth.csv" || fail "the robot did not arrive"
+
+# SIGTERM through qemu: augerd stops cleanly (exit 0) and prints its loop statistics.
+kill -TERM "$augerd_pid"
+rc=0; wait "$augerd_pid" || rc=$?
+((rc == 0)) || fail "augerd exit $rc on SIGTERM, expected 0"
+grep -q "^augerd: stopped" "$work/augerd.out" || fail "augerd did not report its stop"
+grep -i "period" "$work/augerd.out" | sed 's/^/qemu_augerd: /' || true
+ls "$work"/logs/augerd-*.csv > /dev/null || fail "augerd wrote no log"
