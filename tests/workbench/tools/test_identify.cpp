@@ -1,0 +1,112 @@
+// auger identify: sigma and D of eqs. (15)-(17) from gantry runs generated with a known truth;
+// the confidence intervals must cover the truth at their stated rate over many seeds.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+
+#include "gantry_gen.hpp"
+#include "identify.hpp"
+#include "tools_fixtures.hpp"
+
+using namespace auger::wb;
+using tools_test::GantryTruth;
+
+TEST_CASE("t quantile and effective sample size against known values") {
+  CHECK(t_quantile(0.95, 1e9) == Approx(1.959964).epsilon(1e-5));
+  CHECK(t_quantile(0.95, 2) == Approx(4.302653).epsilon(1e-4));
+  CHECK(t_quantile(0.95, 10) == Approx(2.228139).epsilon(1e-4));
+  // White noise: n_eff close to n; AR(1) with rho 0.9: n (1 - rho) / (1 + rho) = n / 19.
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> n01(0, 1);
+  std::vector<double> white(20000), ar(20000);
+  double a = 0;
+  for (std::size_t i = 0; i < white.size(); ++i) {
+    white[i] = n01(rng);
+    a = 0.9 * a + n01(rng);
+    ar[i] = a;
+  }
+  CHECK(effective_sample_size({white}) == Approx(20000).epsilon(0.15));
+  CHECK(effective_sample_size({ar}) == Approx(20000.0 / 19).epsilon(0.25));
+}
+
+TEST_CASE("identify recovers sigma and D of both axes, terrains apart") {
+  GantryTruth lon;  // sand, Table 2
+  GantryTruth lat;
+  lat.axis = "lateral", lat.sigma = 0.247, lat.D = 76.1307;
+  GantryTruth grav;  // gravel lateral: the slowest rig, m / D = 0.68 s
+  grav.axis = "lateral", grav.terrain = "gravel", grav.sigma = 0.0853, grav.D = 23.52;
+  const auto res = identify_gantry({tools_test::make_gantry(lon, 1), tools_test::make_gantry(lat, 2),
+                                    tools_test::make_gantry(grav, 3)});
+  REQUIRE(res.size() == 3);
+  for (const auto& r : res) {
+    const GantryTruth& t = r.terrain == "gravel" ? grav : r.axis == "lateral" ? lat : lon;
+    INFO(r.terrain << " " << r.axis << ": sigma " << r.sigma.value << " [" << r.sigma.lo << ", "
+                   << r.sigma.hi << "], D " << r.D.value << " [" << r.D.lo << ", " << r.D.hi << "]");
+    CHECK(r.sigma.lo <= t.sigma);
+    CHECK(t.sigma <= r.sigma.hi);
+    CHECK(r.D.lo <= t.D);
+    CHECK(t.D <= r.D.hi);
+    // Sand's force is 5-20 times the rig noise: the estimates are tight there.
+    if (r.terrain == "sand") {
+      CHECK(r.sigma.value == Approx(t.sigma).epsilon(0.05));
+      CHECK(r.D.value == Approx(t.D).epsilon(0.10));
+    }
+    CHECK(r.pieces.size() == 12);  // 3 speeds x 4 repetitions, every one reached steady state
+  }
+}
+
+TEST_CASE("identify's 95 % intervals cover the truth at their rate over 25 seeds") {
+  int covered = 0, total = 0;
+  double width_sigma = 0, width_D = 0;
+  for (unsigned seed = 100; seed < 125; ++seed) {
+    for (int axis = 0; axis < 2; ++axis) {
+      GantryTruth tr;
+      if (axis == 1) tr.axis = "lateral", tr.sigma = 0.247, tr.D = 76.1307;
+      const auto res = identify_gantry({tools_test::make_gantry(tr, seed * 2 + axis)});
+      REQUIRE(res.size() == 1);
+      const auto& r = res[0];
+      covered += (r.sigma.lo <= tr.sigma && tr.sigma <= r.sigma.hi);
+      covered += (r.D.lo <= tr.D && tr.D <= r.D.hi);
+      total += 2;
+      width_sigma += (r.sigma.hi - r.sigma.lo) / tr.sigma / 50;
+      width_D += (r.D.hi - r.D.lo) / tr.D / 50;
+    }
+  }
+  INFO("covered " << covered << " of " << total << "; mean relative width sigma " << width_sigma
+                  << ", D " << width_D);
+  // 95 % nominal: 100 intervals, P(<= 88 covered) < 1 % for a true 95 % interval.
+  CHECK(covered >= 89);
+  // ... and not by being uselessly wide (measured: 6 % and 7 % of the value on average).
+  CHECK(width_sigma < 0.10);
+  CHECK(width_D < 0.15);
+}
+
+TEST_CASE("auger identify on gantry log files: table, --json, same numbers as the library") {
+  const std::string dir = tools_test::temp_dir("identify");
+  GantryTruth lon, lat;
+  lat.axis = "lateral", lat.sigma = 0.247, lat.D = 76.1307;
+  const auto g_lon = tools_test::make_gantry(lon, 7), g_lat = tools_test::make_gantry(lat, 8);
+  tools_test::write_text(dir + "/lon.csv", tools_test::gantry_log_text(g_lon));
+  tools_test::write_text(dir + "/lat.csv", tools_test::gantry_log_text(g_lat));
+  // The files hold the values to 10 digits: identify them in memory from the file text's values.
+  const auto lib = identify_gantry({read_gantry_data(dir + "/lon.csv"), read_gantry_data(dir + "/lat.csv")});
+  REQUIRE(lib.size() == 2);
+
+  const auto json = tools_test::run_auger(dir, "identify " + dir + "/lon.csv " + dir + "/lat.csv --json");
+  REQUIRE(json.code == 0);
+  CHECK(tools_test::json_eval(dir, json.out, "len(d['groups'])") == "2");
+  for (int k = 0; k < 2; ++k) {
+    const auto& r = lib[static_cast<std::size_t>(k)];
+    const std::string grp = "[g for g in d['groups'] if g['axis'] == '" + r.axis + "'][0]";
+    const std::string s = r.axis == "longitudinal" ? "sigma_long" : "sigma_lat";
+    const std::string D = r.axis == "longitudinal" ? "D_x" : "D_y";
+    CHECK(tools_test::json_number(dir, json.out, grp + "['" + s + "']['value']") == Approx(r.sigma.value).epsilon(1e-8));
+    CHECK(tools_test::json_number(dir, json.out, grp + "['" + s + "']['ci'][0]") == Approx(r.sigma.lo).epsilon(1e-8));
+    CHECK(tools_test::json_number(dir, json.out, grp + "['" + D + "']['value']") == Approx(r.D.value).epsilon(1e-8));
+    CHECK(tools_test::json_number(dir, json.out, grp + "['" + D + "']['ci'][1]") == Approx(r.D.hi).epsilon(1e-8));
+  }
+  const auto table = tools_test::run_auger(dir, "identify " + dir + "/lon.csv " + dir + "/lat.csv");
+  REQUIRE(table.code == 0);
+  CHECK_THAT(table.out, Catch::Contains("sigma_long") && Catch::Contains("sigma_lat") &&
+                            Catch::Contains("D_x") && Catch::Contains("D_y") && Catch::Contains("95 % interval"));
+}
