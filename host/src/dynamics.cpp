@@ -55,6 +55,7 @@ void dynamics_step(const Model& model, DynamicsData& data, Vec3& eta, Vec3& zeta
     c.omega_rpm = omega_rpm;
     c.tau_drive_n = data.tau_drive_n;
     c.dt_s = h;
+    c.t_s = data.t_s + s * h;
     for (int k = 0; k < 3; ++k)
       c.zeta_free[k] = first_order_step(model.M_diag[k], model.D_diag[k], zeta[k],
                                         data.tau_drive_n[k], h, &c.gain[k]);
@@ -87,6 +88,7 @@ void dynamics_step(const Model& model, DynamicsData& data, Vec3& eta, Vec3& zeta
     eta.z() = wrap_angle(psi_exact);
     zeta = z1;
   }
+  data.t_s += dt_s;
 }
 
 Vec3 steady_velocity(const Model& model, const Vec4& omega_rpm) {

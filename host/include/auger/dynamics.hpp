@@ -22,6 +22,7 @@ struct DynamicsData {
   explicit DynamicsData(const Model& model);
   void reset(const Model& model);  // resets the effects' state
   std::vector<double> effect_state;
+  double t_s = 0;  // time of the next step's start; dynamics_step advances it (time-dependent effects)
   EffectContext ctx;
   Vec3 tau_drive_n = Vec3::Zero();   // last sub-step's drive force (after drive effects)
   Vec3 tau_effect_n = Vec3::Zero();  // last sub-step's effect body forces
