@@ -9,7 +9,7 @@
 #include "auger/log.hpp"
 #include "commands.hpp"
 #include "identify.hpp"
-#include "report_json.hpp"
+#include "workbench.hpp"
 
 namespace auger::wb {
 namespace {
@@ -26,11 +26,11 @@ int identify_usage(std::FILE* f, int code) {
 const char* sigma_name(const std::string& axis) { return axis == "longitudinal" ? "sigma_long" : "sigma_lat"; }
 const char* drag_name(const std::string& axis) { return axis == "longitudinal" ? "D_x" : "D_y"; }
 
-void json_estimate(JsonWriter& j, const char* name, const Estimate& e, const char* unit) {
-  j.key(name).begin_object();
-  j.field("value", e.value).field("se", e.se).field("unit", unit);
-  j.key("ci").begin_array().value(e.lo).value(e.hi).end_array();
-  j.field("n_eff", e.n_eff).field("ci_method", e.ci_method);
+void json_estimate(Json& j, const char* name, const Estimate& e, const char* unit) {
+  j.begin_object(name);
+  j.num("value", e.value).num("se", e.se).str("unit", unit);
+  j.begin_array("ci").num(nullptr, e.lo).num(nullptr, e.hi).end_array();
+  j.num("n_eff", e.n_eff).str("ci_method", e.ci_method);
   j.end_object();
 }
 
@@ -75,31 +75,31 @@ int run_identify(int argc, char** argv) {
   }
 
   if (json) {
-    JsonWriter j;
-    j.begin_object().field("command", "identify").field("confidence", options.confidence);
-    j.key("groups").begin_array();
+    Json j;
+    j.begin_object().str("command", "identify").num("confidence", options.confidence);
+    j.begin_array("groups");
     for (const auto& r : results) {
-      j.begin_object().field("terrain", r.terrain).field("axis", r.axis).field("mass_kg", r.mass_kg);
-      j.key("files").begin_array();
-      for (const auto& f : r.files) j.value(f);
+      j.begin_object().str("terrain", r.terrain).str("axis", r.axis).num("mass_kg", r.mass_kg);
+      j.begin_array("files");
+      for (const auto& f : r.files) j.str(nullptr, f);
       j.end_array();
-      j.field("n_samples", r.n_samples);
+      j.num("n_samples", static_cast<double>(r.n_samples));
       json_estimate(j, sigma_name(r.axis), r.sigma, "N/rpm");
       json_estimate(j, drag_name(r.axis), r.D, "N/(m/s)");
-      j.field("force_residual_rms_n", r.force_residual_rms_n);
-      j.key("pieces").begin_array();
+      j.num("force_residual_rms_n", r.force_residual_rms_n);
+      j.begin_array("pieces");
       for (const auto& p : r.pieces) {
-        j.begin_object().field("file", p.file).field("t_start_s", p.t_start_s).field("t_end_s", p.t_end_s);
-        j.field("drive_rpm", p.drive_rpm).field("tau_n", p.tau_n).field("velocity_mps", p.velocity_mps);
+        j.begin_object().str("file", p.file).num("t_start_s", p.t_start_s).num("t_end_s", p.t_end_s);
+        j.num("drive_rpm", p.drive_rpm).num("tau_n", p.tau_n).num("velocity_mps", p.velocity_mps);
         j.end_object();
       }
       j.end_array();
-      j.key("warnings").begin_array();
-      for (const auto& w : r.warnings) j.value(w);
+      j.begin_array("warnings");
+      for (const auto& w : r.warnings) j.str(nullptr, w);
       j.end_array().end_object();
     }
     j.end_array().end_object();
-    std::printf("%s\n", j.str().c_str());
+    std::printf("%s\n", j.text().c_str());
   } else {
     const int pct = static_cast<int>(options.confidence * 100 + 0.5);
     std::printf("auger identify: %zu log(s), %zu group(s); eqs. (15)-(16) for sigma, (17) for D\n\n",

@@ -12,7 +12,7 @@
 #include "auger/measured.hpp"
 #include "commands.hpp"
 #include "merge.hpp"
-#include "report_json.hpp"
+#include "workbench.hpp"
 
 namespace auger::wb {
 namespace {
@@ -139,22 +139,22 @@ int run_merge(int argc, char** argv) {
   }
 
   if (json) {
-    JsonWriter j;
-    j.begin_object().field("command", "merge").field("robot_log", files[0]).field("camera_log", files[1]);
-    j.field("t0_used", al.t0_used).field("coarse_offset_s", al.coarse_offset_s);
-    j.field("refined", al.refined).field("offset_s", al.offset_s);
-    j.field("refinement_s", al.offset_s - al.coarse_offset_s);
-    j.field("correlation", al.correlation).field("second_peak", al.second_peak);
-    j.field("overlap_s", al.overlap_s).field("grid_dt_s", al.grid_dt_s);
-    j.field("quality", al.quality).field("note", al.note);
+    Json j;
+    j.begin_object().str("command", "merge").str("robot_log", files[0]).str("camera_log", files[1]);
+    j.boolean("t0_used", al.t0_used).num("coarse_offset_s", al.coarse_offset_s);
+    j.boolean("refined", al.refined).num("offset_s", al.offset_s);
+    j.num("refinement_s", al.offset_s - al.coarse_offset_s);
+    j.num("correlation", al.correlation).num("second_peak", al.second_peak);
+    j.num("overlap_s", al.overlap_s).num("grid_dt_s", al.grid_dt_s);
+    j.str("quality", al.quality).str("note", al.note);
     if (write) {
-      j.field("out", out_path).field("rows", rows.size()).field("rows_with_camera_pose", filled);
-      j.field("rows_pose_replaced", replaced);
+      j.str("out", out_path).num("rows", static_cast<double>(rows.size()));
+      j.num("rows_with_camera_pose", static_cast<double>(filled)).num("rows_pose_replaced", static_cast<double>(replaced));
     } else {
-      j.key("out").null();
+      j.num("out", kNaN);  // null: nothing written
     }
     j.end_object();
-    std::printf("%s\n", j.str().c_str());
+    std::printf("%s\n", j.text().c_str());
   } else {
     std::printf("auger merge: t_robot = t_camera + %.4f s\n", al.offset_s);
     std::printf("  from t0_unix_s: %s\n",
