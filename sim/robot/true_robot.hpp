@@ -49,9 +49,35 @@ struct Blocking {  // MODEL-NOTES: |omega| < omega_block: mu m g / 4 dry resista
   double omega_block_rpm = 1.5, mu = 0.5, eps_mps = 0.002;
 };
 
+struct QuadraticDrag {  // -c |w| w on the planar velocity w = (u, v) (one magnitude couples x, y)
+  bool on = false;
+  double c_x_nspm2 = 0.0, c_y_nspm2 = 0.0;  // N / (m/s)^2
+  double c_psi_nmspr2 = 0.0;                // N m / (rad/s)^2, on r |r|
+};
+struct ResistanceOffset {  // front contacts plough (1 + asym) x their drag, rear (1 - asym) x
+  bool on = false;
+  double asym = 0.0;  // in (-1, 1); the lateral centre of resistance moves by asym l_x forward
+};
+struct TerrainChange {  // from about t_s on (tanh blend over width_s) sigma and drag are scaled
+  bool on = false;
+  double t_s = 0.0, width_s = 0.5;
+  double sigma_scale = 1.0, drag_scale = 1.0;
+};
+struct SoftPatch {  // NOT in the workbench's library: a disc of soft ground (world frame) where a
+  bool on = false;  // contact ploughs (1 + extra) x its drag; smooth edge of width edge_m
+  double x_m = 0.0, y_m = 0.0, radius_m = 0.5, edge_m = 0.03, extra = 1.0;
+};
+
 struct TruthParams {
   double substep_s = 0.0005;  // RK4 step; stable for the tanh friction down to eps ~ 1.5 mm/s
   double r_eff_m = 0.0775;    // load torque = r_eff x traction along the screw's drive direction
+  // Base form. The defaults are the physical robot (FIL tests, demo). The batch log generator
+  // switches both off so that with no extra effect the truth IS the nominal linear model
+  // (docs/robot-sim.md "Base truth of the log generator"): no Coriolis terms, and a yaw inertia
+  // scaled by the same factor as the calibrated yaw drag, so the yaw time constant I_z / D_psi
+  // is the model's (the real lever arms make the yaw equation that factor times the model's).
+  bool coriolis = true;
+  bool nominal_yaw_time_constant = false;
   DryFriction friction;
   Incline incline;
   TractionLoss loss;
@@ -59,6 +85,10 @@ struct TruthParams {
   ForceLag lag;
   DeadBand dead_band;
   Blocking blocking;
+  QuadraticDrag quad_drag;
+  ResistanceOffset offset;
+  TerrainChange terrain_change;
+  SoftPatch soft_patch;
 };
 
 // State: pose eta (world), body velocity zeta, and the force-lag filter (value, rate per screw).
@@ -93,6 +123,10 @@ class TrueRobot {
   double contact_drag_x() const { return cdx_; }
   double contact_drag_y() const { return cdy_; }
   double yaw_drag_residual() const { return d_psi_res_; }
+  // Calibrated total yaw drag over the model's D_psi (the lever-arm ratio T_true / T_nom).
+  double yaw_scale() const { return yaw_scale_; }
+  // Yaw inertia in use (I_z, or I_z yaw_scale() with nominal_yaw_time_constant).
+  double yaw_inertia_kgm2() const { return i_z_; }
 
   // Derivative of the full state (exposed for tests); also fills per-screw load torques.
   struct Deriv {
@@ -106,7 +140,7 @@ class TrueRobot {
   TruthParams p_;
   TruthState s_;
   double t_s_ = 0;
-  double cdx_ = 0, cdy_ = 0, d_psi_res_ = 0;
+  double cdx_ = 0, cdy_ = 0, d_psi_res_ = 0, yaw_scale_ = 1, i_z_ = 0;
   std::array<Eigen::Vector2d, 4> pos_;    // contact positions (body)
   std::array<Eigen::Vector2d, 4> drive_;  // unit drive direction (a_i, b_i) of K_i's row
   std::array<double, 4> s_sign_{}, h_sign_{};
