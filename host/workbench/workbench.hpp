@@ -78,6 +78,9 @@ struct SimOptions {
   double anchor_s = 2.0;
 };
 
+// The options a model's effects imply (pose_time_offset sets pose_delay_s).
+SimOptions sim_options_for(const Model& model);
+
 // Predicted sensor channels per sample (NaN before the first measured pose).
 struct Prediction {
   std::vector<ChannelValues> pred;
@@ -85,6 +88,10 @@ struct Prediction {
 };
 void simulate(const Model& model, const Dataset& data, const SimOptions& options, Prediction& out,
               std::size_t begin = 0, std::size_t end = std::numeric_limits<std::size_t>::max());
+// The same into an existing prediction (out.pred sized data.size()), touching only [begin, end):
+// the search simulates its training segments this way.
+void simulate_range(const Model& model, const Dataset& data, const SimOptions& options, Prediction& out,
+                    std::size_t begin, std::size_t end);
 
 // Prediction error (pred - meas, headings wrapped) per channel.
 struct ErrorStats {

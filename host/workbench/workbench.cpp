@@ -1,0 +1,598 @@
+// The workbench engine: datasets, the model run against a log, errors, noise floor, windows,
+// regimes (workbench.hpp). The effect search is in search.cpp.
+#include "workbench.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numeric>
+#include <stdexcept>
+
+namespace auger::wb {
+
+const char* channel_name(int c) {
+  static const char* names[kChannels] = {"x", "y", "psi", "imu_psi"};
+  return names[c];
+}
+const char* channel_unit(int c) { return c < 2 ? "m" : "rad"; }
+
+namespace {
+
+bool finite(double v) { return std::isfinite(v); }
+
+// Prediction minus measurement; headings wrapped so that 3.1 vs -3.1 is a small error.
+double channel_error(int c, double pred, double meas) {
+  const double e = pred - meas;
+  return c >= kPsi ? wrap_angle(e) : e;
+}
+
+}  // namespace
+
+// ------------------------------------------------------------------------------- dataset
+Dataset load_dataset(const std::string& path) {
+  Dataset d;
+  d.path = path;
+  std::string format;
+  {
+    CsvLogReader probe(path);  // throws LogError if it cannot be opened or has no header
+    format = probe.meta("format").value_or("");
+  }
+  auto fill_gap = [&](Vec4& w, const Vec4& last) {
+    for (int i = 0; i < 4; ++i)
+      if (!finite(w[i])) w[i] = finite(last[i]) ? last[i] : 0.0;
+  };
+  Vec4 last = Vec4::Constant(kNaN);
+  if (format == kGantryLogFormat) {
+    GantryLogReader r(path);
+    d.gantry = true;
+    d.axis = r.csv().meta("axis").value_or("longitudinal");
+    if (d.axis != "longitudinal" && d.axis != "lateral")
+      throw LogError(path, 1, 1, "metadata 'axis' must be longitudinal or lateral, not '" + d.axis + "'");
+    d.terrain = r.csv().meta("terrain").value_or("");
+    if (auto m = r.csv().meta("mass_kg")) {
+      char* end = nullptr;
+      d.gantry_mass_kg = std::strtod(m->c_str(), &end);
+      if (end == m->c_str() || !(d.gantry_mass_kg > 0))
+        throw LogError(path, 1, 1, "metadata 'mass_kg' must be a positive number, not '" + *m + "'");
+    }
+    const int ch = d.axis == "longitudinal" ? kX : kY;
+    GantrySample s;
+    while (r.next(s)) {
+      d.t_s.push_back(s.t_s);
+      Vec4 w(s.omega_rpm[0], s.omega_rpm[1], 0.0, 0.0);
+      fill_gap(w, last);
+      last = w;
+      d.omega_rpm.push_back(w);
+      ChannelValues m{kNaN, kNaN, kNaN, kNaN};
+      if (finite(s.position_m)) {
+        m[static_cast<std::size_t>(ch)] = s.position_m;
+        m[ch == kX ? kY : kX] = 0.0;  // the rail holds the other DOF and the heading
+        m[kPsi] = 0.0;
+      }
+      d.meas.push_back(m);
+    }
+  } else {
+    RobotLogReader r(path);
+    d.terrain = r.csv().meta("terrain").value_or("");
+    RobotSample s;
+    while (r.next(s)) {
+      d.t_s.push_back(s.t_s);
+      Vec4 w(s.omega_rpm[0], s.omega_rpm[1], s.omega_rpm[2], s.omega_rpm[3]);
+      fill_gap(w, last);
+      last = w;
+      d.omega_rpm.push_back(w);
+      d.meas.push_back({s.x_m, s.y_m, s.psi_rad, s.imu_psi_rad});
+    }
+  }
+  if (d.t_s.size() < 3) throw LogError(path, 1, 1, "the log has fewer than 3 samples");
+  std::array<std::size_t, kChannels> count{};
+  for (const auto& m : d.meas)
+    for (int c = 0; c < kChannels; ++c) count[static_cast<std::size_t>(c)] += finite(m[static_cast<std::size_t>(c)]);
+  for (int c = 0; c < kChannels; ++c) d.active[static_cast<std::size_t>(c)] = count[static_cast<std::size_t>(c)] >= 10;
+  if (d.gantry) {
+    d.active = {false, false, false, false};
+    d.active[d.axis == "longitudinal" ? kX : kY] = true;
+  }
+  if (!d.active[kX] && !d.active[kY])
+    throw LogError(path, 1, 1, "the log has (almost) no pose measurements (x_m, y_m, psi_rad)");
+  return d;
+}
+
+// ------------------------------------------------------------------------------- model
+namespace {
+
+// The paper's tables (MODEL-NOTES.md; the same values as models/robot.toml, models/gantry.toml).
+TerrainParams robot_terrain(const std::string& name, bool* known) {
+  *known = true;
+  if (name == "frozen_grass") return {"frozen_grass", 0.4, 0.16, 509.81, 210.50, 4.52};
+  *known = name == "sand" || name.empty();
+  return {"sand", 0.812, 0.247, 560.33, 320.08, 11.46};
+}
+TerrainParams gantry_terrain(const std::string& name, bool* known) {
+  *known = true;
+  if (name == "gravel") return {"gravel", 0.297, 0.0853, 214.78, 23.52, 1.0};
+  *known = name == "sand" || name.empty();
+  return {"sand", 0.812, 0.247, 529.95, 76.1307, 1.0};
+}
+
+// The gantry as the robot model: screws 0 and 1 (B_x = [-1, -1], B_y = [-1, 1]), mass of module
+// plus load, yaw locked by a huge inertia (the rail holds it).
+RobotParams gantry_robot(double mass_kg) {
+  RobotParams r;
+  r.m_kg = mass_kg;
+  r.I_z_kgm2 = 1e12;
+  return r;
+}
+
+}  // namespace
+
+ModelChoice choose_model(const Dataset& data, const std::string& model_path) {
+  ModelChoice mc;
+  const std::string wanted = data.terrain.empty() ? "sand" : data.terrain;
+  if (model_path.empty()) {
+    bool known = false;
+    TerrainParams t = data.gantry ? gantry_terrain(wanted, &known) : robot_terrain(wanted, &known);
+    mc.terrain = t.name;
+    mc.source = std::string("the paper's tables (") + (data.gantry ? "Table 2" : "Table 3") + ", terrain " + t.name +
+                (known ? "" : "; log terrain '" + wanted + "' unknown, sand used") + ")";
+    mc.model = data.gantry ? make_model(gantry_robot(data.gantry_mass_kg), t) : make_model(RobotParams{}, t);
+    return mc;
+  }
+  ModelFile f = load_model_file(model_path);
+  const TerrainEntry* te = f.find_terrain(wanted);
+  if (!te) {
+    if (f.terrains.empty()) throw ConfigError(model_path, 1, 1, "model file has no [terrain.NAME]");
+    te = &f.terrains.front();
+  }
+  mc.terrain = te->params.name;
+  mc.source = model_path + " (terrain " + mc.terrain + ")";
+  if (data.gantry) {
+    TerrainParams t = te->params;
+    if (!std::isfinite(t.D_psi)) t.D_psi = 1.0;
+    std::vector<std::shared_ptr<const Effect>> effects;
+    for (const auto& c : f.effects) effects.push_back(EffectRegistry::builtin().create(c));
+    const double mass = f.gantry_mass_kg ? *f.gantry_mass_kg : data.gantry_mass_kg;
+    mc.model = make_model(gantry_robot(mass), t, std::move(effects));
+  } else {
+    mc.model = build_model(f, mc.terrain);
+  }
+  return mc;
+}
+
+// ------------------------------------------------------------------------------- noise floor
+ChannelValues estimate_noise_floor(const Dataset& data) {
+  ChannelValues out{kNaN, kNaN, kNaN, kNaN};
+  std::vector<double> r;
+  std::vector<std::size_t> idx;
+  for (int c = 0; c < kChannels; ++c) {
+    if (!data.active[static_cast<std::size_t>(c)]) continue;
+    idx.clear();
+    for (std::size_t k = 0; k < data.size(); ++k)
+      if (finite(data.meas[k][static_cast<std::size_t>(c)])) idx.push_back(k);
+    r.clear();
+    // Each measured sample against the cubic through its two measured neighbours on each side
+    // (Lagrange, exact for any cubic): the motion of a 29 kg robot is smooth at these scales,
+    // so what is left is measurement noise, with variance sigma^2 (1 + sum of weights^2).
+    for (std::size_t j = 2; j + 2 < idx.size(); ++j) {
+      const std::size_t n[4] = {idx[j - 2], idx[j - 1], idx[j + 1], idx[j + 2]};
+      const double t = data.t_s[idx[j]];
+      if (data.t_s[n[3]] - data.t_s[n[0]] > 0.5) continue;  // across a gap the motion is not smooth
+      const double y0 = data.meas[idx[j]][static_cast<std::size_t>(c)];
+      double pred = 0, w2 = 0;
+      for (int a = 0; a < 4; ++a) {
+        double w = 1;
+        for (int b = 0; b < 4; ++b)
+          if (b != a) w *= (t - data.t_s[n[b]]) / (data.t_s[n[a]] - data.t_s[n[b]]);
+        const double ya = data.meas[n[a]][static_cast<std::size_t>(c)];
+        pred += w * (c >= kPsi ? y0 + wrap_angle(ya - y0) : ya);
+        w2 += w * w;
+      }
+      r.push_back(std::fabs(y0 - pred) / std::sqrt(1.0 + w2));
+    }
+    if (r.size() < 5) continue;
+    auto mid = r.begin() + static_cast<std::ptrdiff_t>(r.size() / 2);
+    std::nth_element(r.begin(), mid, r.end());
+    out[static_cast<std::size_t>(c)] = std::max(1.4826 * *mid, 1e-9);  // MAD of a normal
+  }
+  return out;
+}
+
+// ------------------------------------------------------------------------------- simulation
+namespace {
+
+bool pose_measured(const Dataset& d, std::size_t k) {
+  const auto& m = d.meas[k];
+  return finite(m[kX]) && finite(m[kY]) && finite(m[kPsi]);
+}
+
+// omega at time t (linear between samples, held outside): the screw speeds seen at a pose row
+// that is pose_delay_s late.
+Vec4 omega_at(const Dataset& d, double t, std::size_t& hint) {
+  const std::size_t n = d.size();
+  if (t <= d.t_s.front()) return d.omega_rpm.front();
+  if (t >= d.t_s.back()) return d.omega_rpm.back();
+  while (hint + 1 < n && d.t_s[hint + 1] <= t) ++hint;
+  while (hint > 0 && d.t_s[hint] > t) --hint;
+  const double a = (t - d.t_s[hint]) / (d.t_s[hint + 1] - d.t_s[hint]);
+  return (1 - a) * d.omega_rpm[hint] + a * d.omega_rpm[hint + 1];
+}
+
+}  // namespace
+
+void simulate(const Model& model, const Dataset& data, const SimOptions& o, Prediction& out, std::size_t begin,
+              std::size_t end) {
+  out.pred.assign(data.size(), ChannelValues{kNaN, kNaN, kNaN, kNaN});
+  out.segment_start.clear();
+  simulate_range(model, data, o, out, begin, end);
+}
+
+void simulate_range(const Model& model, const Dataset& data, const SimOptions& o, Prediction& out,
+                    std::size_t begin, std::size_t end) {
+  const std::size_t n = data.size();
+  end = std::min(end, n);
+  if (begin >= end) return;
+  DynamicsData dyn(model);
+  Vec3 eta = Vec3::Zero(), zeta = Vec3::Zero();
+  SensorValues sv;
+  std::size_t hint = 0;
+  const bool delayed = o.pose_delay_s != 0;
+  const bool imu_heading = o.imu_heading && data.active[kImuPsi];
+  bool started = false;
+  double seg_t0 = 0;
+  std::size_t seg_begin = begin;
+
+  // Rigid shift of a finished segment so that its first anchor_s match the measurements on
+  // average: the start pose is one noisy sample, the average of ~200 is not. The dynamics do
+  // not depend on where the robot is or which way it points (except terrain_slope, a small
+  // second-order change), so rotating and translating the segment is exact.
+  auto anchor = [&](std::size_t b, std::size_t e) {
+    if (o.anchor_s <= 0 || b >= e) return;
+    double sum[3] = {0, 0, 0};
+    std::size_t cnt[3] = {0, 0, 0};
+    for (std::size_t k = b; k < e && data.t_s[k] - data.t_s[b] <= o.anchor_s; ++k)
+      for (int c = 0; c < 3; ++c) {
+        if (c == kPsi && imu_heading) continue;
+        const double m = data.meas[k][static_cast<std::size_t>(c)], p = out.pred[k][static_cast<std::size_t>(c)];
+        if (finite(m) && finite(p)) {
+          sum[c] += channel_error(c, p, m);
+          ++cnt[c];
+        }
+      }
+    const double dx = cnt[0] ? sum[0] / static_cast<double>(cnt[0]) : 0;
+    const double dy = cnt[1] ? sum[1] / static_cast<double>(cnt[1]) : 0;
+    const double dpsi = cnt[2] ? sum[2] / static_cast<double>(cnt[2]) : 0;
+    const double x0 = out.pred[b][kX], y0 = out.pred[b][kY];
+    const double c = std::cos(-dpsi), s = std::sin(-dpsi);
+    for (std::size_t k = b; k < e; ++k) {
+      auto& p = out.pred[k];
+      if (!finite(p[kX])) continue;
+      const double rx = p[kX] - x0, ry = p[kY] - y0;
+      p[kX] = x0 + c * rx - s * ry - dx;
+      p[kY] = y0 + s * rx + c * ry - dy;
+      p[kPsi] = wrap_angle(p[kPsi] - dpsi);
+      if (finite(p[kImuPsi])) p[kImuPsi] = wrap_angle(p[kImuPsi] - dpsi);
+    }
+  };
+
+  for (std::size_t k = begin; k < end; ++k) {
+    const double t = data.t_s[k];
+    const bool boundary = !started || (o.segment_s > 0 && t - seg_t0 >= o.segment_s);
+    if (boundary && pose_measured(data, k)) {
+      if (started) anchor(seg_begin, k);
+      started = true;
+      seg_t0 = t;
+      seg_begin = k;
+      out.segment_start.push_back(k);
+      const auto& m = data.meas[k];
+      eta = Vec3(m[kX], m[kY], m[kPsi]);
+      const Vec4 w0 = delayed ? omega_at(data, t - o.pose_delay_s, hint) : data.omega_rpm[k];
+      zeta = steady_velocity(model, w0);
+      dyn.reset(model);
+    }
+    if (!started) continue;
+    if (imu_heading && finite(data.meas[k][kImuPsi])) eta.z() = data.meas[k][kImuPsi];  // Fig. 9 variant
+    sv.t_s = t - o.pose_delay_s;
+    predict_sensors(model, eta, zeta, sv);
+    // In the IMU-heading variant the IMU is an input, not something the model predicts.
+    out.pred[k] = {sv.pose.x(), sv.pose.y(), sv.pose.z(), imu_heading ? kNaN : sv.imu_psi_rad};
+    if (k + 1 < n) {
+      const double dt = data.t_s[k + 1] - t;
+      // A row's omega is the encoder's mean over the interval ending at its t_s (module
+      // telemetry, LOG-FORMAT.md), so the speed over [t_k, t_k+1] is row k+1's.
+      const Vec4 w = delayed ? omega_at(data, t + dt - o.pose_delay_s, hint) : data.omega_rpm[k + 1];
+      dyn.t_s = t - o.pose_delay_s;
+      dynamics_step(model, dyn, eta, zeta, w, std::min(dt, 0.1), o.n_sub);
+    }
+  }
+  if (started) anchor(seg_begin, end);
+}
+
+// ------------------------------------------------------------------------------- errors
+ErrorStats error_stats(const Dataset& data, const Prediction& p, const ChannelValues& noise, std::size_t begin,
+                       std::size_t end) {
+  ErrorStats s;
+  end = std::min(end, data.size());
+  std::array<double, kChannels> sum{};
+  for (std::size_t k = begin; k < end; ++k)
+    for (int c = 0; c < kChannels; ++c) {
+      if (!data.active[static_cast<std::size_t>(c)]) continue;
+      const double m = data.meas[k][static_cast<std::size_t>(c)], q = p.pred[k][static_cast<std::size_t>(c)];
+      if (!finite(m) || !finite(q)) continue;
+      const double e = channel_error(c, q, m);
+      sum[static_cast<std::size_t>(c)] += e * e;
+      ++s.n[static_cast<std::size_t>(c)];
+    }
+  for (int c = 0; c < kChannels; ++c) {
+    const auto cc = static_cast<std::size_t>(c);
+    if (!s.n[cc]) continue;
+    s.rms[cc] = std::sqrt(sum[cc] / static_cast<double>(s.n[cc]));
+    s.ratio_to_noise[cc] = s.rms[cc] / noise[cc];
+  }
+  return s;
+}
+
+ErrorStats one_step_error(const Model& model, const Dataset& data, const ChannelValues& noise) {
+  // From each measured pose to the next one (the camera may run slower than the log): what
+  // the model adds over one measurement interval.
+  Prediction p;
+  p.pred.assign(data.size(), ChannelValues{kNaN, kNaN, kNaN, kNaN});
+  DynamicsData dyn(model);
+  SensorValues sv;
+  std::size_t k = 0;
+  while (k < data.size() && !pose_measured(data, k)) ++k;
+  while (k + 1 < data.size()) {
+    std::size_t j = k + 1;
+    while (j < data.size() && !pose_measured(data, j)) ++j;
+    if (j >= data.size()) break;
+    if (data.t_s[j] - data.t_s[k] <= 0.5) {
+      const auto& m = data.meas[k];
+      Vec3 eta(m[kX], m[kY], m[kPsi]);
+      Vec3 zeta = steady_velocity(model, data.omega_rpm[k]);
+      dyn.reset(model);
+      dyn.t_s = data.t_s[k];
+      for (std::size_t i = k; i < j; ++i)
+        dynamics_step(model, dyn, eta, zeta, data.omega_rpm[i + 1], data.t_s[i + 1] - data.t_s[i], 1);
+      sv.t_s = data.t_s[j];
+      predict_sensors(model, eta, zeta, sv);
+      p.pred[j] = {sv.pose.x(), sv.pose.y(), sv.pose.z(), kNaN};
+    }
+    k = j;
+  }
+  return error_stats(data, p, noise);
+}
+
+std::vector<Window> window_errors(const Model& model, const Dataset& data, const ChannelValues& noise,
+                                  double window_s, const SimOptions& options) {
+  SimOptions o = options;
+  o.segment_s = window_s;
+  o.anchor_s = std::min(o.anchor_s, 0.2 * window_s);
+  Prediction p;
+  simulate(model, data, o, p);
+  std::vector<Window> out;
+  for (std::size_t s = 0; s < p.segment_start.size(); ++s) {
+    const std::size_t b = p.segment_start[s];
+    const std::size_t e = s + 1 < p.segment_start.size() ? p.segment_start[s + 1] : data.size();
+    const ErrorStats st = error_stats(data, p, noise, b, e);
+    for (int c = 0; c < kChannels; ++c) {
+      const auto cc = static_cast<std::size_t>(c);
+      if (!data.active[cc] || st.n[cc] < 5) continue;
+      out.push_back({data.t_s[b], data.t_s[e - 1], c, st.rms[cc], st.ratio_to_noise[cc]});
+    }
+  }
+  return out;
+}
+
+std::vector<Window> worst_windows(const std::vector<Window>& windows, std::size_t n) {
+  std::vector<Window> w = windows;
+  std::sort(w.begin(), w.end(), [](const Window& a, const Window& b) { return a.ratio_to_noise > b.ratio_to_noise; });
+  if (w.size() > n) w.resize(n);
+  return w;
+}
+
+// ------------------------------------------------------------------------------- regimes
+RegimeLabels classify_sample(const Model& model, const Dataset& data, std::size_t k) {
+  RegimeLabels L;
+  const Vec4& w = data.omega_rpm[k];
+  const Vec3 z = steady_velocity(model, w);  // eq. (6) at rest: what the screws ask for
+  // A DOF "moves" when its commanded speed is above a small absolute level.
+  const double lim[3] = {0.01, 0.01, 0.02};
+  const bool mv[3] = {std::fabs(z[0]) > lim[0], std::fabs(z[1]) > lim[1], std::fabs(z[2]) > lim[2]};
+  const int count = mv[0] + mv[1] + mv[2];
+  L.motion = count == 0 ? "still" : count > 1 ? "combined" : mv[0] ? "x" : mv[1] ? "y" : "yaw";
+  const double speed = w.cwiseAbs().mean();
+  L.speed = speed < 5 ? "0-5 rpm" : speed < 12 ? "5-12 rpm" : "12+ rpm";
+  // Phase from the change of the mean screw speed over +-0.25 s.
+  std::size_t a = k, b = k;
+  while (a > 0 && data.t_s[k] - data.t_s[a - 1] <= 0.25) --a;
+  while (b + 1 < data.size() && data.t_s[b + 1] - data.t_s[k] <= 0.25) ++b;
+  const double dt = data.t_s[b] - data.t_s[a];
+  const double rate = dt > 0 ? (data.omega_rpm[b].cwiseAbs().mean() - data.omega_rpm[a].cwiseAbs().mean()) / dt : 0;
+  L.phase = rate > 4 ? "accelerating" : rate < -4 || (count == 0 && speed < 0.5) ? "coasting" : "steady";
+  // Direction of the dominant commanded DOF (normalised by typical speeds 0.1 m/s, 0.1 rad/s).
+  const double nz[3] = {std::fabs(z[0]) / 0.1, std::fabs(z[1]) / 0.1, std::fabs(z[2]) / 0.1};
+  const int dom = static_cast<int>(std::max_element(nz, nz + 3) - nz);
+  if (count == 0) L.direction = "none";
+  else if (dom == 0) L.direction = z[0] > 0 ? "forward" : "backward";
+  else if (dom == 1) L.direction = z[1] > 0 ? "left" : "right";
+  else L.direction = z[2] > 0 ? "counter-clockwise" : "clockwise";
+  const double psi = data.meas[k][kPsi];
+  if (data.gantry || !finite(psi)) L.heading = "";
+  else {
+    const double deg = psi * 180 / kPi;
+    L.heading = std::fabs(deg) <= 45 ? "heading -45..45 deg"
+                : deg > 45 && deg <= 135 ? "heading 45..135 deg"
+                : deg < -45 && deg >= -135 ? "heading -135..-45 deg"
+                : "heading 135..225 deg";
+  }
+  return L;
+}
+
+std::vector<RegimeRow> error_by_regime(const Model& model, const Dataset& data, const Prediction& p,
+                                       const ChannelValues& noise) {
+  struct Acc {
+    double seconds = 0;
+    std::array<double, kChannels> sum{};
+    std::array<std::size_t, kChannels> n{};
+  };
+  std::vector<std::pair<std::pair<std::string, std::string>, Acc>> acc;
+  auto slot = [&](const std::string& kind, const std::string& label) -> Acc& {
+    for (auto& a : acc)
+      if (a.first.first == kind && a.first.second == label) return a.second;
+    acc.push_back({{kind, label}, Acc{}});
+    return acc.back().second;
+  };
+  for (std::size_t k = 0; k < data.size(); ++k) {
+    const RegimeLabels L = classify_sample(model, data, k);
+    const double dt = k + 1 < data.size() ? data.t_s[k + 1] - data.t_s[k] : 0;
+    const std::pair<const char*, const std::string*> kinds[5] = {
+        {"motion", &L.motion}, {"speed", &L.speed}, {"phase", &L.phase}, {"direction", &L.direction}, {"heading", &L.heading}};
+    for (const auto& [kind, label] : kinds) {
+      if (label->empty()) continue;
+      Acc& a = slot(kind, *label);
+      a.seconds += dt;
+      for (int c = 0; c < kChannels; ++c) {
+        const auto cc = static_cast<std::size_t>(c);
+        const double m = data.meas[k][cc], q = p.pred[k][cc];
+        if (!data.active[cc] || !finite(m) || !finite(q)) continue;
+        const double e = channel_error(c, q, m);
+        a.sum[cc] += e * e;
+        ++a.n[cc];
+      }
+    }
+  }
+  std::vector<RegimeRow> rows;
+  for (const auto& [key, a] : acc) {
+    RegimeRow r;
+    r.kind = key.first;
+    r.label = key.second;
+    r.seconds = a.seconds;
+    for (std::size_t c = 0; c < kChannels; ++c)
+      if (a.n[c]) {
+        r.rms[c] = std::sqrt(a.sum[c] / static_cast<double>(a.n[c]));
+        r.ratio_to_noise[c] = r.rms[c] / noise[c];
+      }
+    rows.push_back(r);
+  }
+  std::stable_sort(rows.begin(), rows.end(), [](const RegimeRow& x, const RegimeRow& y) { return x.kind < y.kind; });
+  return rows;
+}
+
+// ------------------------------------------------------------------------------- compare
+SimOptions sim_options_for(const Model& model) {
+  SimOptions o;
+  for (const auto& e : model.effects)
+    if (e->id() == "pose_time_offset") o.pose_delay_s = e->params().front().second;
+  return o;
+}
+
+CompareResult compare(const Dataset& data, ModelChoice mc) {
+  CompareResult r;
+  r.model = std::move(mc);
+  const Model& m = r.model.model;
+  r.noise_floor = estimate_noise_floor(data);
+  SimOptions o = sim_options_for(m);
+  SimOptions ol = o;
+  ol.segment_s = 0;  // Table 4: open loop from the first pose
+  simulate(m, data, ol, r.open_loop);
+  r.open_loop_err = error_stats(data, r.open_loop, r.noise_floor);
+  simulate(m, data, o, r.segments);
+  r.segments_err = error_stats(data, r.segments, r.noise_floor);
+  if (data.active[kImuPsi]) {
+    SimOptions oi = o;
+    oi.imu_heading = true;
+    simulate(m, data, oi, r.imu_heading);
+    r.imu_heading_err = error_stats(data, r.imu_heading, r.noise_floor);
+  }
+  r.one_step_err = one_step_error(m, data, r.noise_floor);
+  r.windows = window_errors(m, data, r.noise_floor, 5.0, o);
+  r.worst = worst_windows(r.windows, 5);
+  r.regimes = error_by_regime(m, data, r.segments, r.noise_floor);
+  return r;
+}
+
+// ------------------------------------------------------------------------------- JSON
+void Json::sep(const char* key) {
+  if (!first_.empty()) {
+    if (!first_.back()) out_ += ",";
+    first_.back() = false;
+  }
+  if (key) {
+    out_ += "\"";
+    out_ += key;
+    out_ += "\":";
+  }
+}
+Json& Json::begin_object(const char* key) {
+  sep(key);
+  out_ += "{";
+  first_.push_back(true);
+  return *this;
+}
+Json& Json::end_object() {
+  out_ += "}";
+  first_.pop_back();
+  return *this;
+}
+Json& Json::begin_array(const char* key) {
+  sep(key);
+  out_ += "[";
+  first_.push_back(true);
+  return *this;
+}
+Json& Json::end_array() {
+  out_ += "]";
+  first_.pop_back();
+  return *this;
+}
+Json& Json::num(const char* key, double v) {
+  sep(key);
+  if (!std::isfinite(v)) {
+    out_ += "null";
+    return *this;
+  }
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  out_ += buf;
+  return *this;
+}
+Json& Json::str(const char* key, const std::string& v) {
+  sep(key);
+  out_ += "\"";
+  for (char ch : v) {
+    if (ch == '"' || ch == '\\') {
+      out_ += '\\';
+      out_ += ch;
+    } else if (static_cast<unsigned char>(ch) < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", ch);
+      out_ += buf;
+    } else {
+      out_ += ch;
+    }
+  }
+  out_ += "\"";
+  return *this;
+}
+Json& Json::boolean(const char* key, bool v) {
+  sep(key);
+  out_ += v ? "true" : "false";
+  return *this;
+}
+Json& Json::channels(const char* key, const ChannelValues& v, const std::array<bool, kChannels>& active) {
+  begin_object(key);
+  for (int c = 0; c < kChannels; ++c)
+    if (active[static_cast<std::size_t>(c)]) num(channel_name(c), v[static_cast<std::size_t>(c)]);
+  return end_object();
+}
+void json_windows(Json& j, const char* key, const std::vector<Window>& windows) {
+  j.begin_array(key);
+  for (const auto& w : windows) {
+    j.begin_object();
+    j.num("t_start_s", w.t_start_s).num("t_end_s", w.t_end_s).str("dof", channel_name(w.dof));
+    j.num("rms", w.rms).num("ratio_to_noise", w.ratio_to_noise);
+    j.end_object();
+  }
+  j.end_array();
+}
+
+}  // namespace auger::wb
