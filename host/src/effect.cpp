@@ -95,18 +95,21 @@ void CoulombFriction::body_force(const Model&, const EffectContext& ctx, Vec3& f
 }
 
 // ---------------------------------------------------------------- ScrewDeadBand
-ScrewDeadBand::ScrewDeadBand(double omega_dead_rpm) : omega_dead_rpm_(omega_dead_rpm) {}
+ScrewDeadBand::ScrewDeadBand(double omega_dead_rpm, bool shift) : omega_dead_rpm_(omega_dead_rpm), shift_(shift) {}
 const std::string& ScrewDeadBand::id() const {
   static const std::string s = "screw_dead_band";
   return s;
 }
 std::vector<std::pair<std::string, double>> ScrewDeadBand::params() const {
-  return {{"omega_dead_rpm", omega_dead_rpm_}};
+  return {{"omega_dead_rpm", omega_dead_rpm_}, {"shift", shift_ ? 1.0 : 0.0}};
 }
 void ScrewDeadBand::drive_force(const Model& model, const Vec4& omega_rpm, double, Vec3& tau_n,
                                 double*) const {
-  for (int i = 0; i < 4; ++i)
-    if (std::fabs(omega_rpm[i]) < omega_dead_rpm_) tau_n -= model.SB.col(i) * omega_rpm[i];  // eq. (7)
+  for (int i = 0; i < 4; ++i) {
+    const double w = omega_rpm[i];
+    if (std::fabs(w) < omega_dead_rpm_) tau_n -= model.SB.col(i) * w;  // eq. (7) without screw i
+    else if (shift_) tau_n -= model.SB.col(i) * std::copysign(omega_dead_rpm_, w);
+  }
 }
 
 // ---------------------------------------------------------------- ImuHeadingBias

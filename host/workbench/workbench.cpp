@@ -101,6 +101,10 @@ Dataset load_dataset(const std::string& path) {
 // ------------------------------------------------------------------------------- model
 namespace {
 
+// The rail holds the gantry's yaw: huge inertia and damping keep r at zero (the lumped yaw row
+// of B would otherwise turn it).
+constexpr double kGantryYawDamping = 1e12;
+
 // The paper's tables (MODEL-NOTES.md; the same values as models/robot.toml, models/gantry.toml).
 TerrainParams robot_terrain(const std::string& name, bool* known) {
   *known = true;
@@ -110,9 +114,9 @@ TerrainParams robot_terrain(const std::string& name, bool* known) {
 }
 TerrainParams gantry_terrain(const std::string& name, bool* known) {
   *known = true;
-  if (name == "gravel") return {"gravel", 0.297, 0.0853, 214.78, 23.52, 1.0};
+  if (name == "gravel") return {"gravel", 0.297, 0.0853, 214.78, 23.52, kGantryYawDamping};
   *known = name == "sand" || name.empty();
-  return {"sand", 0.812, 0.247, 529.95, 76.1307, 1.0};
+  return {"sand", 0.812, 0.247, 529.95, 76.1307, kGantryYawDamping};
 }
 
 // The gantry as the robot model: screws 0 and 1 (B_x = [-1, -1], B_y = [-1, 1]), mass of module
@@ -148,7 +152,7 @@ ModelChoice choose_model(const Dataset& data, const std::string& model_path) {
   mc.source = model_path + " (terrain " + mc.terrain + ")";
   if (data.gantry) {
     TerrainParams t = te->params;
-    if (!std::isfinite(t.D_psi)) t.D_psi = 1.0;
+    t.D_psi = kGantryYawDamping;
     std::vector<std::shared_ptr<const Effect>> effects;
     for (const auto& c : f.effects) effects.push_back(EffectRegistry::builtin().create(c));
     const double mass = f.gantry_mass_kg ? *f.gantry_mass_kg : data.gantry_mass_kg;

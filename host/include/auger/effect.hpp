@@ -156,10 +156,12 @@ class CoulombFriction final : public Effect {
   Vec3 limit_;
 };
 
-// Dead band: a screw turning slower than omega_dead_rpm produces no force.
+// Dead band: a screw turning slower than omega_dead_rpm produces no force. With shift (a dead
+// zone, the registry's default) a faster screw pushes as if it turned omega_dead_rpm slower;
+// without, it pushes with its full speed.
 class ScrewDeadBand final : public Effect {
  public:
-  explicit ScrewDeadBand(double omega_dead_rpm);
+  explicit ScrewDeadBand(double omega_dead_rpm, bool shift = false);
   const std::string& id() const override;
   std::vector<std::pair<std::string, double>> params() const override;
   void drive_force(const Model& model, const Vec4& omega_rpm, double dt_s, Vec3& tau_n,
@@ -167,6 +169,7 @@ class ScrewDeadBand final : public Effect {
 
  private:
   double omega_dead_rpm_;
+  bool shift_;
 };
 
 // A constant IMU heading bias: the IMU reports psi + bias_rad.

@@ -28,24 +28,34 @@ class ScrewTractionLoss final : public Effect {
   double loss_;
 };
 
-// The traction force saturates: each body-force component of eq. (7) is limited (hard clamp),
-// as when the soil shears before the screws reach their nominal thrust.
+// The traction force saturates per screw: each screw's longitudinal and lateral force of eq. (7)
+// (sigma_long B_x,i omega_i, sigma_lat B_y,i omega_i) saturates smoothly towards +-force_max,
+// f / sqrt(1 + (f / force_max)^2), as when the soil under a screw shears before it reaches its
+// nominal thrust (gradually: more and more of the soil yields). The yaw share of a
+// screw (the lumped row of B) scales with its lateral force.
 class TractionSaturation final : public Effect {
  public:
-  explicit TractionSaturation(const Vec3& limit) : limit_(limit) {}
+  TractionSaturation(double long_max, double lat_max) : long_max_(long_max), lat_max_(lat_max) {}
   const std::string& id() const override {
     static const std::string s = "traction_saturation";
     return s;
   }
   std::vector<std::pair<std::string, double>> params() const override {
-    return {{"force_max_x_n", limit_.x()}, {"force_max_y_n", limit_.y()}, {"torque_max_psi_nm", limit_.z()}};
+    return {{"force_max_long_n", long_max_}, {"force_max_lat_n", lat_max_}};
   }
-  void drive_force(const Model&, const Vec4&, double, Vec3& tau_n, double*) const override {
-    for (int k = 0; k < 3; ++k) tau_n[k] = std::clamp(tau_n[k], -limit_[k], limit_[k]);
+  void drive_force(const Model& model, const Vec4& omega_rpm, double, Vec3& tau_n, double*) const override {
+    for (int i = 0; i < 4; ++i) {
+      const Vec3 f = model.SB.col(i) * omega_rpm[i];
+      const double fx = f.x() / std::sqrt(1.0 + (f.x() / long_max_) * (f.x() / long_max_));
+      const double fy = f.y() / std::sqrt(1.0 + (f.y() / lat_max_) * (f.y() / lat_max_));
+      const double share = f.y() != 0 ? fy / f.y() : 1.0;
+      tau_n -= f;
+      tau_n += Vec3(fx, fy, f.z() * share);
+    }
   }
 
  private:
-  Vec3 limit_;
+  double long_max_, lat_max_;
 };
 
 // The drive force builds up with a first-order lag of time constant tau_s (exact for a held
@@ -85,10 +95,13 @@ void register_drive(EffectRegistry& r) {
     if (!(v >= 0) || !std::isfinite(v)) throw std::invalid_argument(std::string(name) + " must be >= 0");
   };
   r.add({"screw_dead_band", "a screw slower than omega_dead_rpm gives no force",
-         {{"omega_dead_rpm", 0, true, "dead band half-width", "rpm", 0, 23, 1.0}},
+         {{"omega_dead_rpm", 0, true, "dead band half-width", "rpm", 0, 23, 1.0},
+          {"shift", 1, false, "1: a dead zone (force of |omega| - omega_dead_rpm), 0: full force above it", "", 0, 1, 1,
+           false, false}},
          [non_negative](const std::vector<double>& v) {
            non_negative(v[0], "omega_dead_rpm");
-           return std::make_shared<ScrewDeadBand>(v[0]);
+           if (!(v[1] == 0 || v[1] == 1)) throw std::invalid_argument("shift must be 0 or 1");
+           return std::make_shared<ScrewDeadBand>(v[0], v[1] == 1);
          },
          [](const std::vector<double>& v) {
            return "a screw turning slower than " + fmt(v[0]) + " rpm pushes with no force: screw dead band";
@@ -109,25 +122,16 @@ void register_drive(EffectRegistry& r) {
            return "screw " + std::to_string(i) + " (" + names[i] + ") transmits only " + fmt(100 * (1 - v[1])) +
                   " % of its force: loss of traction of one screw";
          }});
-  r.add({"traction_saturation", "each component of the drive force S B omega is limited to +-force_max",
-         {{"force_max_x_n", 1e6, false, "longitudinal limit", "N", 0.1, 1e6, 20, false, true, true},
-          {"force_max_y_n", 1e6, false, "lateral limit", "N", 0.1, 1e6, 10, false, true, true},
-          {"torque_max_psi_nm", 1e6, false, "yaw limit", "N m", 0.01, 1e6, 0.5, false, true, true}},
+  r.add({"traction_saturation", "each screw's longitudinal / lateral force saturates smoothly towards +-force_max",
+         {{"force_max_long_n", 1e6, false, "per-screw longitudinal limit", "N", 0.05, 1e6, 8, false, true, true},
+          {"force_max_lat_n", 1e6, false, "per-screw lateral limit", "N", 0.05, 1e6, 2.5, false, true, true}},
          [](const std::vector<double>& v) {
-           for (int k = 0; k < 3; ++k)
-             if (!(v[static_cast<std::size_t>(k)] > 0)) throw std::invalid_argument("force limits must be > 0");
-           return std::make_shared<TractionSaturation>(Vec3(v[0], v[1], v[2]));
+           if (!(v[0] > 0 && v[1] > 0)) throw std::invalid_argument("force limits must be > 0");
+           return std::make_shared<TractionSaturation>(v[0], v[1]);
          },
          [](const std::vector<double>& v) {
-           std::string s = "the screws' thrust saturates at";
-           const char* what[3] = {" N along x", " N along y", " N m in yaw"};
-           bool any = false;
-           for (int k = 0; k < 3; ++k)
-             if (v[static_cast<std::size_t>(k)] < 1e5) {
-               s += std::string(any ? "," : "") + " " + fmt(v[static_cast<std::size_t>(k)]) + what[k];
-               any = true;
-             }
-           return (any ? s : std::string("no limit reached")) + ": saturation of the traction force";
+           return "each screw's thrust saturates at " + fmt(v[0]) + " N along and " + fmt(v[1]) +
+                  " N across the robot: saturation of the traction force";
          }});
   r.add({"force_lag", "the drive force follows S B omega with a first-order lag tau_s",
          {{"tau_s", 0, true, "time constant", "s", 0, 3, 0.1}},

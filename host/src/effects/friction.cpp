@@ -109,7 +109,7 @@ void register_friction(EffectRegistry& r) {
          {{"force_x_n", 0, false, "sliding level, longitudinal", "N", 0, 500, 10},
           {"force_y_n", 0, false, "sliding level, lateral", "N", 0, 500, 10},
           {"torque_psi_nm", 0, false, "sliding level, yaw", "N m", 0, 50, 0.5},
-          {"breakaway_ratio", 1.5, false, "breakaway (static) / sliding level", "", 1, 5, 0.3}},
+          {"breakaway_ratio", 1.5, false, "breakaway (static) / sliding level", "", 1, 5, 1.3}},
          [](const std::vector<double>& v) {
            check_non_negative(v[0], "force_x_n");
            check_non_negative(v[1], "force_y_n");

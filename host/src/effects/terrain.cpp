@@ -47,8 +47,11 @@ class ResistanceOffset final : public Effect {
     return {{"offset_x_m", ox_}, {"offset_y_m", oy_}};
   }
   void body_force(const Model& model, const EffectContext& ctx, Vec3& force_n, double*) const override {
-    const double u = ctx.zeta_free.x(), v = ctx.zeta_free.y();
-    force_n << 0.0, 0.0, ox_ * (-model.D_diag.y() * v) - oy_ * (-model.D_diag.x() * u);
+    // The resistance point moves with (u - r y_c, v + r x_c) (rigid body); the difference to the
+    // centre's resistance is the extra force, and its moment about the centre the extra torque.
+    const double u = ctx.zeta_free.x(), v = ctx.zeta_free.y(), r = ctx.zeta_free.z();
+    const double fx = -model.D_diag.x() * (u - r * oy_), fy = -model.D_diag.y() * (v + r * ox_);
+    force_n << fx + model.D_diag.x() * u, fy + model.D_diag.y() * v, ox_ * fy - oy_ * fx;
   }
 
  private:
