@@ -36,6 +36,7 @@ struct IdentifyOptions {
   double settle_time_constants = 5;  // a piece is steady after 5 m/D (e^-5 = 0.7 % left)
   double min_steady_s = 0.5;         // shorter steady parts are not used for D
   double drive_tol_rpm = 0.5;        // a piece of constant drive: within max(0.5 rpm, 5 %)
+  double sigma_edge_s = 0.1;         // sigma skips the first and last 0.1 s of each piece
 };
 
 // One steady piece of constant screw speed: what eq. (17) regresses.
@@ -53,7 +54,7 @@ struct GantryIdentification {
   std::string terrain, axis;
   std::vector<std::string> files;
   double mass_kg = 16;
-  std::size_t n_samples = 0;       // samples with force and drive measured (eq. (16))
+  std::size_t n_samples = 0;       // samples of eq. (16): constant screw speed, force measured
   Estimate sigma;                  // sigma_long or sigma_lat, N per rpm, eq. (16)
   double force_residual_rms_n = 0; // F - sigma B omega
   Estimate D;                      // D_x or D_y, N/(m/s), eq. (17)
