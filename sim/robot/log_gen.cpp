@@ -29,8 +29,8 @@ const std::vector<EffectInfo>& effect_table() {
        "-c |w| w with one magnitude |w| of (u, v); yaw c_psi r|r|"},
       {"screw_traction_loss", true, false, {{"screw", 0}, {"loss", 0.6}, {"t_on_s", 0.0}},
        "one screw loses the fraction loss of its traction, at its contact point"},
-      {"traction_saturation", true, true, {{"long_max_n", 12.0}, {"lat_max_n", 4.0}},
-       "f_max tanh(f / f_max) per screw and axis"},
+      {"traction_saturation", true, true, {{"long_max_n", 12.0}, {"lat_max_n", 4.0}, {"sharpness", 6.0}},
+       "per screw and axis f / (1 + |f / f_max|^n)^(1/n) (n = sharpness; 0: f_max tanh(f / f_max))"},
       {"force_lag", true, true, {{"tau_s", 0.15}, {"damping", 0.8}}, "second-order build-up of traction"},
       {"screw_dead_band", true, true, {{"omega_rpm", 2.0}}, "smooth dead band omega - w0 tanh(omega / w0)"},
       {"terrain_slope", true, false, {{"roll_deg", 0.0}, {"pitch_deg", 2.0}},
@@ -192,6 +192,7 @@ void apply_robot_effect(const EffectSpec& e, double seconds, TruthParams& tp, Mo
     tp.saturation.on = true;
     tp.saturation.long_max_n = param(e, "long_max_n");
     tp.saturation.lat_max_n = param(e, "lat_max_n");
+    tp.saturation.sharpness = param(e, "sharpness");
   } else if (id == "force_lag") {
     tp.lag.on = true;
     tp.lag.tau_s = param(e, "tau_s");
@@ -460,6 +461,7 @@ LogGenResult generate_gantry_log(const TerrainParams& terrain, double mass_kg, c
   const double eps_mps = 0.0005;
   const double c_quad = quad ? param(e, lateral ? "c_y" : "c_x") : 0;
   const double f_max = sat ? param(e, lateral ? "lat_max_n" : "long_max_n") : 0;
+  const double sat_n = sat ? param(e, "sharpness") : 0;
   const double tau = lag ? param(e, "tau_s") : 0, zeta_lag = lag ? param(e, "damping") : 0;
   const double w0 = dead ? param(e, "omega_rpm") : 0;
   // Gantry soft patch: a stretch of rail of length 2 radius_m centred at at_frac of the rail.
@@ -475,7 +477,7 @@ LogGenResult generate_gantry_log(const TerrainParams& terrain, double mass_kg, c
       double wi = lag ? s.y[static_cast<std::size_t>(i)] : w[i];
       if (dead && !lag) wi = wi - w0 * std::tanh(wi / w0);
       double fi = sigma * b[static_cast<std::size_t>(i)] * wi;
-      if (sat) fi = f_max * std::tanh(fi / f_max);
+      if (sat) fi = saturate_force(fi, f_max, sat_n);
       f[static_cast<std::size_t>(i)] = fi;
     }
   };

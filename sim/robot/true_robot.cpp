@@ -127,8 +127,8 @@ TrueRobot::Deriv TrueRobot::derivative(const TruthState& s, const Vec4& omega_rp
     double f_long = sigma_gain * m_.terrain.sigma_long * w_tr[static_cast<int>(i)];
     double f_lat = sigma_gain * m_.terrain.sigma_lat * w_tr[static_cast<int>(i)];
     if (p_.saturation.on) {
-      f_long = p_.saturation.long_max_n * std::tanh(f_long / p_.saturation.long_max_n);
-      f_lat = p_.saturation.lat_max_n * std::tanh(f_lat / p_.saturation.lat_max_n);
+      f_long = saturate_force(f_long, p_.saturation.long_max_n, p_.saturation.sharpness);
+      f_lat = saturate_force(f_lat, p_.saturation.lat_max_n, p_.saturation.sharpness);
     }
     if (p_.loss.on && static_cast<int>(i) == p_.loss.screw && t_s >= p_.loss.t_on_s) {
       f_long *= p_.loss.factor;
@@ -144,7 +144,6 @@ TrueRobot::Deriv TrueRobot::derivative(const TruthState& s, const Vec4& omega_rp
     // sideways velocity gives a yaw moment a D_y l_x v, and r a lateral force), the soft patch
     // adds drag to a contact inside its disc.
     double k_drag = drag_gain;
-    if (p_.offset.on) k_drag *= 1.0 + (p.x() > 0 ? p_.offset.asym : -p_.offset.asym);
     if (p_.soft_patch.on) {
       const SoftPatch& sp = p_.soft_patch;
       const double xw = s.eta[0] + cpsi * p.x() - spsi * p.y() - sp.x_m;
@@ -152,7 +151,18 @@ TrueRobot::Deriv TrueRobot::derivative(const TruthState& s, const Vec4& omega_rp
       const double inside = 0.5 * (1.0 - std::tanh((std::hypot(xw, yw) - sp.radius_m) / sp.edge_m));
       k_drag *= 1.0 + sp.extra * inside;
     }
-    const Eigen::Vector2d f_drag(-k_drag * cdx_ * c.x(), -k_drag * cdy_ * c.y());
+    const Eigen::Vector2d f_plain(-k_drag * cdx_ * c.x(), -k_drag * cdy_ * c.y());
+    Eigen::Vector2d f_drag = f_plain;
+    if (p_.offset.on) {
+      const double asym = p.x() > 0 ? p_.offset.asym : -p_.offset.asym;
+      const Eigen::Vector2d f_asym = asym * f_plain;
+      f_drag += f_asym;
+      // With the model's yaw time constant the truth's yaw equation is yaw_scale times the
+      // model's (drive, drag and inertia alike), so the moment of the asymmetric part is scaled
+      // with it: the centre of resistance then sits at asym l_x for the model too (its force on
+      // y from r is not a moment and is not scaled).
+      if (p_.nominal_yaw_time_constant) m_z += (yaw_scale_ - 1.0) * (p.x() * f_asym.y() - p.y() * f_asym.x());
+    }
     const Eigen::Vector2d f = f_tr + f_block + f_drag;
     f_body += f;
     m_z += p.x() * f.y() - p.y() * f.x();

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 
 #include <Eigen/Core>
 
@@ -32,10 +33,16 @@ struct TractionLoss {  // screw `screw` keeps only `factor` of its traction from
   int screw = 0;
   double factor = 0.3, t_on_s = 0.0;
 };
-struct TractionSaturation {  // smooth: f = f_max tanh(f_linear / f_max), per screw and axis
-  bool on = false;
+struct TractionSaturation {  // smooth, per screw and axis: f = f_max tanh(f_linear / f_max), or
+  bool on = false;           // with sharpness n > 0 f = f_lin / (1 + |f_lin / f_max|^n)^(1/n)
   double long_max_n = 14.0, lat_max_n = 4.0;
+  double sharpness = 0.0;    // 0: tanh; larger n bends closer to a hard limit (still smooth)
 };
+// Smooth saturation of one force component (TractionSaturation's forms).
+inline double saturate_force(double f_n, double f_max_n, double sharpness) {
+  if (sharpness <= 0) return f_max_n * std::tanh(f_n / f_max_n);
+  return f_n / std::pow(1.0 + std::pow(std::fabs(f_n / f_max_n), sharpness), 1.0 / sharpness);
+}
 struct ForceLag {  // the traction builds up through a second-order filter of the screw speed
   bool on = false;
   double tau_s = 0.15, damping = 0.8;
