@@ -278,6 +278,21 @@ GantryIdentification identify_group(const std::vector<const GantryData*>& logs, 
   }
   r.pieces = pieces;
   r.D.value = 1 / fit.g;
+  if (pieces.size() < 3)
+    r.warnings.push_back("D rests on " + std::to_string(pieces.size()) +
+                         " steady piece(s) only; its interval is the within-piece noise, not run-to-run scatter");
+  // eq. (17) says the steady velocity is proportional to tau. If the pieces scatter about that
+  // line far beyond their own velocity noise, something the model lacks (dry friction, a dead
+  // band, a change of ground) acts, and D absorbs it: say so rather than pass it on silently.
+  double chi2 = 0;
+  for (const auto& p : pieces) {
+    const double r_mps = p.velocity_mps - fit.g * p.tau_n;
+    chi2 += r_mps * r_mps / std::max(p.velocity_se_mps * p.velocity_se_mps, 1e-12);
+  }
+  if (pieces.size() >= 3 && chi2 / static_cast<double>(pieces.size() - 1) > 25)
+    r.warnings.push_back("the steady velocities do not follow u = tau / D of eq. (17) within their noise (scatter " +
+                         std::to_string(static_cast<int>(std::sqrt(chi2 / static_cast<double>(pieces.size() - 1)))) +
+                         "x their standard errors): an effect the model lacks may act; try auger diagnose");
   const double rel_g = fit.g_se / fit.g, rel_sigma = r.sigma.se / r.sigma.value;
   // tau = sigma_hat * drive: D is proportional to sigma_hat, so their relative errors add.
   const double rel = std::sqrt(rel_g * rel_g + rel_sigma * rel_sigma);
