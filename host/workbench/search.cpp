@@ -297,7 +297,7 @@ std::vector<std::vector<Part>> starts(const std::vector<Part>& parts) {
         if (!p.entry) v = sp.default_value;  // paper_params: start at the paper's values
         else if (sp.log_scale) v = sp.typical * (variant == 0 ? 1.0 : 0.4);  // a limit must bite to be seen
         else if (sp.lower < 0) v = sp.typical * (variant == 0 ? 1.0 : -1.0);
-        else v = sp.typical * (variant == 0 ? 1.0 : 4.0);
+        else v = sp.typical * (variant == 0 ? 1.0 : 0.3);
         if (p.id == "terrain_change" && p.entry) v = variant == 0 ? 0.8 : 1.25;  // factors
         p.values[static_cast<std::size_t>(i)] = std::clamp(v, sp.lower, sp.upper);
       }
@@ -584,7 +584,7 @@ DiagnoseResult diagnose(const Dataset& data, ModelChoice mc, const DiagnoseOptio
   std::size_t done = 0;
   auto worker = [&]() {
     for (std::size_t i; (i = next++) < ids.size();) {
-      FitOutcome o = fit_parts(pr, {make_part(ids[i], base, data)}, 12, data);
+      FitOutcome o = fit_parts(pr, {make_part(ids[i], base, data)}, 20, data);
       std::lock_guard<std::mutex> lock(print);
       ++done;
       if (opt.progress)
@@ -729,8 +729,12 @@ FitResult fit(const Dataset& data, ModelChoice mc, const std::vector<std::string
   res.after = mc;
   res.after.model = build(base, o.parts);
   res.after.source = "fitted from " + data.path;
-  res.err_before = segments_error(base, data, all, res.noise_floor);
-  res.err_after = segments_error(res.after.model, data, all, res.noise_floor);
+  // Reported as compare reports it (segments of 25 s), so the two commands agree.
+  Prediction p;
+  simulate(base, data, sim_options_for(base), p);
+  res.err_before = error_stats(data, p, res.noise_floor);
+  simulate(res.after.model, data, sim_options_for(res.after.model), p);
+  res.err_after = error_stats(data, p, res.noise_floor);
   res.model_toml = model_to_toml(res.after.model, data, res.effects);
   return res;
 }

@@ -287,11 +287,23 @@ void simulate_range(const Model& model, const Dataset& data, const SimOptions& o
       seg_t0 = t;
       seg_begin = k;
       out.segment_start.push_back(k);
-      const auto& m = data.meas[k];
-      eta = Vec3(m[kX], m[kY], m[kPsi]);
-      const Vec4 w0 = delayed ? omega_at(data, t - o.pose_delay_s, hint) : data.omega_rpm[k];
+      // The velocity and the effects' state (a lag, a stuck friction) at the start are the
+      // model's own: run it over the warm_s before the start from rest at the steady velocity
+      // of the screw speeds then, and keep only its velocity and state.
+      std::size_t kw = k;
+      while (kw > 0 && t - data.t_s[kw - 1] <= o.warm_s) --kw;
+      const Vec4 w0 = delayed ? omega_at(data, data.t_s[kw] - o.pose_delay_s, hint) : data.omega_rpm[kw];
       zeta = steady_velocity(model, w0);
       dyn.reset(model);
+      Vec3 eta_w = Vec3::Zero();
+      for (std::size_t i = kw; i < k; ++i) {
+        const double dt = data.t_s[i + 1] - data.t_s[i];
+        const Vec4 w = delayed ? omega_at(data, data.t_s[i + 1] - o.pose_delay_s, hint) : data.omega_rpm[i + 1];
+        dyn.t_s = data.t_s[i] - o.pose_delay_s;
+        dynamics_step(model, dyn, eta_w, zeta, w, std::min(dt, 0.1), o.n_sub);
+      }
+      const auto& m = data.meas[k];
+      eta = Vec3(m[kX], m[kY], m[kPsi]);
     }
     if (!started) continue;
     if (imu_heading && finite(data.meas[k][kImuPsi])) eta.z() = data.meas[k][kImuPsi];  // Fig. 9 variant

@@ -76,6 +76,7 @@ struct SimOptions {
   // Each segment's start pose is refined to the mean offset of its first anchor_s of measurements
   // (a rigid shift of the segment), so one noisy pose sample does not bias a whole segment.
   double anchor_s = 2.0;
+  double warm_s = 2.0;  // the model runs this long (> 5 x I_z / D_psi) before a segment start to set its velocity
 };
 
 // The options a model's effects imply (pose_time_offset sets pose_delay_s).
