@@ -348,6 +348,9 @@ FitOutcome fit_parts(const Problem& pr, const std::vector<Part>& parts, int max_
       if (o.cost < best.cost) best = std::move(o);
       else best.sims = o.sims;
       if (grid) break;  // one start per grid point
+      // At the noise already (mean squared normalised residual near 1): another start cannot do
+      // better than noise, so it is skipped (half the time of diagnose).
+      if (best.r.size() && best.cost < 1.3 * static_cast<double>(best.r.size())) break;
     }
   if (grid && std::isfinite(best.cost)) {
     // Refine the best grid point: neighbouring change times, then a full fit.

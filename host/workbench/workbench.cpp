@@ -209,18 +209,6 @@ bool pose_measured(const Dataset& d, std::size_t k) {
   return finite(m[kX]) && finite(m[kY]) && finite(m[kPsi]);
 }
 
-// omega at time t (linear between samples, held outside): the screw speeds seen at a pose row
-// that is pose_delay_s late.
-Vec4 omega_at(const Dataset& d, double t, std::size_t& hint) {
-  const std::size_t n = d.size();
-  if (t <= d.t_s.front()) return d.omega_rpm.front();
-  if (t >= d.t_s.back()) return d.omega_rpm.back();
-  while (hint + 1 < n && d.t_s[hint + 1] <= t) ++hint;
-  while (hint > 0 && d.t_s[hint] > t) --hint;
-  const double a = (t - d.t_s[hint]) / (d.t_s[hint + 1] - d.t_s[hint]);
-  return (1 - a) * d.omega_rpm[hint] + a * d.omega_rpm[hint + 1];
-}
-
 }  // namespace
 
 void simulate(const Model& model, const Dataset& data, const SimOptions& o, Prediction& out, std::size_t begin,
@@ -238,7 +226,6 @@ void simulate_range(const Model& model, const Dataset& data, const SimOptions& o
   DynamicsData dyn(model);
   Vec3 eta = Vec3::Zero(), zeta = Vec3::Zero();
   SensorValues sv;
-  std::size_t hint = 0;
   const bool delayed = o.pose_delay_s != 0;
   const bool imu_heading = o.imu_heading && data.active[kImuPsi];
   bool started = false;
@@ -249,7 +236,33 @@ void simulate_range(const Model& model, const Dataset& data, const SimOptions& o
   // average: the start pose is one noisy sample, the average of ~200 is not. The dynamics do
   // not depend on where the robot is or which way it points (except terrain_slope, a small
   // second-order change), so rotating and translating the segment is exact.
+  // Pose rows pose_delay_s late (effect pose_time_offset): the camera's columns show the state
+  // at t - pose_delay_s, interpolated in the segment's own prediction; the IMU and the screw
+  // speeds share the robot's clock and stay.
+  std::vector<Vec3> shifted;
+  auto shift_poses = [&](std::size_t b, std::size_t e) {
+    if (!delayed || b >= e) return;
+    shifted.resize(e - b);
+    std::size_t j = b;
+    for (std::size_t k = b; k < e; ++k) {
+      const double ts = std::clamp(data.t_s[k] - o.pose_delay_s, data.t_s[b], data.t_s[e - 1]);
+      while (j + 1 < e && data.t_s[j + 1] <= ts) ++j;
+      while (j > b && data.t_s[j] > ts) --j;
+      const std::size_t j1 = std::min(j + 1, e - 1);
+      const double a = j1 > j ? (ts - data.t_s[j]) / (data.t_s[j1] - data.t_s[j]) : 0.0;
+      const auto& p0 = out.pred[j];
+      const auto& p1 = out.pred[j1];
+      shifted[k - b] = Vec3((1 - a) * p0[kX] + a * p1[kX], (1 - a) * p0[kY] + a * p1[kY],
+                            p0[kPsi] + a * wrap_angle(p1[kPsi] - p0[kPsi]));
+    }
+    for (std::size_t k = b; k < e; ++k) {
+      out.pred[k][kX] = shifted[k - b].x();
+      out.pred[k][kY] = shifted[k - b].y();
+      out.pred[k][kPsi] = wrap_angle(shifted[k - b].z());
+    }
+  };
   auto anchor = [&](std::size_t b, std::size_t e) {
+    shift_poses(b, e);
     if (o.anchor_s <= 0 || b >= e) return;
     double sum[3] = {0, 0, 0};
     std::size_t cnt[3] = {0, 0, 0};
@@ -292,14 +305,14 @@ void simulate_range(const Model& model, const Dataset& data, const SimOptions& o
       // of the screw speeds then, and keep only its velocity and state.
       std::size_t kw = k;
       while (kw > 0 && t - data.t_s[kw - 1] <= o.warm_s) --kw;
-      const Vec4 w0 = delayed ? omega_at(data, data.t_s[kw] - o.pose_delay_s, hint) : data.omega_rpm[kw];
+      const Vec4 w0 = data.omega_rpm[kw];
       zeta = steady_velocity(model, w0);
       dyn.reset(model);
       Vec3 eta_w = Vec3::Zero();
       for (std::size_t i = kw; i < k; ++i) {
         const double dt = data.t_s[i + 1] - data.t_s[i];
-        const Vec4 w = delayed ? omega_at(data, data.t_s[i + 1] - o.pose_delay_s, hint) : data.omega_rpm[i + 1];
-        dyn.t_s = data.t_s[i] - o.pose_delay_s;
+        const Vec4 w = data.omega_rpm[i + 1];
+        dyn.t_s = data.t_s[i];
         dynamics_step(model, dyn, eta_w, zeta, w, std::min(dt, 0.1), o.n_sub);
       }
       const auto& m = data.meas[k];
@@ -307,7 +320,7 @@ void simulate_range(const Model& model, const Dataset& data, const SimOptions& o
     }
     if (!started) continue;
     if (imu_heading && finite(data.meas[k][kImuPsi])) eta.z() = data.meas[k][kImuPsi];  // Fig. 9 variant
-    sv.t_s = t - o.pose_delay_s;
+    sv.t_s = t;
     predict_sensors(model, eta, zeta, sv);
     // In the IMU-heading variant the IMU is an input, not something the model predicts.
     out.pred[k] = {sv.pose.x(), sv.pose.y(), sv.pose.z(), imu_heading ? kNaN : sv.imu_psi_rad};
@@ -315,8 +328,8 @@ void simulate_range(const Model& model, const Dataset& data, const SimOptions& o
       const double dt = data.t_s[k + 1] - t;
       // A row's omega is the encoder's mean over the interval ending at its t_s (module
       // telemetry, LOG-FORMAT.md), so the speed over [t_k, t_k+1] is row k+1's.
-      const Vec4 w = delayed ? omega_at(data, t + dt - o.pose_delay_s, hint) : data.omega_rpm[k + 1];
-      dyn.t_s = t - o.pose_delay_s;
+      const Vec4 w = data.omega_rpm[k + 1];
+      dyn.t_s = t;
       dynamics_step(model, dyn, eta, zeta, w, std::min(dt, 0.1), o.n_sub);
     }
   }
