@@ -391,6 +391,9 @@ int run_report(int argc, char** argv) {
     // ---- before / after
     if (have_fit) {
       std::ostringstream h, script;
+      if (have_diag && !dg.significant && !a.has("--effect"))
+        h << "<p class=warn>diagnose found nothing significant: the top candidate is shown for "
+             "completeness, not as a finding.</p>\n";
       h << "<p>Effect added: <b id=\"best-effect\">" << esc(best_effect) << "</b>";
       for (const auto& e : ft.effects) {
         h << "<br>" << esc(e.effect) << ": " << esc(e.description);
