@@ -128,7 +128,8 @@ void expect_bad(const std::string& dir, const std::string& command, const BadFil
 }  // namespace
 
 TEST_CASE("robot-log commands refuse broken logs naming file, line and column (exit 2)") {
-  const std::string dir = tools_test::temp_dir("bad");
+  const tools_test::TempDir tmp("bad");
+  const std::string dir = tmp.path;
   const std::string good = good_robot_log();
   tools_test::write_text(dir + "/camera.csv", camera_log());
   tools_test::write_text(dir + "/good.csv", good);
@@ -153,7 +154,8 @@ TEST_CASE("robot-log commands refuse broken logs naming file, line and column (e
 }
 
 TEST_CASE("identify refuses broken gantry logs and a log without its axis (exit 2)") {
-  const std::string dir = tools_test::temp_dir("badg");
+  const tools_test::TempDir tmp("badg");
+  const std::string dir = tmp.path;
   tools_test::GantryTruth tr;
   tr.reps = 1;
   const std::string good = tools_test::gantry_log_text(tools_test::make_gantry(tr, 1));
@@ -172,7 +174,8 @@ TEST_CASE("identify refuses broken gantry logs and a log without its axis (exit 
 }
 
 TEST_CASE("sparse pose rows and NaN gaps are data, not errors") {
-  const std::string dir = tools_test::temp_dir("sparse");
+  const tools_test::TempDir tmp("sparse");
+  const std::string dir = tmp.path;
   tools_test::write_text(dir + "/good.csv", good_robot_log());
   for (const std::string cmd : {"compare", "diagnose"}) {
     const auto r = tools_test::run_auger(dir, cmd + " " + dir + "/good.csv --json");

@@ -83,7 +83,8 @@ TEST_CASE("identify's 95 % intervals cover the truth at their rate over 25 seeds
 }
 
 TEST_CASE("auger identify on gantry log files: table, --json, same numbers as the library") {
-  const std::string dir = tools_test::temp_dir("identify");
+  const tools_test::TempDir tmp("identify");
+  const std::string dir = tmp.path;
   GantryTruth lon, lat;
   lat.axis = "lateral", lat.sigma = 0.247, lat.D = 76.1307;
   const auto g_lon = tools_test::make_gantry(lon, 7), g_lat = tools_test::make_gantry(lat, 8);
@@ -124,7 +125,8 @@ TEST_CASE("identify on the simulator's gantry logs (auger-sim-log --gantry): Tab
                         {"lateral", "sand", 0.247, 76.1307},
                         {"longitudinal", "gravel", 0.297, 214.78},
                         {"lateral", "gravel", 0.0853, 23.52}};
-  const std::string dir = tools_test::temp_dir("identify-sim");
+  const tools_test::TempDir tmp("identify-sim");
+  const std::string dir = tmp.path;
   int covered = 0, total = 0;
   for (int seed = 40; seed < 50; ++seed) {
     std::string files;

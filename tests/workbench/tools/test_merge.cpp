@@ -78,7 +78,8 @@ std::string camera_log(const Truth& tr, bool with_t0, unsigned seed) {
 }  // namespace
 
 TEST_CASE("merge recovers a shifted camera clock within one sample despite a wrong t0_unix_s") {
-  const std::string dir = tools_test::temp_dir("merge");
+  const tools_test::TempDir tmp("merge");
+  const std::string dir = tmp.path;
   Truth tr;
   tools_test::write_text(dir + "/robot.csv", robot_log(tr, true, 1));
   tools_test::write_text(dir + "/camera.csv", camera_log(tr, true, 2));
@@ -121,7 +122,8 @@ TEST_CASE("merge recovers a shifted camera clock within one sample despite a wro
 }
 
 TEST_CASE("merge without t0_unix_s searches around zero; without an IMU it keeps t0") {
-  const std::string dir = tools_test::temp_dir("merge2");
+  const tools_test::TempDir tmp("merge2");
+  const std::string dir = tmp.path;
   Truth tr;
   tools_test::write_text(dir + "/robot.csv", robot_log(tr, true, 3));
   tools_test::write_text(dir + "/camera.csv", camera_log(tr, false, 4));
@@ -141,7 +143,8 @@ TEST_CASE("merge without t0_unix_s searches around zero; without an IMU it keeps
 }
 
 TEST_CASE("merge refuses a camera log from another run: poor correlation, exit 1, nothing written") {
-  const std::string dir = tools_test::temp_dir("merge3");
+  const tools_test::TempDir tmp("merge3");
+  const std::string dir = tmp.path;
   Truth robot_truth, other;
   other.f[0] = 0.17, other.f[1] = 0.71, other.f[2] = 1.7;
   tools_test::write_text(dir + "/robot.csv", robot_log(robot_truth, true, 7));

@@ -52,7 +52,8 @@ std::string generated_log() {
 }  // namespace
 
 TEST_CASE("auger report: sections, valid inline SVG, nothing external, numbers of compare --json") {
-  const std::string dir = tools_test::temp_dir("report");
+  const tools_test::TempDir tmp("report");
+  const std::string dir = tmp.path;
   const std::string log = dir + "/log.csv";
   tools_test::write_text(log, generated_log());
   const auto r = tools_test::run_auger(dir, "report " + log + " --out " + dir + "/rep --json");
@@ -137,7 +138,8 @@ print(len(svgs))
 }
 
 TEST_CASE("auger report without gnuplot: a clear error naming the package, nothing written") {
-  const std::string dir = tools_test::temp_dir("report-nognuplot");
+  const tools_test::TempDir tmp("report-nognuplot");
+  const std::string dir = tmp.path;
   tools_test::write_text(dir + "/log.csv", generated_log());
   const auto r = tools_test::run_auger(dir, "report " + dir + "/log.csv --out " + dir + "/rep --no-diagnose",
                                        "AUGER_GNUPLOT=" + dir + "/no-such-gnuplot");

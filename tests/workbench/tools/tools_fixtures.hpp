@@ -39,6 +39,23 @@ inline std::string temp_dir(const std::string& tag) {
   return templ;
 }
 
+inline std::string shell_quote(const std::string& s);
+
+// The directory of one test case, removed with everything in it at the end of the case
+// (kept when AUGER_KEEP_TEST_FILES is set, to look at what a failing case wrote).
+struct TempDir {
+  explicit TempDir(const std::string& tag) : path(temp_dir(tag)) {}
+  ~TempDir() {
+    const char* keep = std::getenv("AUGER_KEEP_TEST_FILES");
+    if (keep && *keep) return;
+    const int rc = std::system(("rm -rf " + shell_quote(path)).c_str());
+    (void)rc;
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  std::string path;
+};
+
 inline std::string shell_quote(const std::string& s) {
   std::string q = "'";
   for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
