@@ -109,9 +109,10 @@ void set_interval(Estimate& e, double confidence, double dof) {
   e.hi = e.value + q * e.se;
 }
 
-// Steady pieces of one group for a given settle time; tau of eq. (12)/(14) from sigma.
+// Steady pieces of one group: each piece from settle_s after its start (or, with settle_s < 0,
+// from that fraction of its length, before any D is known); tau of eq. (12)/(14) from sigma.
 std::vector<SteadyPiece> steady_pieces(const std::vector<const GantryData*>& logs, double sigma,
-                                       double settle_s, double half_if_negative,
+                                       double settle_s, double settle_fraction,
                                        const IdentifyOptions& o) {
   std::vector<SteadyPiece> out;
   std::vector<double> t, x;
@@ -119,7 +120,7 @@ std::vector<SteadyPiece> steady_pieces(const std::vector<const GantryData*>& log
     for (const Piece& p : constant_drive_pieces(*g, o.drive_tol_rpm)) {
       if (std::fabs(p.drive_rpm) < std::max(1.0, 2 * o.drive_tol_rpm)) continue;  // stopped
       const double t0 = g->t_s[p.begin], t1 = g->t_s[p.end - 1];
-      const double start = settle_s >= 0 ? t0 + settle_s : t0 + half_if_negative * (t1 - t0);
+      const double start = settle_s >= 0 ? t0 + settle_s : t0 + settle_fraction * (t1 - t0);
       if (t1 - start < o.min_steady_s) continue;
       t.clear(), x.clear();
       double drive_sum = 0;
