@@ -193,6 +193,10 @@ struct DiagnoseResult {
 };
 DiagnoseResult diagnose(const Dataset& data, ModelChoice model, const DiagnoseOptions& options = {});
 
+// The log as the search simulates it: rows with a pose plus enough others for steps of at most
+// max_dt_s, omega averaged over each merged interval (5x fewer steps for a 20 Hz camera).
+Dataset decimate_for_search(const Dataset& data, double max_dt_s = 0.05);
+
 // `fit`: re-identify the paper's parameters together with the given effects.
 struct FitResult {
   ModelChoice before, after;
