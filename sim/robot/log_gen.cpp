@@ -22,11 +22,13 @@ constexpr double kCouple_s = 0.001;  // screw lag <-> robot exchange, as the sch
 const std::vector<EffectInfo>& effect_table() {
   static const std::vector<EffectInfo> t = {
       {"none", true, true, {}, "no hidden effect: the truth is the nominal model"},
-      {"coulomb_friction", true, true,
-       {{"force_n", 8.0}, {"stiction_ratio", 1.5}, {"stribeck_mps", 0.01}, {"torque_nm", 1.0}},
-       "Stribeck curve times tanh on the planar speed (isotropic), and on r"},
+      {"coulomb_friction", true, true, {{"force_x_n", 8.0}, {"force_y_n", 6.0}, {"torque_nm", 1.0}},
+       "per axis level x tanh(speed / 0.3 mm/s) (smooth, no breakaway peak); yaw the same on r"},
+      {"stick_slip_friction", true, true,
+       {{"force_x_n", 8.0}, {"force_y_n", 6.0}, {"torque_nm", 1.0}, {"stiction_ratio", 1.5}, {"stribeck_mps", 0.01}},
+       "per axis Stribeck curve (breakaway stiction_ratio x the sliding level, decaying as exp(-(v/v_s)^2)) x tanh"},
       {"quadratic_drag", true, true, {{"c_x", 1500.0}, {"c_y", 1500.0}, {"c_psi", 0.0}},
-       "-c |w| w with one magnitude |w| of (u, v); yaw c_psi r|r|"},
+       "per DOF -c u sqrt(u^2 + u0^2), u0 5 mm/s (smooth at rest); yaw c_psi with r0 0.01 rad/s"},
       {"screw_traction_loss", true, false, {{"screw", 0}, {"loss", 0.6}, {"t_on_s", 0.0}},
        "one screw loses the fraction loss of its traction, at its contact point"},
       {"traction_saturation", true, true, {{"long_max_n", 12.0}, {"lat_max_n", 4.0}, {"sharpness", 6.0}},
@@ -167,16 +169,22 @@ class CommandScript {
 // Physics of the effect in the true robot (the sensor effects are applied when writing).
 void apply_robot_effect(const EffectSpec& e, double seconds, TruthParams& tp, Model& truth_model) {
   const std::string& id = e.id;
-  if (id == "coulomb_friction") {
+  if (id == "coulomb_friction" || id == "stick_slip_friction") {
+    const bool stick = id == "stick_slip_friction";
+    const double ratio = stick ? param(e, "stiction_ratio") : 1.0;
     tp.friction.on = true;
-    tp.friction.coulomb_n = param(e, "force_n");
-    tp.friction.stiction_n = param(e, "force_n") * param(e, "stiction_ratio");
-    tp.friction.stribeck_mps = param(e, "stribeck_mps");
+    tp.friction.per_axis = true;
+    tp.friction.coulomb_n = param(e, "force_x_n");
+    tp.friction.y_ratio = param(e, "force_x_n") > 0 ? param(e, "force_y_n") / param(e, "force_x_n") : 1.0;
+    tp.friction.stiction_n = param(e, "force_x_n") * ratio;
+    tp.friction.stribeck_mps = stick ? param(e, "stribeck_mps") : 0.01;
     tp.friction.coulomb_nm = param(e, "torque_nm");
-    tp.friction.stiction_nm = param(e, "torque_nm") * param(e, "stiction_ratio");
-    // Smoothing width: at least the documented 0.3 mm/s, wider for strong stiction so that the
-    // RK4 step stays stable (slope F_s / eps at rest, TrueRobot checks lambda h < 2.5).
-    tp.friction.eps_mps = std::max(0.0003, tp.friction.stiction_n / truth_model.robot.m_kg * 0.0005);
+    tp.friction.stiction_nm = param(e, "torque_nm") * ratio;
+    // Smoothing width as small as the 0.5 ms RK4 step allows (slope F_s / eps at rest, lambda h
+    // about 2.2 of TrueRobot's limit 2.5): a force below the breakaway level creeps at about
+    // eps atanh(F / F_s), which must stay well below what the camera resolves.
+    const double f_max = std::max(tp.friction.stiction_n, tp.friction.stiction_n * tp.friction.y_ratio);
+    tp.friction.eps_mps = std::max(0.0001, f_max / truth_model.robot.m_kg * 0.0005 / 2.2);
   } else if (id == "quadratic_drag") {
     tp.quad_drag.on = true;
     tp.quad_drag.c_x_nspm2 = param(e, "c_x");
@@ -454,11 +462,13 @@ LogGenResult generate_gantry_log(const TerrainParams& terrain, double mass_kg, c
   const double rail_m = 0.5;
 
   // Effect parameters in the module's own forms (see the robot's: same shapes, one DOF).
-  const bool fric = id == "coulomb_friction", quad = id == "quadratic_drag", sat = id == "traction_saturation";
+  const bool fric = id == "coulomb_friction" || id == "stick_slip_friction";
+  const bool quad = id == "quadratic_drag", sat = id == "traction_saturation";
   const bool lag = id == "force_lag", dead = id == "screw_dead_band", patch = id == "soft_patch";
-  const double f_c = fric ? param(e, "force_n") : 0, f_s = fric ? f_c * param(e, "stiction_ratio") : 0;
-  const double v_s = fric ? param(e, "stribeck_mps") : 1;
-  const double eps_mps = 0.0005;
+  const double f_c = fric ? param(e, lateral ? "force_y_n" : "force_x_n") : 0;
+  const double f_s = id == "stick_slip_friction" ? f_c * param(e, "stiction_ratio") : f_c;
+  const double v_s = id == "stick_slip_friction" ? param(e, "stribeck_mps") : 1;
+  const double eps_mps = std::max(0.0001, f_s / mass_kg * (kCouple_s / 2) / 2.2);  // as the robot's
   const double c_quad = quad ? param(e, lateral ? "c_y" : "c_x") : 0;
   const double f_max = sat ? param(e, lateral ? "lat_max_n" : "long_max_n") : 0;
   const double sat_n = sat ? param(e, "sharpness") : 0;
@@ -491,7 +501,8 @@ LogGenResult generate_gantry_log(const TerrainParams& terrain, double mass_kg, c
       const double level = f_c + (f_s - f_c) * std::exp(-(s.u / v_s) * (s.u / v_s));
       force -= level * std::tanh(s.u / eps_mps);
     }
-    if (quad) force -= c_quad * s.u * std::fabs(s.u);
+    // Smooth at rest (u sqrt(u^2 + u0^2), u0 = 5 mm/s), not the workbench's u|u|.
+    if (quad) force -= c_quad * s.u * std::sqrt(s.u * s.u + 2.5e-5);
     d.x = s.u;
     d.u = force / mass_kg;
     for (int i = 0; i < 2; ++i) {

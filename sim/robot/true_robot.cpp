@@ -180,21 +180,27 @@ TrueRobot::Deriv TrueRobot::derivative(const TruthState& s, const Vec4& omega_rp
   if (p_.friction.on) {
     const DryFriction& fr = p_.friction;
     const double load = normal_n / (m * kGravity_mps2);  // friction scales with the normal load
-    const Eigen::Vector2d w(u, v);
-    const double sp = w.norm();
-    const double level = fr.coulomb_n + (fr.stiction_n - fr.coulomb_n) * std::exp(-(sp / fr.stribeck_mps) * (sp / fr.stribeck_mps));
-    f_body -= load * level * smooth_direction(w, fr.eps_mps);
+    auto stribeck = [&](double speed, double scale) {
+      return scale * (fr.coulomb_n + (fr.stiction_n - fr.coulomb_n) * std::exp(-(speed / fr.stribeck_mps) * (speed / fr.stribeck_mps)));
+    };
+    if (fr.per_axis) {
+      f_body.x() -= load * stribeck(u, 1.0) * std::tanh(u / fr.eps_mps);
+      f_body.y() -= load * stribeck(v, fr.y_ratio) * std::tanh(v / fr.eps_mps);
+    } else {
+      const Eigen::Vector2d w(u, v);
+      f_body -= load * stribeck(w.norm(), 1.0) * smooth_direction(w, fr.eps_mps);
+    }
     const double level_z = fr.coulomb_nm + (fr.stiction_nm - fr.coulomb_nm) *
                                                std::exp(-(r / fr.stribeck_radps) * (r / fr.stribeck_radps));
     m_z -= load * level_z * std::tanh(r / fr.eps_radps);
   }
 
   if (p_.quad_drag.on) {
-    // One speed magnitude for both axes: moving sideways also raises the forward drag (the
-    // workbench's form is per DOF, u|u|).
-    const double sp = std::hypot(u, v);
-    f_body -= sp * Eigen::Vector2d(p_.quad_drag.c_x_nspm2 * u, p_.quad_drag.c_y_nspm2 * v);
-    m_z -= p_.quad_drag.c_psi_nmspr2 * r * std::fabs(r);
+    // Quadratic ploughing, smooth through zero (u sqrt(u^2 + u0^2)) so RK4 sees no kink.
+    const QuadraticDrag& q = p_.quad_drag;
+    f_body.x() -= q.c_x_nspm2 * u * std::sqrt(u * u + q.u0_mps * q.u0_mps);
+    f_body.y() -= q.c_y_nspm2 * v * std::sqrt(v * v + q.u0_mps * q.u0_mps);
+    m_z -= q.c_psi_nmspr2 * r * std::sqrt(r * r + q.r0_radps * q.r0_radps);
   }
 
   // Rigid body in the plane, body frame: m (u' - r v) = F_x, m (v' + r u) = F_y, I r' = M_z

@@ -22,6 +22,10 @@ constexpr double kGravity_mps2 = 9.81;
 struct DryFriction {  // body-level, smooth Stribeck curve times tanh (not a hard sign)
   bool on = false;
   double coulomb_n = 8.0, stiction_n = 12.0, stribeck_mps = 0.01, eps_mps = 0.0003;
+  // per_axis: x and y each get their own curve (levels coulomb_n / stiction_n along x, those
+  // times y_ratio along y) instead of one curve on the planar speed |(u, v)|.
+  bool per_axis = false;
+  double y_ratio = 1.0;
   double coulomb_nm = 1.0, stiction_nm = 1.5, stribeck_radps = 0.03, eps_radps = 0.002;
 };
 struct Incline {  // the ground is a plane tilted by roll (about world x) then pitch (about world y)
@@ -56,8 +60,9 @@ struct Blocking {  // MODEL-NOTES: |omega| < omega_block: mu m g / 4 dry resista
   double omega_block_rpm = 1.5, mu = 0.5, eps_mps = 0.002;
 };
 
-struct QuadraticDrag {  // -c |w| w on the planar velocity w = (u, v) (one magnitude couples x, y)
+struct QuadraticDrag {  // per DOF, smooth at rest: -c u sqrt(u^2 + u0^2) (not the hard u|u|)
   bool on = false;
+  double u0_mps = 0.005, r0_radps = 0.01;
   double c_x_nspm2 = 0.0, c_y_nspm2 = 0.0;  // N / (m/s)^2
   double c_psi_nmspr2 = 0.0;                // N m / (rad/s)^2, on r |r|
 };

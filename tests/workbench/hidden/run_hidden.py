@@ -80,12 +80,28 @@ def spec(gen_id, **params):
     return gen_id + ":" + ",".join("%s=%.6g" % kv for kv in sorted(params.items()))
 
 
+def paper(rng, *axes):
+    """paper_params: per axis (sigma, D) factors 1 +- (0.12-0.25), sigma and D in opposite directions."""
+    p = {}
+    for sigma, drag in axes:
+        d = 1 if rng.random() < 0.5 else -1
+        if sigma:
+            p["sigma_" + sigma] = 1 + d * uniform(rng, 0.12, 0.25)
+        p[drag] = 1 - d * uniform(rng, 0.12, 0.25)
+    return spec("paper_params", **p)
+
+
 ROBOT_EFFECTS = {
-    # Stribeck dry friction: sliding 4-10 N (11-28 % of the drive at 10 rpm), breakaway 1.5x,
-    # yaw 0.8-2.0 N m at the real lever arms (0.05-0.12 N m in the model's lumped yaw units).
-    "coulomb_friction": lambda r: spec("coulomb_friction", force_n=uniform(r, 4, 10),
+    # smooth dry friction per axis, no breakaway peak: 4-10 N along x (25-60 % of the drive at
+    # 5 rpm, 16 N), 1.5-3.5 N along y (of 4.9 N), yaw 0.8-2.0 N m at the real lever arms
+    # (0.05-0.12 N m in the model's lumped yaw units): below the drive, so the robot moves.
+    "coulomb_friction": lambda r: spec("coulomb_friction", force_x_n=uniform(r, 4, 10), force_y_n=uniform(r, 1.5, 3.5),
                                        torque_nm=uniform(r, 0.8, 2.0)),
-    # -c |w| w: 1000-2500 N/(m/s)^2 per axis (10-25 N at 0.1 m/s).
+    # Stribeck curve: the same sliding levels, breakaway 1.3-2x, Stribeck speed 1-4 mm/s.
+    "stick_slip_friction": lambda r: spec("stick_slip_friction", force_x_n=uniform(r, 4, 10),
+                                          force_y_n=uniform(r, 1.5, 3.5), torque_nm=uniform(r, 0.8, 2.0),
+                                          stiction_ratio=uniform(r, 1.3, 2.0), stribeck_mps=uniform(r, 0.001, 0.004)),
+    # -c u sqrt(u^2 + u0^2) per DOF: 1000-2500 N/(m/s)^2 per axis (10-25 N at 0.1 m/s).
     "quadratic_drag": lambda r: spec("quadratic_drag", c_x=uniform(r, 1000, 2500), c_y=uniform(r, 1000, 2500)),
     # any screw loses 30-70 % of its traction.
     "screw_traction_loss": lambda r: spec("screw_traction_loss", screw=r.randrange(4), loss=uniform(r, 0.3, 0.7)),
@@ -93,8 +109,9 @@ ROBOT_EFFECTS = {
     # lateral (15 rpm: 12.2 N, 3.7 N linear).
     "traction_saturation": lambda r: spec("traction_saturation", long_max_n=uniform(r, 10, 16),
                                           lat_max_n=uniform(r, 3, 5)),
-    # second-order build-up, tau 0.15-0.3 s, damping 0.7-1.0.
-    "force_lag": lambda r: spec("force_lag", tau_s=uniform(r, 0.15, 0.3), damping=uniform(r, 0.7, 1.0)),
+    # second-order build-up (soil compressing ahead of the helix), tau 0.12-0.25 s, overdamped
+    # 1.3-2.0.
+    "force_lag": lambda r: spec("force_lag", tau_s=uniform(r, 0.12, 0.25), damping=uniform(r, 1.3, 2.0)),
     # smooth dead band 1.5-3 rpm.
     "screw_dead_band": lambda r: spec("screw_dead_band", omega_rpm=uniform(r, 1.5, 3.0)),
     # a tilt of 0.08-0.2 deg in any direction (1.4-3.5 mm per metre).
@@ -112,29 +129,31 @@ ROBOT_EFFECTS = {
     # at 35-65 % of the log: traction x 0.6-0.8, resistance x 1.1-1.4 (sand -> a firmer, slipperier set).
     "terrain_change": lambda r: spec("terrain_change", t_frac=uniform(r, 0.35, 0.65), sigma_scale=uniform(r, 0.6, 0.8),
                                      drag_scale=uniform(r, 1.1, 1.4)),
-    # the paper's sigma and D off: each factor 1 +- (0.12-0.25).
-    "paper_params": lambda r: spec("paper_params", **{k: 1 + signed(r, 0.12, 0.25)
-                                                      for k in ("sigma_long", "sigma_lat", "D_x", "D_y", "D_psi")}),
+    # the paper's sigma and D off: each factor 1 +- (0.12-0.25), sigma and D of an axis in
+    # opposite directions (else the steady speeds sigma / D barely change).
+    "paper_params": lambda r: paper(r, ("long", "D_x"), ("lat", "D_y"), (None, "D_psi")),
 }
 # Gantry (one module on the rail): the effects that act on one DOF.
 GANTRY_EFFECTS = {
-    "coulomb_friction": lambda r: spec("coulomb_friction", force_n=uniform(r, 2, 5)),
+    # rail friction below the drive at 5 rpm (8.1 N longitudinal, 2.5 N lateral)
+    "coulomb_friction": lambda r: spec("coulomb_friction", force_x_n=uniform(r, 2, 5), force_y_n=uniform(r, 0.6, 1.5)),
+    "stick_slip_friction": lambda r: spec("stick_slip_friction", force_x_n=uniform(r, 2, 5), force_y_n=uniform(r, 0.6, 1.5),
+                                          stiction_ratio=uniform(r, 1.3, 2.0), stribeck_mps=uniform(r, 0.001, 0.004)),
     "quadratic_drag": lambda r: spec("quadratic_drag", c_x=uniform(r, 1000, 2500), c_y=uniform(r, 1000, 2500)),
     "traction_saturation": lambda r: spec("traction_saturation", long_max_n=uniform(r, 10, 14),
                                           lat_max_n=uniform(r, 3, 4)),
-    "force_lag": lambda r: spec("force_lag", tau_s=uniform(r, 0.15, 0.3), damping=uniform(r, 0.7, 1.0)),
+    "force_lag": lambda r: spec("force_lag", tau_s=uniform(r, 0.12, 0.25), damping=uniform(r, 1.3, 2.0)),
     "screw_dead_band": lambda r: spec("screw_dead_band", omega_rpm=uniform(r, 1.5, 3.0)),
-    "paper_params": lambda r: spec("paper_params", **{k: 1 + signed(r, 0.12, 0.25)
-                                                      for k in ("sigma_long", "sigma_lat", "D_x", "D_y")}),
+    "paper_params": lambda r: paper(r, ("long", "D_x"), ("lat", "D_y")),
 }
 # Outside the library: a patch of soft ground (drag x 2-3 inside a disc of radius 0.25-0.4 m on
 # the path; gantry: a stretch of rail).
 # Outside the library: a patch of soft ground where a contact ploughs with 2-3x its drag, a disc
 # of radius 0.15-0.25 m under the path (manual driving only: the single-DOF runs go back and
-# forth over the same ground); gantry: a stretch of 8-12 cm of the rail.
+# forth over the same ground); gantry: a stretch of 5-8 cm of the rail.
 OUTSIDE = lambda r: spec("soft_patch", extra=uniform(r, 1.0, 2.0), radius_m=uniform(r, 0.15, 0.25),
                          at_frac=uniform(r, 0.4, 0.6))
-GANTRY_OUTSIDE = lambda r: spec("soft_patch", extra=uniform(r, 1.0, 2.0), radius_m=uniform(r, 0.04, 0.06),
+GANTRY_OUTSIDE = lambda r: spec("soft_patch", extra=uniform(r, 1.0, 2.0), radius_m=uniform(r, 0.025, 0.04),
                                 at_frac=uniform(r, 0.35, 0.65))
 # The worst window is "where it acts" when it overlaps a time the effect acts, widened by these
 # margins; the widened times must cover at most MAX_COVER of the log, or the check says little.

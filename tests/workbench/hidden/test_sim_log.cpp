@@ -87,7 +87,7 @@ TEST_CASE("sim-log: metadata is only what the formats require", "[unit][simlog]"
   LogGenConfig cfg;
   cfg.gantry = GantryAxis::lateral;
   cfg.seconds = 20;
-  cfg.effect = parse_effect_spec("coulomb_friction:force_n=3");
+  cfg.effect = parse_effect_spec("coulomb_friction:force_y_n=3");
   const ModelFile gf = load_model_file(AUGER_GANTRY_MODEL_FILE);
   std::ostringstream out;
   generate_gantry_log(gf.find_terrain("sand")->params, *gf.gantry_mass_kg, cfg, out);
