@@ -188,6 +188,214 @@ bool make_dir(const std::string& path) {
   return false;
 }
 
+// What the engine found: everything a section draws from.
+struct Findings {
+  explicit Findings(const Dataset& data) : d(data) {}
+  const Dataset& d;
+  std::vector<int> chans;  // active channels
+  CompareResult cmp;
+  bool have_diag = false;
+  DiagnoseResult dg;
+  bool effect_given = false;  // --effect ID, not diagnose's first candidate
+  std::string effect;         // the effect added for before/after ("" = none)
+  FitResult ft;
+  CompareResult after;  // compare() of the fitted model
+};
+
+const char* kTimeLabel = "set xlabel 't (s)'\n";
+
+// Summary: the log, the model, the noise floor and compare's errors.
+Section summary_section(const Findings& f, Gnuplot& gp) {
+  const Dataset& d = f.d;
+  const CompareResult& cmp = f.cmp;
+  const std::vector<int>& chans = f.chans;
+  std::ostringstream h;
+  h << "<table><tr><th class=l>log</th><td class=l>" << esc(d.path) << "</td></tr>"
+    << "<tr><th class=l>kind</th><td class=l>" << (d.gantry ? "gantry (" + esc(d.axis) + ")" : "robot") << "</td></tr>"
+    << "<tr><th class=l>duration</th><td class=l>" << fixed(d.duration_s(), 1) << " s, " << d.size() << " samples</td></tr>"
+    << "<tr><th class=l>model</th><td class=l>" << esc(cmp.model.source) << ", terrain " << esc(cmp.model.terrain) << "</td></tr>"
+    << "<tr><th class=l>plots</th><td class=l>" << esc(gp.version()) << "</td></tr></table>\n";
+  h << "<p>Noise floor estimated from the data (every error below is also shown as a multiple of it):</p><table><tr>";
+  for (int c : chans) h << "<th>" << channel_name(c) << " (" << channel_unit(c) << ")</th>";
+  h << "</tr><tr>";
+  for (int c : chans)
+    h << "<td id=\"noise-" << channel_name(c) << "\">" << num(cmp.noise_floor[static_cast<std::size_t>(c)]) << "</td>";
+  h << "</tr></table>\n<table>" << channel_header(d, "run");
+  stats_rows(h, "open_loop", "open loop (Table 4)", cmp.open_loop_err, d);
+  stats_rows(h, "segments", "segments of 25 s", cmp.segments_err, d);
+  if (d.active[kImuPsi]) stats_rows(h, "imu_heading", "IMU heading (Fig. 9)", cmp.imu_heading_err, d);
+  stats_rows(h, "one_step", "one step ahead", cmp.one_step_err, d);
+  h << "</table>\n";
+  return {"summary", "Summary", h.str()};
+}
+
+// Measured vs model over time, and the path in the plane.
+Section model_section(const Findings& f, Gnuplot& gp) {
+  const Dataset& d = f.d;
+  const CompareResult& cmp = f.cmp;
+  const std::vector<int>& chans = f.chans;
+  std::ostringstream script, h;
+  script << "set multiplot layout " << chans.size() << ",1\nset key inside top right horizontal font ',9'\n";
+  for (int c : chans) {
+    const auto seg = predicted(d, cmp.segments, c), ol = predicted(d, cmp.open_loop, c);
+    const auto meas = measured(d, seg, c);
+    const auto model_rows = decimate(d.t_s, seg, kMaxPlotPoints, false);
+    const auto meas_rows = thin(finite_rows(meas), kMaxPlotPoints);
+    const std::string fm = gp.data(std::string("meas_") + channel_name(c), pick(meas_rows, {d.t_s, meas}));
+    const std::string fs = gp.data(std::string("model_") + channel_name(c), pick(model_rows, {d.t_s, seg, ol}));
+    script << (c == chans.back() ? kTimeLabel : "unset xlabel\n") << "set ylabel '" << channel_name(c) << " ("
+           << channel_unit(c) << ")'\n"
+           << "plot " << fm << " using 1:2 with points pt 7 ps 0.25 lc rgb '#777777' title 'measured', "
+           << fs << " using 1:2 with lines lw 1.5 lc rgb '#1f77b4' title 'model, segments of 25 s', "
+           << fs << " using 1:3 with lines lw 1 dt 2 lc rgb '#d62728' title 'model, open loop'\n";
+  }
+  script << "unset multiplot\n";
+  h << "<figure>" << gp.svg("time", script.str(), 900, 200 * static_cast<int>(chans.size()) + 60)
+    << "<figcaption>Measured pose (grey points) and the model run from the measured screw speeds: "
+       "re-initialised from the measured pose every 25 s (blue) and open loop from the first pose "
+       "(red, dashed).</figcaption></figure>\n";
+  if (d.active[kX] && d.active[kY]) {
+    const auto sx = predicted(d, cmp.segments, kX), sy = predicted(d, cmp.segments, kY);
+    const auto ox = predicted(d, cmp.open_loop, kX), oy = predicted(d, cmp.open_loop, kY);
+    std::vector<double> mx(d.size(), kNaN), my(d.size(), kNaN);
+    for (std::size_t k = 0; k < d.size(); ++k)
+      if (std::isfinite(d.meas[k][kX]) && std::isfinite(d.meas[k][kY])) mx[k] = d.meas[k][kX], my[k] = d.meas[k][kY];
+    const std::string fm = gp.data("path_meas", pick(thin(finite_rows(mx), kMaxPlotPoints), {mx, my}));
+    const std::string fs = gp.data("path_model", pick(decimate(d.t_s, sx, kMaxPlotPoints, false), {sx, sy, ox, oy}));
+    std::ostringstream ps;
+    ps << "set size ratio -1\nset xlabel 'x (m)'\nset ylabel 'y (m)'\n"
+       << "plot " << fm << " using 1:2 with points pt 7 ps 0.25 lc rgb '#777777' title 'measured', " << fs
+       << " using 1:2 with lines lw 1.5 lc rgb '#1f77b4' title 'model, segments', " << fs
+       << " using 3:4 with lines lw 1 dt 2 lc rgb '#d62728' title 'model, open loop'\n";
+    h << "<figure>" << gp.svg("path", ps.str(), 700, 600)
+      << "<figcaption>The path in the plane (world frame, x forward, y left at the start).</figcaption></figure>\n";
+  }
+  return {"measured-vs-model", "Measured vs model", h.str()};
+}
+
+// The error over time with the worst windows marked, and by regime.
+Section error_section(const Findings& f, Gnuplot& gp) {
+  const Dataset& d = f.d;
+  const CompareResult& cmp = f.cmp;
+  const std::vector<int>& chans = f.chans;
+  std::ostringstream script, h;
+  script << kTimeLabel << "set ylabel 'error / noise floor'\n" << window_marks(cmp.worst) << "plot ";
+  bool first = true;
+  for (int c : chans) {
+    const auto e = error_ratio(d, cmp.segments, cmp.noise_floor, c);
+    const auto rows = decimate(d.t_s, e, kMaxPlotPoints, true);
+    std::vector<std::size_t> keep;
+    for (std::size_t k : rows)
+      if (std::isfinite(e[k])) keep.push_back(k);
+    script << (first ? "" : ", ") << gp.data(std::string("err_") + channel_name(c), pick(keep, {d.t_s, e}))
+           << " using 1:2 with lines lw 1 title '" << channel_name(c) << "'";
+    first = false;
+  }
+  script << "\n";
+  h << "<figure>" << gp.svg("error", script.str())
+    << "<figcaption>Model minus measurement (segments of 25 s) in multiples of each channel's noise floor; "
+       "the shaded bands are the worst 5 s windows (each simulated from its own measured start pose, "
+       "so they show what acts inside them), numbered as in the table.</figcaption></figure>\n";
+  h << "<table><tr><th>#</th><th>t start (s)</th><th>t end (s)</th><th>DOF</th><th>RMS</th><th>/ noise</th></tr>\n";
+  int n = 0;
+  for (const auto& w : cmp.worst) {
+    ++n;
+    h << "<tr><td>" << n << "</td><td id=\"worst-" << n << "-t_start_s\">" << num(w.t_start_s) << "</td><td>"
+      << num(w.t_end_s) << "</td><td>" << channel_name(w.dof) << "</td><td>" << num(w.rms) << " "
+      << channel_unit(w.dof) << "</td><td id=\"worst-" << n << "-ratio\">" << num(w.ratio_to_noise) << "</td></tr>\n";
+  }
+  h << "</table>\n<p>Error by regime (segments of 25 s, multiples of the noise floor):</p><table><tr>"
+       "<th class=l>kind</th><th class=l>regime</th><th>seconds</th>";
+  for (int c : chans) h << "<th>" << channel_name(c) << "</th>";
+  h << "</tr>\n";
+  for (const auto& g : cmp.regimes) {
+    h << "<tr><td class=l>" << esc(g.kind) << "</td><td class=l>" << esc(g.label) << "</td><td>" << fixed(g.seconds, 1)
+      << "</td>";
+    for (int c : chans) h << "<td>" << fixed(g.ratio_to_noise[static_cast<std::size_t>(c)], 2) << "</td>";
+    h << "</tr>\n";
+  }
+  h << "</table>\n";
+  return {"error", "Error over time and where the model fails", h.str()};
+}
+
+// diagnose's candidates, ranked.
+Section ranking_section(const Findings& f, Gnuplot& gp) {
+  std::ostringstream h, script;
+  h << "<p>" << (f.dg.significant ? "" : "<span class=warn>Not significant:</span> ") << esc(f.dg.verdict) << "</p>\n";
+  h << "<table><tr><th>rank</th><th class=l>effect</th><th class=l>fitted</th><th>&Delta;BIC</th>"
+       "<th>held-out / noise</th><th>near tie</th></tr>\n";
+  std::ostringstream block;
+  int rank = 0;
+  for (const auto& c : f.dg.candidates) {
+    ++rank;
+    h << "<tr><td>" << rank << "</td><td class=l id=\"candidate-" << rank << "\">" << esc(c.fitted.effect)
+      << "</td><td class=l>" << esc(c.fitted.description);
+    for (const auto& p : c.fitted.params)
+      h << "<br>" << esc(p.name) << " = " << num(p.value) << (std::isfinite(p.sigma) ? " &plusmn; " + num(p.sigma) : "")
+        << " " << esc(p.unit);
+    h << "</td><td id=\"candidate-" << rank << "-delta_bic\">" << num(c.delta_bic) << "</td><td>"
+      << num(c.heldout_ratio) << "</td><td>" << (c.near_tie ? "yes: " + esc(c.tell_apart) : "") << "</td></tr>\n";
+    if (rank <= 12) block << rank << " \"" << c.fitted.effect << "\" " << (std::isfinite(c.delta_bic) ? c.delta_bic : 0) << "\n";
+  }
+  h << "</table>\n";
+  if (!f.dg.candidates.empty()) {
+    script << "$ranking << EOD\n" << block.str() << "EOD\n"
+           << "set style fill solid 0.7\nset boxwidth 0.7\nset xtics rotate by -35 font ',9'\nunset key\n"
+           << "set ylabel 'delta BIC vs the nominal model (lower is better)'\n"
+           << "plot $ranking using 1:3:xtic(2) with boxes lc rgb '#1f77b4'\n";
+    h << "<figure>" << gp.svg("ranking", script.str(), 900, 420)
+      << "<figcaption>The candidates of diagnose, best first: each effect fitted on the training part, "
+         "ranked by an information criterion with the effective sample size.</figcaption></figure>\n";
+  }
+  if (!f.dg.where.empty()) {
+    h << "<p>Where what remains after the best candidate is largest:</p><table><tr><th>t start (s)</th>"
+         "<th>t end (s)</th><th>DOF</th><th>/ noise</th></tr>\n";
+    for (const auto& w : f.dg.where)
+      h << "<tr><td>" << num(w.t_start_s) << "</td><td>" << num(w.t_end_s) << "</td><td>" << channel_name(w.dof)
+        << "</td><td>" << num(w.ratio_to_noise) << "</td></tr>\n";
+    h << "</table>\n";
+  }
+  return {"ranking", "Candidate ranking (diagnose)", h.str()};
+}
+
+// Before and after adding the best (or the given) effect.
+Section before_after_section(const Findings& f, Gnuplot& gp) {
+  const Dataset& d = f.d;
+  const CompareResult& cmp = f.cmp;
+  const std::vector<int>& chans = f.chans;
+  std::ostringstream h, script;
+  if (f.have_diag && !f.dg.significant && !f.effect_given)
+    h << "<p class=warn>diagnose found nothing significant: the top candidate is shown for "
+         "completeness, not as a finding.</p>\n";
+  h << "<p>Effect added: <b id=\"best-effect\">" << esc(f.effect) << "</b>";
+  for (const auto& e : f.ft.effects) {
+    h << "<br>" << esc(e.effect) << ": " << esc(e.description);
+    for (const auto& p : e.params) h << "; " << esc(p.name) << " = " << num(p.value) << " " << esc(p.unit);
+  }
+  h << "</p>\n<table>" << channel_header(d, "model");
+  stats_rows(h, "before", "before (nominal)", f.ft.err_before, d);
+  stats_rows(h, "after", ("after (+ " + f.effect + ")").c_str(), f.ft.err_after, d);
+  h << "</table>\n";
+  script << "set multiplot layout " << chans.size() << ",1\nset key inside top right horizontal font ',9'\n";
+  for (int c : chans) {
+    const auto eb = error_ratio(d, cmp.segments, cmp.noise_floor, c);
+    const auto ea = error_ratio(d, f.after.segments, cmp.noise_floor, c);
+    const auto rows = decimate(d.t_s, eb, kMaxPlotPoints, true);
+    std::vector<std::size_t> keep;
+    for (std::size_t k : rows)
+      if (std::isfinite(eb[k]) || std::isfinite(ea[k])) keep.push_back(k);
+    const std::string file = gp.data(std::string("ba_") + channel_name(c), pick(keep, {d.t_s, eb, ea}));
+    script << (c == chans.back() ? kTimeLabel : "unset xlabel\n") << "set ylabel '" << channel_name(c) << " error / noise'\n"
+           << "plot " << file << " using 1:2 with lines lw 1 lc rgb '#bbbbbb' title 'before', " << file
+           << " using 1:3 with lines lw 1.2 lc rgb '#2ca02c' title 'after'\n";
+  }
+  script << "unset multiplot\n";
+  h << "<figure>" << gp.svg("before_after", script.str(), 900, 180 * static_cast<int>(chans.size()) + 60)
+    << "<figcaption>The error (segments of 25 s, in noise floors) of the nominal model (grey) and with "
+    << esc(f.effect) << " fitted (green).</figcaption></figure>\n";
+  return {"before-after", "Before and after adding the best effect", h.str()};
+}
+
 }  // namespace
 
 int run_report(int argc, char** argv) {
@@ -210,232 +418,44 @@ int run_report(int argc, char** argv) {
       return 2;
     }
     step("compare");
+    Findings f(d);
     const ModelChoice mc = choose_model(d, a.get("--model"));
-    const CompareResult cmp = compare(d, mc);
-    const auto chans = active_channels(d);
-
-    DiagnoseResult dg;
-    bool have_diag = false;
-    FitResult ft;
-    CompareResult after;
-    std::string best_effect = a.get("--effect");
+    f.cmp = compare(d, mc);
+    f.chans = active_channels(d);
+    f.effect = a.get("--effect");
+    f.effect_given = !f.effect.empty();
     if (!a.has("--no-diagnose")) {
       step("diagnose (every library effect; this is the slow part)");
       DiagnoseOptions o;
       o.progress = progress;
-      dg = diagnose(d, mc, o);
-      have_diag = true;
-      if (best_effect.empty() && !dg.candidates.empty()) best_effect = dg.candidates.front().fitted.effect;
+      f.dg = diagnose(d, mc, o);
+      f.have_diag = true;
+      if (f.effect.empty() && !f.dg.candidates.empty()) f.effect = f.dg.candidates.front().fitted.effect;
     }
-    const bool have_fit = !best_effect.empty();
-    if (have_fit) {
-      step(("fit --add " + best_effect).c_str());
-      ft = fit(d, mc, {best_effect}, progress);
-      after = compare(d, ft.after);
+    if (!f.effect.empty()) {
+      step(("fit --add " + f.effect).c_str());
+      f.ft = fit(d, mc, {f.effect}, progress);
+      f.after = compare(d, f.ft.after);
     }
 
     step("plots (gnuplot)");
-    std::vector<Section> sections;
-    int n_plots = 0;
-    const std::string t = "set xlabel 't (s)'\n";
-
-    // ---- summary
-    {
-      std::ostringstream h;
-      h << "<table><tr><th class=l>log</th><td class=l>" << esc(d.path) << "</td></tr>"
-        << "<tr><th class=l>kind</th><td class=l>" << (d.gantry ? "gantry (" + esc(d.axis) + ")" : "robot") << "</td></tr>"
-        << "<tr><th class=l>duration</th><td class=l>" << fixed(d.duration_s(), 1) << " s, " << d.size() << " samples</td></tr>"
-        << "<tr><th class=l>model</th><td class=l>" << esc(cmp.model.source) << ", terrain " << esc(cmp.model.terrain) << "</td></tr>"
-        << "<tr><th class=l>plots</th><td class=l>" << esc(gp.version()) << "</td></tr></table>\n";
-      h << "<p>Noise floor estimated from the data (every error below is also shown as a multiple of it):</p><table><tr>";
-      for (int c : chans) h << "<th>" << channel_name(c) << " (" << channel_unit(c) << ")</th>";
-      h << "</tr><tr>";
-      for (int c : chans)
-        h << "<td id=\"noise-" << channel_name(c) << "\">" << num(cmp.noise_floor[static_cast<std::size_t>(c)]) << "</td>";
-      h << "</tr></table>\n<table>" << channel_header(d, "run");
-      stats_rows(h, "open_loop", "open loop (Table 4)", cmp.open_loop_err, d);
-      stats_rows(h, "segments", "segments of 25 s", cmp.segments_err, d);
-      if (d.active[kImuPsi]) stats_rows(h, "imu_heading", "IMU heading (Fig. 9)", cmp.imu_heading_err, d);
-      stats_rows(h, "one_step", "one step ahead", cmp.one_step_err, d);
-      h << "</table>\n";
-      sections.push_back({"summary", "Summary", h.str()});
-    }
-
-    // ---- measured vs model over time, and the path
-    {
-      std::ostringstream script, h;
-      script << "set multiplot layout " << chans.size() << ",1\nset key inside top right horizontal font ',9'\n";
-      for (int c : chans) {
-        const auto seg = predicted(d, cmp.segments, c), ol = predicted(d, cmp.open_loop, c);
-        const auto meas = measured(d, seg, c);
-        const auto model_rows = decimate(d.t_s, seg, kMaxPlotPoints, false);
-        const auto meas_rows = thin(finite_rows(meas), kMaxPlotPoints);
-        const std::string fm = gp.data(std::string("meas_") + channel_name(c), pick(meas_rows, {d.t_s, meas}));
-        const std::string fs = gp.data(std::string("model_") + channel_name(c), pick(model_rows, {d.t_s, seg, ol}));
-        script << (c == chans.back() ? t : "unset xlabel\n") << "set ylabel '" << channel_name(c) << " ("
-               << channel_unit(c) << ")'\n"
-               << "plot " << fm << " using 1:2 with points pt 7 ps 0.25 lc rgb '#777777' title 'measured', "
-               << fs << " using 1:2 with lines lw 1.5 lc rgb '#1f77b4' title 'model, segments of 25 s', "
-               << fs << " using 1:3 with lines lw 1 dt 2 lc rgb '#d62728' title 'model, open loop'\n";
-      }
-      script << "unset multiplot\n";
-      h << "<figure>" << gp.svg("time", script.str(), 900, 200 * static_cast<int>(chans.size()) + 60)
-        << "<figcaption>Measured pose (grey points) and the model run from the measured screw speeds: "
-           "re-initialised from the measured pose every 25 s (blue) and open loop from the first pose "
-           "(red, dashed).</figcaption></figure>\n";
-      ++n_plots;
-      if (d.active[kX] && d.active[kY]) {
-        const auto sx = predicted(d, cmp.segments, kX), sy = predicted(d, cmp.segments, kY);
-        const auto ox = predicted(d, cmp.open_loop, kX), oy = predicted(d, cmp.open_loop, kY);
-        std::vector<double> mx(d.size(), kNaN), my(d.size(), kNaN);
-        for (std::size_t k = 0; k < d.size(); ++k)
-          if (std::isfinite(d.meas[k][kX]) && std::isfinite(d.meas[k][kY])) mx[k] = d.meas[k][kX], my[k] = d.meas[k][kY];
-        const std::string fm = gp.data("path_meas", pick(thin(finite_rows(mx), kMaxPlotPoints), {mx, my}));
-        const std::string fs = gp.data("path_model", pick(decimate(d.t_s, sx, kMaxPlotPoints, false), {sx, sy, ox, oy}));
-        std::ostringstream ps;
-        ps << "set size ratio -1\nset xlabel 'x (m)'\nset ylabel 'y (m)'\n"
-           << "plot " << fm << " using 1:2 with points pt 7 ps 0.25 lc rgb '#777777' title 'measured', " << fs
-           << " using 1:2 with lines lw 1.5 lc rgb '#1f77b4' title 'model, segments', " << fs
-           << " using 3:4 with lines lw 1 dt 2 lc rgb '#d62728' title 'model, open loop'\n";
-        h << "<figure>" << gp.svg("path", ps.str(), 700, 600)
-          << "<figcaption>The path in the plane (world frame, x forward, y left at the start).</figcaption></figure>\n";
-        ++n_plots;
-      }
-      sections.push_back({"measured-vs-model", "Measured vs model", h.str()});
-    }
-
-    // ---- error over time, worst windows marked
-    {
-      std::ostringstream script, h;
-      script << t << "set ylabel 'error / noise floor'\n" << window_marks(cmp.worst) << "plot ";
-      bool first = true;
-      for (int c : chans) {
-        const auto e = error_ratio(d, cmp.segments, cmp.noise_floor, c);
-        const auto rows = decimate(d.t_s, e, kMaxPlotPoints, true);
-        std::vector<std::size_t> keep;
-        for (std::size_t k : rows)
-          if (std::isfinite(e[k])) keep.push_back(k);
-        script << (first ? "" : ", ") << gp.data(std::string("err_") + channel_name(c), pick(keep, {d.t_s, e}))
-               << " using 1:2 with lines lw 1 title '" << channel_name(c) << "'";
-        first = false;
-      }
-      script << "\n";
-      h << "<figure>" << gp.svg("error", script.str())
-        << "<figcaption>Model minus measurement (segments of 25 s) in multiples of each channel's noise floor; "
-           "the shaded bands are the worst 5 s windows (each simulated from its own measured start pose, "
-           "so they show what acts inside them), numbered as in the table.</figcaption></figure>\n";
-      ++n_plots;
-      h << "<table><tr><th>#</th><th>t start (s)</th><th>t end (s)</th><th>DOF</th><th>RMS</th><th>/ noise</th></tr>\n";
-      int n = 0;
-      for (const auto& w : cmp.worst) {
-        ++n;
-        h << "<tr><td>" << n << "</td><td id=\"worst-" << n << "-t_start_s\">" << num(w.t_start_s) << "</td><td>"
-          << num(w.t_end_s) << "</td><td>" << channel_name(w.dof) << "</td><td>" << num(w.rms) << " "
-          << channel_unit(w.dof) << "</td><td id=\"worst-" << n << "-ratio\">" << num(w.ratio_to_noise) << "</td></tr>\n";
-      }
-      h << "</table>\n<p>Error by regime (segments of 25 s, multiples of the noise floor):</p><table><tr>"
-           "<th class=l>kind</th><th class=l>regime</th><th>seconds</th>";
-      for (int c : chans) h << "<th>" << channel_name(c) << "</th>";
-      h << "</tr>\n";
-      for (const auto& g : cmp.regimes) {
-        h << "<tr><td class=l>" << esc(g.kind) << "</td><td class=l>" << esc(g.label) << "</td><td>" << fixed(g.seconds, 1)
-          << "</td>";
-        for (int c : chans) h << "<td>" << fixed(g.ratio_to_noise[static_cast<std::size_t>(c)], 2) << "</td>";
-        h << "</tr>\n";
-      }
-      h << "</table>\n";
-      sections.push_back({"error", "Error over time and where the model fails", h.str()});
-    }
-
-    // ---- candidate ranking
-    if (have_diag) {
-      std::ostringstream h, script;
-      h << "<p>" << (dg.significant ? "" : "<span class=warn>Not significant:</span> ") << esc(dg.verdict) << "</p>\n";
-      h << "<table><tr><th>rank</th><th class=l>effect</th><th class=l>fitted</th><th>&Delta;BIC</th>"
-           "<th>held-out / noise</th><th>near tie</th></tr>\n";
-      std::ostringstream block;
-      int rank = 0;
-      for (const auto& c : dg.candidates) {
-        ++rank;
-        h << "<tr><td>" << rank << "</td><td class=l id=\"candidate-" << rank << "\">" << esc(c.fitted.effect)
-          << "</td><td class=l>" << esc(c.fitted.description);
-        for (const auto& p : c.fitted.params)
-          h << "<br>" << esc(p.name) << " = " << num(p.value) << (std::isfinite(p.sigma) ? " &plusmn; " + num(p.sigma) : "")
-            << " " << esc(p.unit);
-        h << "</td><td id=\"candidate-" << rank << "-delta_bic\">" << num(c.delta_bic) << "</td><td>"
-          << num(c.heldout_ratio) << "</td><td>" << (c.near_tie ? "yes: " + esc(c.tell_apart) : "") << "</td></tr>\n";
-        if (rank <= 12) block << rank << " \"" << c.fitted.effect << "\" " << (std::isfinite(c.delta_bic) ? c.delta_bic : 0) << "\n";
-      }
-      h << "</table>\n";
-      if (!dg.candidates.empty()) {
-        script << "$ranking << EOD\n" << block.str() << "EOD\n"
-               << "set style fill solid 0.7\nset boxwidth 0.7\nset xtics rotate by -35 font ',9'\nunset key\n"
-               << "set ylabel 'delta BIC vs the nominal model (lower is better)'\n"
-               << "plot $ranking using 1:3:xtic(2) with boxes lc rgb '#1f77b4'\n";
-        h << "<figure>" << gp.svg("ranking", script.str(), 900, 420)
-          << "<figcaption>The candidates of diagnose, best first: each effect fitted on the training part, "
-             "ranked by an information criterion with the effective sample size.</figcaption></figure>\n";
-        ++n_plots;
-      }
-      if (!dg.where.empty()) {
-        h << "<p>Where what remains after the best candidate is largest:</p><table><tr><th>t start (s)</th>"
-             "<th>t end (s)</th><th>DOF</th><th>/ noise</th></tr>\n";
-        for (const auto& w : dg.where)
-          h << "<tr><td>" << num(w.t_start_s) << "</td><td>" << num(w.t_end_s) << "</td><td>" << channel_name(w.dof)
-            << "</td><td>" << num(w.ratio_to_noise) << "</td></tr>\n";
-        h << "</table>\n";
-      }
-      sections.push_back({"ranking", "Candidate ranking (diagnose)", h.str()});
-    }
-
-    // ---- before / after
-    if (have_fit) {
-      std::ostringstream h, script;
-      if (have_diag && !dg.significant && !a.has("--effect"))
-        h << "<p class=warn>diagnose found nothing significant: the top candidate is shown for "
-             "completeness, not as a finding.</p>\n";
-      h << "<p>Effect added: <b id=\"best-effect\">" << esc(best_effect) << "</b>";
-      for (const auto& e : ft.effects) {
-        h << "<br>" << esc(e.effect) << ": " << esc(e.description);
-        for (const auto& p : e.params) h << "; " << esc(p.name) << " = " << num(p.value) << " " << esc(p.unit);
-      }
-      h << "</p>\n<table>" << channel_header(d, "model");
-      stats_rows(h, "before", "before (nominal)", ft.err_before, d);
-      stats_rows(h, "after", ("after (+ " + best_effect + ")").c_str(), ft.err_after, d);
-      h << "</table>\n";
-      script << "set multiplot layout " << chans.size() << ",1\nset key inside top right horizontal font ',9'\n";
-      for (int c : chans) {
-        const auto eb = error_ratio(d, cmp.segments, cmp.noise_floor, c);
-        const auto ea = error_ratio(d, after.segments, cmp.noise_floor, c);
-        const auto rows = decimate(d.t_s, eb, kMaxPlotPoints, true);
-        std::vector<std::size_t> keep;
-        for (std::size_t k : rows)
-          if (std::isfinite(eb[k]) || std::isfinite(ea[k])) keep.push_back(k);
-        const std::string f = gp.data(std::string("ba_") + channel_name(c), pick(keep, {d.t_s, eb, ea}));
-        script << (c == chans.back() ? t : "unset xlabel\n") << "set ylabel '" << channel_name(c) << " error / noise'\n"
-               << "plot " << f << " using 1:2 with lines lw 1 lc rgb '#bbbbbb' title 'before', " << f
-               << " using 1:3 with lines lw 1.2 lc rgb '#2ca02c' title 'after'\n";
-      }
-      script << "unset multiplot\n";
-      h << "<figure>" << gp.svg("before_after", script.str(), 900, 180 * static_cast<int>(chans.size()) + 60)
-        << "<figcaption>The error (segments of 25 s, in noise floors) of the nominal model (grey) and with "
-        << esc(best_effect) << " fitted (green).</figcaption></figure>\n";
-      ++n_plots;
-      sections.push_back({"before-after", "Before and after adding the best effect", h.str()});
-    }
+    std::vector<Section> sections = {summary_section(f, gp), model_section(f, gp), error_section(f, gp)};
+    if (f.have_diag) sections.push_back(ranking_section(f, gp));
+    if (!f.effect.empty()) sections.push_back(before_after_section(f, gp));
+    const int n_plots = gp.plots();
 
     // ---- the page
     const std::string page_path = out_dir + "/index.html";
     {
-      std::ofstream f(page_path);
-      f << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>auger report: " << esc(d.path)
+      std::ofstream page(page_path);
+      page << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>auger report: " << esc(d.path)
         << "</title><style>" << kStyle << "</style></head><body>\n<h1>auger report</h1>\n<nav>";
-      for (const auto& s : sections) f << "<a href=\"#" << s.id << "\">" << s.title << "</a>";
-      f << "</nav>\n";
-      for (const auto& s : sections) f << "<section id=\"" << s.id << "\"><h2>" << s.title << "</h2>\n" << s.html << "</section>\n";
-      f << "<p><small>Written by auger report; every number comes from the same engine as auger compare / "
+      for (const auto& s : sections) page << "<a href=\"#" << s.id << "\">" << s.title << "</a>";
+      page << "</nav>\n";
+      for (const auto& s : sections) page << "<section id=\"" << s.id << "\"><h2>" << s.title << "</h2>\n" << s.html << "</section>\n";
+      page << "<p><small>Written by auger report; every number comes from the same engine as auger compare / "
            "diagnose / fit (docs/workbench.md).</small></p></body></html>\n";
-      if (!f) {
+      if (!page) {
         std::fprintf(stderr, "auger report: cannot write '%s'\n", page_path.c_str());
         return 2;
       }
@@ -447,10 +467,10 @@ int run_report(int argc, char** argv) {
       j.begin_array("sections");
       for (const auto& s : sections) j.str(nullptr, s.id);
       j.end_array();
-      j.channels("noise_floor", cmp.noise_floor, d.active);
-      j.begin_object("segments").channels("rms", cmp.segments_err.rms, d.active).end_object();
-      if (have_diag) j.boolean("significant", dg.significant);
-      if (have_fit) j.str("effect_added", best_effect);
+      j.channels("noise_floor", f.cmp.noise_floor, d.active);
+      j.begin_object("segments").channels("rms", f.cmp.segments_err.rms, d.active).end_object();
+      if (f.have_diag) j.boolean("significant", f.dg.significant);
+      if (!f.effect.empty()) j.str("effect_added", f.effect);
       j.end_object();
       std::printf("%s\n", j.text().c_str());
     } else {

@@ -26,6 +26,7 @@ class Gnuplot {
 
   const std::string& executable() const { return exe_; }
   std::string version() const { return version_; }
+  int plots() const { return count_; }  // SVGs drawn so far
 
   // Writes equal-length columns as a whitespace table (NaN as "NaN", which the scripts declare
   // missing); returns the file's path, quoted for a gnuplot script.
