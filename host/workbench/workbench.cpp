@@ -395,6 +395,7 @@ std::vector<Window> window_errors(const Model& model, const Dataset& data, const
   SimOptions o = options;
   o.segment_s = window_s;
   o.anchor_s = std::min(o.anchor_s, 0.2 * window_s);
+  o.warm_s = std::min(o.warm_s, 0.2 * window_s);  // 1 s: 3 yaw time constants, for 5 s windows
   Prediction p;
   simulate(model, data, o, p);
   std::vector<Window> out;
@@ -419,40 +420,72 @@ std::vector<Window> worst_windows(const std::vector<Window>& windows, std::size_
 }
 
 // ------------------------------------------------------------------------------- regimes
-RegimeLabels classify_sample(const Model& model, const Dataset& data, std::size_t k) {
-  RegimeLabels L;
+namespace {
+
+// Regime labels as indices into fixed tables (error_by_regime labels 360 000 samples; strings
+// per sample would cost more than the simulation).
+const char* const kMotion[] = {"still", "x", "y", "yaw", "combined"};
+const char* const kSpeed[] = {"0-5 rpm", "5-12 rpm", "12+ rpm"};
+const char* const kPhase[] = {"accelerating", "steady", "coasting"};
+const char* const kDirection[] = {"none", "forward", "backward", "left", "right", "counter-clockwise", "clockwise"};
+const char* const kHeading[] = {"heading -45..45 deg", "heading 45..135 deg", "heading -135..-45 deg",
+                                "heading 135..225 deg"};
+constexpr int kKinds = 5;
+const char* const kKindName[kKinds] = {"motion", "speed", "phase", "direction", "heading"};
+const char* const* const kTables[kKinds] = {kMotion, kSpeed, kPhase, kDirection, kHeading};
+constexpr int kTableSize[kKinds] = {5, 3, 3, 7, 4};
+
+// mean_speed[k] = mean |omega| of row k; rate from its change over +-0.25 s.
+std::array<int, kKinds> classify_codes(const Model& model, const Dataset& data, std::size_t k,
+                                       const std::vector<double>& mean_speed, std::size_t& a, std::size_t& b) {
+  std::array<int, kKinds> c{};
   const Vec4& w = data.omega_rpm[k];
   const Vec3 z = steady_velocity(model, w);  // eq. (6) at rest: what the screws ask for
   // A DOF "moves" when its commanded speed is above a small absolute level.
-  const double lim[3] = {0.01, 0.01, 0.02};
-  const bool mv[3] = {std::fabs(z[0]) > lim[0], std::fabs(z[1]) > lim[1], std::fabs(z[2]) > lim[2]};
+  const bool mv[3] = {std::fabs(z[0]) > 0.01, std::fabs(z[1]) > 0.01, std::fabs(z[2]) > 0.02};
   const int count = mv[0] + mv[1] + mv[2];
-  L.motion = count == 0 ? "still" : count > 1 ? "combined" : mv[0] ? "x" : mv[1] ? "y" : "yaw";
-  const double speed = w.cwiseAbs().mean();
-  L.speed = speed < 5 ? "0-5 rpm" : speed < 12 ? "5-12 rpm" : "12+ rpm";
-  // Phase from the change of the mean screw speed over +-0.25 s.
-  std::size_t a = k, b = k;
+  c[0] = count == 0 ? 0 : count > 1 ? 4 : mv[0] ? 1 : mv[1] ? 2 : 3;
+  const double speed = mean_speed[k];
+  c[1] = speed < 5 ? 0 : speed < 12 ? 1 : 2;
+  while (a < k && data.t_s[k] - data.t_s[a] > 0.25) ++a;
   while (a > 0 && data.t_s[k] - data.t_s[a - 1] <= 0.25) --a;
+  if (b < k) b = k;
   while (b + 1 < data.size() && data.t_s[b + 1] - data.t_s[k] <= 0.25) ++b;
+  while (b > k && data.t_s[b] - data.t_s[k] > 0.25) --b;
   const double dt = data.t_s[b] - data.t_s[a];
-  const double rate = dt > 0 ? (data.omega_rpm[b].cwiseAbs().mean() - data.omega_rpm[a].cwiseAbs().mean()) / dt : 0;
-  L.phase = rate > 4 ? "accelerating" : rate < -4 || (count == 0 && speed < 0.5) ? "coasting" : "steady";
+  const double rate = dt > 0 ? (mean_speed[b] - mean_speed[a]) / dt : 0;
+  c[2] = rate > 4 ? 0 : rate < -4 || (count == 0 && speed < 0.5) ? 2 : 1;
   // Direction of the dominant commanded DOF (normalised by typical speeds 0.1 m/s, 0.1 rad/s).
-  const double nz[3] = {std::fabs(z[0]) / 0.1, std::fabs(z[1]) / 0.1, std::fabs(z[2]) / 0.1};
+  const double nz[3] = {std::fabs(z[0]), std::fabs(z[1]), std::fabs(z[2])};
   const int dom = static_cast<int>(std::max_element(nz, nz + 3) - nz);
-  if (count == 0) L.direction = "none";
-  else if (dom == 0) L.direction = z[0] > 0 ? "forward" : "backward";
-  else if (dom == 1) L.direction = z[1] > 0 ? "left" : "right";
-  else L.direction = z[2] > 0 ? "counter-clockwise" : "clockwise";
+  c[3] = count == 0 ? 0 : dom == 0 ? (z[0] > 0 ? 1 : 2) : dom == 1 ? (z[1] > 0 ? 3 : 4) : (z[2] > 0 ? 5 : 6);
   const double psi = data.meas[k][kPsi];
-  if (data.gantry || !finite(psi)) L.heading = "";
+  if (data.gantry || !finite(psi)) c[4] = -1;
   else {
     const double deg = psi * 180 / kPi;
-    L.heading = std::fabs(deg) <= 45 ? "heading -45..45 deg"
-                : deg > 45 && deg <= 135 ? "heading 45..135 deg"
-                : deg < -45 && deg >= -135 ? "heading -135..-45 deg"
-                : "heading 135..225 deg";
+    c[4] = std::fabs(deg) <= 45 ? 0 : deg > 45 && deg <= 135 ? 1 : deg < -45 && deg >= -135 ? 2 : 3;
   }
+  return c;
+}
+
+std::vector<double> mean_speeds(const Dataset& data) {
+  std::vector<double> s(data.size());
+  for (std::size_t k = 0; k < data.size(); ++k) s[k] = data.omega_rpm[k].cwiseAbs().mean();
+  return s;
+}
+
+}  // namespace
+
+RegimeLabels classify_sample(const Model& model, const Dataset& data, std::size_t k) {
+  const std::vector<double> ms = mean_speeds(data);
+  std::size_t a = k, b = k;
+  const auto c = classify_codes(model, data, k, ms, a, b);
+  RegimeLabels L;
+  L.motion = kMotion[c[0]];
+  L.speed = kSpeed[c[1]];
+  L.phase = kPhase[c[2]];
+  L.direction = kDirection[c[3]];
+  L.heading = c[4] < 0 ? "" : kHeading[c[4]];
   return L;
 }
 
@@ -463,46 +496,49 @@ std::vector<RegimeRow> error_by_regime(const Model& model, const Dataset& data, 
     std::array<double, kChannels> sum{};
     std::array<std::size_t, kChannels> n{};
   };
-  std::vector<std::pair<std::pair<std::string, std::string>, Acc>> acc;
-  auto slot = [&](const std::string& kind, const std::string& label) -> Acc& {
-    for (auto& a : acc)
-      if (a.first.first == kind && a.first.second == label) return a.second;
-    acc.push_back({{kind, label}, Acc{}});
-    return acc.back().second;
-  };
+  std::array<std::array<Acc, 7>, kKinds> acc{};
+  const std::vector<double> ms = mean_speeds(data);
+  std::size_t a = 0, b = 0;
   for (std::size_t k = 0; k < data.size(); ++k) {
-    const RegimeLabels L = classify_sample(model, data, k);
+    const auto codes = classify_codes(model, data, k, ms, a, b);
     const double dt = k + 1 < data.size() ? data.t_s[k + 1] - data.t_s[k] : 0;
-    const std::pair<const char*, const std::string*> kinds[5] = {
-        {"motion", &L.motion}, {"speed", &L.speed}, {"phase", &L.phase}, {"direction", &L.direction}, {"heading", &L.heading}};
-    for (const auto& [kind, label] : kinds) {
-      if (label->empty()) continue;
-      Acc& a = slot(kind, *label);
-      a.seconds += dt;
-      for (int c = 0; c < kChannels; ++c) {
-        const auto cc = static_cast<std::size_t>(c);
-        const double m = data.meas[k][cc], q = p.pred[k][cc];
-        if (!data.active[cc] || !finite(m) || !finite(q)) continue;
-        const double e = channel_error(c, q, m);
-        a.sum[cc] += e * e;
-        ++a.n[cc];
-      }
+    std::array<double, kChannels> e2{};
+    std::array<bool, kChannels> has{};
+    for (int c = 0; c < kChannels; ++c) {
+      const auto cc = static_cast<std::size_t>(c);
+      const double m = data.meas[k][cc], q = p.pred[k][cc];
+      if (!data.active[cc] || !finite(m) || !finite(q)) continue;
+      const double e = channel_error(c, q, m);
+      e2[cc] = e * e;
+      has[cc] = true;
+    }
+    for (int kind = 0; kind < kKinds; ++kind) {
+      if (codes[static_cast<std::size_t>(kind)] < 0) continue;
+      Acc& x = acc[static_cast<std::size_t>(kind)][static_cast<std::size_t>(codes[static_cast<std::size_t>(kind)])];
+      x.seconds += dt;
+      for (std::size_t c = 0; c < kChannels; ++c)
+        if (has[c]) {
+          x.sum[c] += e2[c];
+          ++x.n[c];
+        }
     }
   }
   std::vector<RegimeRow> rows;
-  for (const auto& [key, a] : acc) {
-    RegimeRow r;
-    r.kind = key.first;
-    r.label = key.second;
-    r.seconds = a.seconds;
-    for (std::size_t c = 0; c < kChannels; ++c)
-      if (a.n[c]) {
-        r.rms[c] = std::sqrt(a.sum[c] / static_cast<double>(a.n[c]));
-        r.ratio_to_noise[c] = r.rms[c] / noise[c];
-      }
-    rows.push_back(r);
-  }
-  std::stable_sort(rows.begin(), rows.end(), [](const RegimeRow& x, const RegimeRow& y) { return x.kind < y.kind; });
+  for (int kind = 0; kind < kKinds; ++kind)
+    for (int i = 0; i < kTableSize[kind]; ++i) {
+      const Acc& x = acc[static_cast<std::size_t>(kind)][static_cast<std::size_t>(i)];
+      if (x.seconds <= 0) continue;
+      RegimeRow r;
+      r.kind = kKindName[kind];
+      r.label = kTables[kind][i];
+      r.seconds = x.seconds;
+      for (std::size_t c = 0; c < kChannels; ++c)
+        if (x.n[c]) {
+          r.rms[c] = std::sqrt(x.sum[c] / static_cast<double>(x.n[c]));
+          r.ratio_to_noise[c] = r.rms[c] / noise[c];
+        }
+      rows.push_back(r);
+    }
   return rows;
 }
 

@@ -71,7 +71,7 @@ ChannelValues estimate_noise_floor(const Dataset& data);
 struct SimOptions {
   double segment_s = 25.0;    // re-initialise from the measured pose every segment (<= 0: open loop)
   bool imu_heading = false;   // the paper's Fig. 9 variant: heading taken from the IMU
-  int n_sub = 2;              // dynamics sub-steps per sample
+  int n_sub = 1;              // dynamics sub-steps per sample (the linear part is exact per step)
   double pose_delay_s = 0.0;  // pose rows show the state pose_delay_s earlier (effect pose_time_offset)
   // Each segment's start pose is refined to the mean offset of its first anchor_s of measurements
   // (a rigid shift of the segment), so one noisy pose sample does not bias a whole segment.
