@@ -356,15 +356,17 @@ FitOutcome fit_parts(const Problem& pr, const std::vector<Part>& parts, int max_
     // Refine the best grid point: neighbouring change times, then a full fit.
     for (std::size_t p = 0; p < parts.size(); ++p)
       if (parts[p].id == "terrain_change") {
-        const double step = d.duration_s() / 10.0;
-        const double tc = best.parts[p].values[0];
-        for (double t : {tc - step / 2, tc - step / 4, tc + step / 4, tc + step / 2}) {
-          auto w = best.parts;
-          w[p].values[0] = t;
-          FitOutcome o = levenberg_marquardt(pr, w, 4);
-          o.sims += best.sims;
-          if (o.cost < best.cost) best = std::move(o);
-          else best.sims = o.sims;
+        // Halving steps down to 0.1 s around the best time so far.
+        for (double step = d.duration_s() / 20.0; step >= 0.1; step /= 2) {
+          const double tc = best.parts[p].values[0];
+          for (double t : {tc - step, tc + step}) {
+            auto w = best.parts;
+            w[p].values[0] = t;
+            FitOutcome o = levenberg_marquardt(pr, w, 4);
+            o.sims += best.sims;
+            if (o.cost < best.cost) best = std::move(o);
+            else best.sims = o.sims;
+          }
         }
       }
     FitOutcome o = levenberg_marquardt(pr, best.parts, max_iter);

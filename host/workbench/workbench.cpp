@@ -45,15 +45,21 @@ Dataset load_dataset(const std::string& path) {
   if (format == kGantryLogFormat) {
     GantryLogReader r(path);
     d.gantry = true;
+    // Metadata errors name the metadata line itself.
+    auto meta_line = [&](const char* key) {
+      for (const auto& m : r.csv().metadata())
+        if (m.key == key) return m.line;
+      return 1;
+    };
     d.axis = r.csv().meta("axis").value_or("longitudinal");
     if (d.axis != "longitudinal" && d.axis != "lateral")
-      throw LogError(path, 1, 1, "metadata 'axis' must be longitudinal or lateral, not '" + d.axis + "'");
+      throw LogError(path, meta_line("axis"), 1, "metadata 'axis' must be longitudinal or lateral, not '" + d.axis + "'");
     d.terrain = r.csv().meta("terrain").value_or("");
     if (auto m = r.csv().meta("mass_kg")) {
       char* end = nullptr;
       d.gantry_mass_kg = std::strtod(m->c_str(), &end);
       if (end == m->c_str() || !(d.gantry_mass_kg > 0))
-        throw LogError(path, 1, 1, "metadata 'mass_kg' must be a positive number, not '" + *m + "'");
+        throw LogError(path, meta_line("mass_kg"), 1, "metadata 'mass_kg' must be a positive number, not '" + *m + "'");
     }
     const int ch = d.axis == "longitudinal" ? kX : kY;
     GantrySample s;
@@ -616,7 +622,7 @@ Json& Json::num(const char* key, double v) {
     return *this;
   }
   char buf[40];
-  std::snprintf(buf, sizeof buf, "%.6g", v);
+  std::snprintf(buf, sizeof buf, "%.10g", v);
   out_ += buf;
   return *this;
 }

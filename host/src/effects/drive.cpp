@@ -29,25 +29,25 @@ class ScrewTractionLoss final : public Effect {
 };
 
 // The traction force saturates per screw: each screw's longitudinal and lateral force of eq. (7)
-// (sigma_long B_x,i omega_i, sigma_lat B_y,i omega_i) saturates smoothly towards +-force_max,
-// f / sqrt(1 + (f / force_max)^2), as when the soil under a screw shears before it reaches its
-// nominal thrust (gradually: more and more of the soil yields). The yaw share of a
+// (sigma_long B_x,i omega_i, sigma_lat B_y,i omega_i) saturates towards +-force_max,
+// f / (1 + |f / force_max|^p)^(1/p), as when the soil under a screw shears before it reaches its
+// nominal thrust; the sharpness p runs from gradual (2) to a clip (large p). The yaw share of a
 // screw (the lumped row of B) scales with its lateral force.
 class TractionSaturation final : public Effect {
  public:
-  TractionSaturation(double long_max, double lat_max) : long_max_(long_max), lat_max_(lat_max) {}
+  TractionSaturation(double long_max, double lat_max, double p) : long_max_(long_max), lat_max_(lat_max), p_(p) {}
   const std::string& id() const override {
     static const std::string s = "traction_saturation";
     return s;
   }
   std::vector<std::pair<std::string, double>> params() const override {
-    return {{"force_max_long_n", long_max_}, {"force_max_lat_n", lat_max_}};
+    return {{"force_max_long_n", long_max_}, {"force_max_lat_n", lat_max_}, {"sharpness", p_}};
   }
   void drive_force(const Model& model, const Vec4& omega_rpm, double, Vec3& tau_n, double*) const override {
     for (int i = 0; i < 4; ++i) {
       const Vec3 f = model.SB.col(i) * omega_rpm[i];
-      const double fx = f.x() / std::sqrt(1.0 + (f.x() / long_max_) * (f.x() / long_max_));
-      const double fy = f.y() / std::sqrt(1.0 + (f.y() / lat_max_) * (f.y() / lat_max_));
+      const double fx = f.x() / std::pow(1.0 + std::pow(std::fabs(f.x() / long_max_), p_), 1.0 / p_);
+      const double fy = f.y() / std::pow(1.0 + std::pow(std::fabs(f.y() / lat_max_), p_), 1.0 / p_);
       const double share = f.y() != 0 ? fy / f.y() : 1.0;
       tau_n -= f;
       tau_n += Vec3(fx, fy, f.z() * share);
@@ -55,7 +55,7 @@ class TractionSaturation final : public Effect {
   }
 
  private:
-  double long_max_, lat_max_;
+  double long_max_, lat_max_, p_;
 };
 
 // The drive force builds up with a first-order lag of time constant tau_s (exact for a held
@@ -124,10 +124,12 @@ void register_drive(EffectRegistry& r) {
          }});
   r.add({"traction_saturation", "each screw's longitudinal / lateral force saturates smoothly towards +-force_max",
          {{"force_max_long_n", 1e6, false, "per-screw longitudinal limit", "N", 0.05, 1e6, 8, false, true, true},
-          {"force_max_lat_n", 1e6, false, "per-screw lateral limit", "N", 0.05, 1e6, 2.5, false, true, true}},
+          {"force_max_lat_n", 1e6, false, "per-screw lateral limit", "N", 0.05, 1e6, 2.5, false, true, true},
+          {"sharpness", 4, false, "p of f / (1 + |f / f_max|^p)^(1/p): 2 gradual, 20 a clip", "", 1, 30, 4, false, true, true}},
          [](const std::vector<double>& v) {
            if (!(v[0] > 0 && v[1] > 0)) throw std::invalid_argument("force limits must be > 0");
-           return std::make_shared<TractionSaturation>(v[0], v[1]);
+           if (!(v[2] >= 1 && v[2] <= 100)) throw std::invalid_argument("sharpness must be in [1, 100]");
+           return std::make_shared<TractionSaturation>(v[0], v[1], v[2]);
          },
          [](const std::vector<double>& v) {
            return "each screw's thrust saturates at " + fmt(v[0]) + " N along and " + fmt(v[1]) +
