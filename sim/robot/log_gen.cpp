@@ -31,7 +31,7 @@ const std::vector<EffectInfo>& effect_table() {
        "per DOF -c u sqrt(u^2 + u0^2), u0 5 mm/s (smooth at rest); yaw c_psi with r0 0.01 rad/s"},
       {"screw_traction_loss", true, false, {{"screw", 0}, {"loss", 0.6}, {"t_on_s", 0.0}},
        "one screw loses the fraction loss of its traction, at its contact point"},
-      {"traction_saturation", true, true, {{"long_max_n", 12.0}, {"lat_max_n", 4.0}, {"sharpness", 6.0}},
+      {"traction_saturation", true, true, {{"long_max_n", 12.0}, {"lat_max_n", 4.0}, {"sharpness", 0.0}},
        "per screw and axis f / (1 + |f / f_max|^n)^(1/n) (n = sharpness; 0: f_max tanh(f / f_max))"},
       {"force_lag", true, true, {{"tau_s", 0.15}, {"damping", 0.8}}, "second-order build-up of traction"},
       {"screw_dead_band", true, true, {{"omega_rpm", 2.0}}, "smooth dead band omega - w0 tanh(omega / w0)"},

@@ -105,8 +105,8 @@ ROBOT_EFFECTS = {
     "quadratic_drag": lambda r: spec("quadratic_drag", c_x=uniform(r, 1000, 2500), c_y=uniform(r, 1000, 2500)),
     # any screw loses 30-70 % of its traction.
     "screw_traction_loss": lambda r: spec("screw_traction_loss", screw=r.randrange(4), loss=uniform(r, 0.3, 0.7)),
-    # smooth saturation per screw (sharpness 6, close to a limit): 10-16 N longitudinal, 3-5 N
-    # lateral (15 rpm: 12.2 N, 3.7 N linear).
+    # f_max tanh(f / f_max) per screw and axis (the workbench's form is a p-norm limit):
+    # 10-16 N longitudinal, 3-5 N lateral (15 rpm: 12.2 N, 3.7 N linear).
     "traction_saturation": lambda r: spec("traction_saturation", long_max_n=uniform(r, 10, 16),
                                           lat_max_n=uniform(r, 3, 5)),
     # second-order build-up (soil compressing ahead of the helix), tau 0.12-0.25 s, overdamped
