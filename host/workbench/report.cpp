@@ -38,7 +38,7 @@ std::string esc(const std::string& s) {
   return o;
 }
 
-// Numbers as compare --json prints them (%.6g), so the page and the JSON agree to the digit.
+// Numbers to 6 significant digits: what a reader needs; the test holds them to compare --json.
 std::string num(double v) {
   if (!std::isfinite(v)) return "&ndash;";
   char b[32];
