@@ -121,6 +121,11 @@ struct Problem {
   Segments segs;
   std::vector<std::pair<std::size_t, int>> index;  // (sample, channel) of each residual
   SimOptions options;
+  // Gantry: the load cell's force is a second measurement of the drive force (eq. (7) with the
+  // drive effects): a dead band, lag or saturation changes it, friction does not. Its residuals
+  // follow the pose residuals, normalised by its own noise floor.
+  std::vector<std::size_t> force_index;
+  double force_noise = kNaN;
 };
 
 void build_index(Problem& pr) {
@@ -131,6 +136,11 @@ void build_index(Problem& pr) {
       for (int c = 0; c < kChannels; ++c)
         if (d.active[static_cast<std::size_t>(c)] && std::isfinite(d.meas[k][static_cast<std::size_t>(c)]))
           pr.index.push_back({k, c});
+  pr.force_index.clear();
+  if (!d.force_n.empty() && std::isfinite(pr.force_noise))
+    for (const auto& [b, e] : pr.segs)
+      for (std::size_t k = b; k < e; ++k)
+        if (std::isfinite(d.force_n[k])) pr.force_index.push_back(k);
 }
 
 // Noise-normalised residuals of the model with the parts applied; false if the model cannot be
@@ -148,8 +158,14 @@ bool residuals(const Problem& pr, const std::vector<Part>& parts, Eigen::VectorX
     if (e->id() == "pose_time_offset") o.pose_delay_s = e->params().front().second;
   const Dataset& d = *pr.data;
   if (work.pred.size() != d.size()) work.pred.assign(d.size(), ChannelValues{kNaN, kNaN, kNaN, kNaN});
+  if (d.gantry && work.force_n.size() != d.size()) work.force_n.assign(d.size(), kNaN);
   for (const auto& [b, e] : pr.segs) simulate_range(m, d, o, work, b, e);
-  r.resize(static_cast<Eigen::Index>(pr.index.size()));
+  r.resize(static_cast<Eigen::Index>(pr.index.size() + pr.force_index.size()));
+  for (std::size_t i = 0; i < pr.force_index.size(); ++i) {
+    const std::size_t k = pr.force_index[i];
+    const double q = work.force_n[k];
+    r[static_cast<Eigen::Index>(pr.index.size() + i)] = std::isfinite(q) ? (q - d.force_n[k]) / pr.force_noise : 0.0;
+  }
   for (std::size_t i = 0; i < pr.index.size(); ++i) {
     const auto [k, c] = pr.index[i];
     const double q = work.pred[k][static_cast<std::size_t>(c)], y = d.meas[k][static_cast<std::size_t>(c)];
@@ -528,6 +544,7 @@ Dataset decimate_for_search(const Dataset& d, double max_dt_s) {
   c.t_s.clear();
   c.omega_rpm.clear();
   c.meas.clear();
+  c.force_n.clear();
   Vec4 acc = Vec4::Zero();
   double acc_t = 0;
   for (std::size_t k = 0; k < d.size(); ++k) {
@@ -543,6 +560,7 @@ Dataset decimate_for_search(const Dataset& d, double max_dt_s) {
     c.t_s.push_back(d.t_s[k]);
     c.omega_rpm.push_back(acc_t > 0 ? Vec4(acc / acc_t) : d.omega_rpm[k]);
     c.meas.push_back(m);
+    if (!d.force_n.empty()) c.force_n.push_back(d.force_n[k]);
     acc.setZero();
     acc_t = 0;
   }
@@ -605,6 +623,7 @@ DiagnoseResult diagnose(const Dataset& full, ModelChoice mc, const DiagnoseOptio
   pr.segs = train;
   pr.options = sim_options_for(base);
   pr.options.n_sub = 4;  // 12.5 ms sub-steps on the 50 ms steps of the decimated log
+  if (!full.force_n.empty()) pr.force_noise = estimate_noise(full.t_s, full.force_n);
   build_index(pr);
 
   {
@@ -743,6 +762,7 @@ FitResult fit(const Dataset& full, ModelChoice mc, const std::vector<std::string
   pr.segs = all;
   pr.options = sim_options_for(base);
   pr.options.n_sub = 4;  // 12.5 ms sub-steps on the 50 ms steps of the decimated log
+  if (!full.force_n.empty()) pr.force_noise = estimate_noise(full.t_s, full.force_n);
   build_index(pr);
   std::vector<Part> parts{make_part(kPaperParams, base, data)};
   for (const auto& id : ids)

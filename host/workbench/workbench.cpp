@@ -76,6 +76,7 @@ Dataset load_dataset(const std::string& path) {
         m[kPsi] = 0.0;
       }
       d.meas.push_back(m);
+      d.force_n.push_back(s.force_n);
     }
   } else {
     RobotLogReader r(path);
@@ -170,39 +171,43 @@ ModelChoice choose_model(const Dataset& data, const std::string& model_path) {
 }
 
 // ------------------------------------------------------------------------------- noise floor
+double estimate_noise(const std::vector<double>& t_s, const std::vector<double>& values, bool is_angle) {
+  std::vector<std::size_t> idx;
+  for (std::size_t k = 0; k < values.size(); ++k)
+    if (finite(values[k])) idx.push_back(k);
+  std::vector<double> r;
+  // Each measured sample against the cubic through its two measured neighbours on each side
+  // (Lagrange, exact for any cubic): the motion of a 29 kg robot is smooth at these scales,
+  // so what is left is measurement noise, with variance sigma^2 (1 + sum of weights^2).
+  for (std::size_t j = 2; j + 2 < idx.size(); ++j) {
+    const std::size_t n[4] = {idx[j - 2], idx[j - 1], idx[j + 1], idx[j + 2]};
+    const double t = t_s[idx[j]];
+    if (t_s[n[3]] - t_s[n[0]] > 0.5) continue;  // across a gap the motion is not smooth
+    const double y0 = values[idx[j]];
+    double pred = 0, w2 = 0;
+    for (int a = 0; a < 4; ++a) {
+      double w = 1;
+      for (int b = 0; b < 4; ++b)
+        if (b != a) w *= (t - t_s[n[b]]) / (t_s[n[a]] - t_s[n[b]]);
+      const double ya = values[n[a]];
+      pred += w * (is_angle ? y0 + wrap_angle(ya - y0) : ya);
+      w2 += w * w;
+    }
+    r.push_back(std::fabs(y0 - pred) / std::sqrt(1.0 + w2));
+  }
+  if (r.size() < 5) return kNaN;
+  auto mid = r.begin() + static_cast<std::ptrdiff_t>(r.size() / 2);
+  std::nth_element(r.begin(), mid, r.end());
+  return std::max(1.4826 * *mid, 1e-9);  // MAD of a normal
+}
+
 ChannelValues estimate_noise_floor(const Dataset& data) {
   ChannelValues out{kNaN, kNaN, kNaN, kNaN};
-  std::vector<double> r;
-  std::vector<std::size_t> idx;
+  std::vector<double> v(data.size());
   for (int c = 0; c < kChannels; ++c) {
     if (!data.active[static_cast<std::size_t>(c)]) continue;
-    idx.clear();
-    for (std::size_t k = 0; k < data.size(); ++k)
-      if (finite(data.meas[k][static_cast<std::size_t>(c)])) idx.push_back(k);
-    r.clear();
-    // Each measured sample against the cubic through its two measured neighbours on each side
-    // (Lagrange, exact for any cubic): the motion of a 29 kg robot is smooth at these scales,
-    // so what is left is measurement noise, with variance sigma^2 (1 + sum of weights^2).
-    for (std::size_t j = 2; j + 2 < idx.size(); ++j) {
-      const std::size_t n[4] = {idx[j - 2], idx[j - 1], idx[j + 1], idx[j + 2]};
-      const double t = data.t_s[idx[j]];
-      if (data.t_s[n[3]] - data.t_s[n[0]] > 0.5) continue;  // across a gap the motion is not smooth
-      const double y0 = data.meas[idx[j]][static_cast<std::size_t>(c)];
-      double pred = 0, w2 = 0;
-      for (int a = 0; a < 4; ++a) {
-        double w = 1;
-        for (int b = 0; b < 4; ++b)
-          if (b != a) w *= (t - data.t_s[n[b]]) / (data.t_s[n[a]] - data.t_s[n[b]]);
-        const double ya = data.meas[n[a]][static_cast<std::size_t>(c)];
-        pred += w * (c >= kPsi ? y0 + wrap_angle(ya - y0) : ya);
-        w2 += w * w;
-      }
-      r.push_back(std::fabs(y0 - pred) / std::sqrt(1.0 + w2));
-    }
-    if (r.size() < 5) continue;
-    auto mid = r.begin() + static_cast<std::ptrdiff_t>(r.size() / 2);
-    std::nth_element(r.begin(), mid, r.end());
-    out[static_cast<std::size_t>(c)] = std::max(1.4826 * *mid, 1e-9);  // MAD of a normal
+    for (std::size_t k = 0; k < data.size(); ++k) v[k] = data.meas[k][static_cast<std::size_t>(c)];
+    out[static_cast<std::size_t>(c)] = estimate_noise(data.t_s, v, c >= kPsi);
   }
   return out;
 }
@@ -220,6 +225,7 @@ bool pose_measured(const Dataset& d, std::size_t k) {
 void simulate(const Model& model, const Dataset& data, const SimOptions& o, Prediction& out, std::size_t begin,
               std::size_t end) {
   out.pred.assign(data.size(), ChannelValues{kNaN, kNaN, kNaN, kNaN});
+  out.force_n.assign(data.gantry ? data.size() : 0, kNaN);
   out.segment_start.clear();
   simulate_range(model, data, o, out, begin, end);
 }
@@ -323,6 +329,7 @@ void simulate_range(const Model& model, const Dataset& data, const SimOptions& o
       }
       const auto& m = data.meas[k];
       eta = Vec3(m[kX], m[kY], m[kPsi]);
+      if (kw == k) dyn.tau_drive_n = model.SB * data.omega_rpm[k];  // no warm-up: the nominal force
     }
     if (!started) continue;
     if (imu_heading && finite(data.meas[k][kImuPsi])) eta.z() = data.meas[k][kImuPsi];  // Fig. 9 variant
@@ -330,6 +337,8 @@ void simulate_range(const Model& model, const Dataset& data, const SimOptions& o
     predict_sensors(model, eta, zeta, sv);
     // In the IMU-heading variant the IMU is an input, not something the model predicts.
     out.pred[k] = {sv.pose.x(), sv.pose.y(), sv.pose.z(), imu_heading ? kNaN : sv.imu_psi_rad};
+    // The gantry's load cell measures the drive force over the interval ending here.
+    if (!out.force_n.empty()) out.force_n[k] = dyn.tau_drive_n[data.axis == "lateral" ? 1 : 0];
     if (k + 1 < n) {
       const double dt = data.t_s[k + 1] - t;
       // A row's omega is the encoder's mean over the interval ending at its t_s (module

@@ -43,6 +43,7 @@ struct Dataset {
   std::vector<Vec4> omega_rpm;        // a gap is filled with the last measured value
   std::vector<ChannelValues> meas;    // x_m, y_m, psi_rad, imu_psi_rad; NaN = not measured
   std::array<bool, kChannels> active{};  // channels with at least a few measurements
+  std::vector<double> force_n;        // gantry: the measured traction force along the rail (else empty)
   std::size_t size() const { return t_s.size(); }
   double duration_s() const { return t_s.empty() ? 0 : t_s.back() - t_s.front(); }
 };
@@ -66,6 +67,8 @@ ModelChoice choose_model(const Dataset& data, const std::string& model_path = ""
 // measured sample's deviation from the straight line through its measured neighbours,
 // scaled for the neighbours' weights. NaN for a channel without data.
 ChannelValues estimate_noise_floor(const Dataset& data);
+// The same estimator on one series (NaN = not measured); angles wrapped when is_angle.
+double estimate_noise(const std::vector<double>& t_s, const std::vector<double>& values, bool is_angle = false);
 
 // How the model is run against the log.
 struct SimOptions {
@@ -85,6 +88,7 @@ SimOptions sim_options_for(const Model& model);
 // Predicted sensor channels per sample (NaN before the first measured pose).
 struct Prediction {
   std::vector<ChannelValues> pred;
+  std::vector<double> force_n;  // gantry: the model's drive force along the rail (eq. (7) with effects)
   std::vector<std::size_t> segment_start;  // sample indices where segments begin
 };
 void simulate(const Model& model, const Dataset& data, const SimOptions& options, Prediction& out,
