@@ -285,3 +285,59 @@ TEST_CASE("diagnose: ranks the effect that made the data first; no effect is not
   CHECK_FALSE(none.significant);
   CHECK(none.nominal_heldout_ratio < 1.15);
 }
+
+namespace {
+
+// A gantry log (one module on the rail, eqs. (11)-(17)) made with the workbench's own gantry
+// model: constant-speed pieces both ways, position and load-cell force with noise.
+Dataset synth_gantry(const std::vector<std::shared_ptr<const Effect>>& effects, unsigned seed) {
+  Dataset d;
+  d.path = "synthetic-gantry";
+  d.gantry = true;
+  d.axis = "longitudinal";
+  d.terrain = "sand";
+  d.active = {true, false, false, false};
+  const ModelChoice mc = choose_model(d);
+  const Model truth = make_model(mc.model.robot, mc.model.terrain, effects);
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n01(0, 1);
+  DynamicsData dyn(truth);
+  Vec3 eta = Vec3::Zero(), zeta = Vec3::Zero();
+  const double dt = 0.01;
+  auto omega = [](double t) {
+    const double levels[6] = {-5, -12, 0, 8, -18, 3};
+    const double w = levels[static_cast<int>(t / 6.0) % 6];
+    return Vec4(w, w, 0, 0);
+  };
+  for (int k = 0; k <= 7200; ++k) {
+    const double t = k * dt;
+    d.t_s.push_back(t);
+    d.omega_rpm.push_back(omega(t));
+    d.meas.push_back({eta.x() + 0.002 * n01(rng), 0.0, 0.0, kNaN});
+    d.force_n.push_back(dyn.tau_drive_n.x() + 0.3 * n01(rng));  // drive force of the interval ending at t
+    dynamics_step(truth, dyn, eta, zeta, omega(t + dt), dt, 4);
+  }
+  return d;
+}
+
+}  // namespace
+
+TEST_CASE("gantry: one DOF through the same machinery; the load cell separates a dead band from friction") {
+  const Dataset none = synth_gantry({}, 3);
+  const ModelChoice mc = choose_model(none);
+  CHECK(mc.model.robot.m_kg == 16.0);
+  const CompareResult r = compare(none, mc);
+  CHECK(r.noise_floor[kX] == Approx(0.002).epsilon(0.15));
+  CHECK(r.segments_err.ratio_to_noise[kX] < 1.15);
+  CHECK(std::isnan(r.noise_floor[kY]));  // one channel only
+  const auto& reg = EffectRegistry::builtin().entries();
+  const Dataset band = synth_gantry({reg.at("screw_dead_band").make({2.5, 1})}, 4);
+  DiagnoseOptions opt;
+  opt.only = {"coulomb_friction", "screw_dead_band"};
+  const DiagnoseResult dr = diagnose(band, choose_model(band), opt);
+  REQUIRE(dr.candidates.size() == 2);
+  CHECK(dr.candidates[0].fitted.effect == "screw_dead_band");
+  CHECK(dr.candidates[0].fitted.params[0].value == Approx(2.5).epsilon(0.1));
+  CHECK(dr.significant);
+  CHECK_FALSE(diagnose(none, choose_model(none), opt).significant);
+}
