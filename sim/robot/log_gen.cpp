@@ -178,6 +178,10 @@ void apply_robot_effect(const EffectSpec& e, double seconds, TruthParams& tp, Mo
     tp.friction.y_ratio = param(e, "force_x_n") > 0 ? param(e, "force_y_n") / param(e, "force_x_n") : 1.0;
     tp.friction.stiction_n = param(e, "force_x_n") * ratio;
     tp.friction.stribeck_mps = stick ? param(e, "stribeck_mps") : 0.01;
+    // Yaw: the same curve at the contacts' distance from the centre (about 0.33 m), so the
+    // Stribeck speed in yaw is v_s / 0.33 m; smoothing 0.5 mrad/s (RK4 allows far less).
+    tp.friction.stribeck_radps = tp.friction.stribeck_mps / 0.33;
+    tp.friction.eps_radps = 0.0005;
     tp.friction.coulomb_nm = param(e, "torque_nm");
     tp.friction.stiction_nm = param(e, "torque_nm") * ratio;
     // Smoothing width as small as the 0.5 ms RK4 step allows (slope F_s / eps at rest, lambda h

@@ -61,6 +61,7 @@ CONFUSABLE = {
     frozenset({"paper_params", "terrain_change"}),           # a change early/late ~ other sigma/D
     frozenset({"paper_params", "quadratic_drag"}),           # at few speeds, more drag ~ other D
     frozenset({"paper_params", "traction_saturation"}),      # at few speeds, saturation ~ other sigma
+    frozenset({"paper_params", "screw_traction_loss"}),      # gantry: both screws always turn alike
 }
 
 
