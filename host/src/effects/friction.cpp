@@ -35,30 +35,33 @@ std::string dry_words(const std::vector<double>& v, const std::string& what) {
   return (s.empty() ? std::string("no force") : s) + ": " + what;
 }
 
-// Stick-slip: at rest the body holds until the drive exceeds the breakaway level static_*,
-// moving it feels the sliding level kinetic_* (<= static). The "stuck" flag per DOF is state.
+// Stick-slip (Stribeck): the friction level is the sliding level times
+// 1 + (breakaway_ratio - 1) exp(-|v| / stribeck_mps), so the body needs breakaway_ratio times the
+// sliding force to start and the resistance falls as it speeds up. The level is taken at the
+// step's start velocity, the force applied implicitly as for Coulomb friction (it stops at zero).
 class StickSlipFriction final : public Effect {
  public:
-  StickSlipFriction(const Vec3& kinetic, const Vec3& breakaway) : kinetic_(kinetic), breakaway_(breakaway) {}
+  StickSlipFriction(const Vec3& kinetic, double breakaway, double stribeck_mps)
+      : kinetic_(kinetic), breakaway_(breakaway), v_s_(stribeck_mps) {}
   const std::string& id() const override {
     static const std::string s = "stick_slip_friction";
     return s;
   }
   std::vector<std::pair<std::string, double>> params() const override {
     return {{"force_x_n", kinetic_.x()}, {"force_y_n", kinetic_.y()}, {"torque_psi_nm", kinetic_.z()},
-            {"breakaway_ratio", breakaway_.x()}};
+            {"breakaway_ratio", breakaway_}, {"stribeck_mps", v_s_}};
   }
   void body_force(const Model&, const EffectContext& ctx, Vec3& force_n, double*) const override {
     for (int k = 0; k < 3; ++k) {
       const double stop = -ctx.zeta_free[k] / ctx.gain[k];
-      // At (near) rest the breakaway level holds; once moving, the sliding level.
-      const double level = std::fabs(ctx.zeta[k]) < 1e-6 ? kinetic_[k] * breakaway_[k] : kinetic_[k];
+      const double level = kinetic_[k] * (1.0 + (breakaway_ - 1.0) * std::exp(-std::fabs(ctx.zeta[k]) / v_s_));
       force_n[k] = std::clamp(stop, -level, level);
     }
   }
 
  private:
-  Vec3 kinetic_, breakaway_;
+  Vec3 kinetic_;
+  double breakaway_, v_s_;
 };
 
 // Quadratic drag -c_k v_k |v_k| per DOF, solved implicitly at the step's end velocity:
@@ -105,20 +108,24 @@ void register_friction(EffectRegistry& r) {
          },
          [](const std::vector<double>& v) { return dry_words(v, "dry (Coulomb) friction"); }});
   r.add({"stick_slip_friction",
-         "dry friction per DOF with a breakaway level breakaway_ratio times the sliding level at rest",
+         "dry friction per DOF with a Stribeck breakaway: breakaway_ratio times the sliding level at rest",
          {{"force_x_n", 0, false, "sliding level, longitudinal", "N", 0, 500, 10},
           {"force_y_n", 0, false, "sliding level, lateral", "N", 0, 500, 10},
           {"torque_psi_nm", 0, false, "sliding level, yaw", "N m", 0, 50, 0.5},
-          {"breakaway_ratio", 1.5, false, "breakaway (static) / sliding level", "", 1, 5, 1.3}},
+          {"breakaway_ratio", 1.5, false, "breakaway (static) / sliding level", "", 1, 5, 1.3},
+          {"stribeck_mps", 0.005, false, "speed over which the breakaway excess decays (m/s; rad/s in yaw)", "m/s",
+           1e-4, 0.2, 0.005, false, true, true}},
          [](const std::vector<double>& v) {
            check_non_negative(v[0], "force_x_n");
            check_non_negative(v[1], "force_y_n");
            check_non_negative(v[2], "torque_psi_nm");
            if (!(v[3] >= 1) || !std::isfinite(v[3])) throw std::invalid_argument("breakaway_ratio must be >= 1");
-           return std::make_shared<StickSlipFriction>(Vec3(v[0], v[1], v[2]), Vec3::Constant(v[3]));
+           if (!(v[4] > 0) || !std::isfinite(v[4])) throw std::invalid_argument("stribeck_mps must be > 0");
+           return std::make_shared<StickSlipFriction>(Vec3(v[0], v[1], v[2]), v[3], v[4]);
          },
          [](const std::vector<double>& v) {
-           return dry_words(v, "stick-slip friction, breaking away at " + fmt(v[3]) + " times that");
+           return dry_words(v, "stick-slip friction, breaking away at " + fmt(v[3]) + " times that, decaying over " +
+                                   fmt(v[4] * 1000) + " mm/s");
          }});
   r.add({"quadratic_drag", "a resistance -c v |v| per DOF on top of the linear D of eq. (6)",
          {{"c_x_nspm2", 0, false, "longitudinal coefficient", "N/(m/s)^2", 0, 1e5, 500},
