@@ -780,6 +780,15 @@ FitResult fit(const Dataset& full, ModelChoice mc, const std::vector<std::string
     for (auto& s : p.specs)
       if (s.integer) s.fitted = false;
   FitOutcome o = levenberg_marquardt(pr, joint, 20);
+  // Restarts with a fresh damping while they still gain (a stalled LM step is often a poor
+  // finite-difference direction, not the optimum).
+  for (int restart = 0; restart < 3 && std::isfinite(o.cost); ++restart) {
+    FitOutcome again = levenberg_marquardt(pr, o.parts, 20);
+    const bool gained = again.cost < o.cost * (1 - 1e-4);
+    again.sims += o.sims;
+    if (again.cost < o.cost) o = std::move(again);
+    if (!gained) break;
+  }
   if (progress) std::fprintf(stderr, "fit: joint fit done (%d simulations)\n", o.sims);
   if (!std::isfinite(o.cost)) throw std::runtime_error("the fit failed: no parameter set gives a valid model");
   const double n = static_cast<double>(o.r.size());
