@@ -54,6 +54,8 @@ ASAN_TARGETS := test_protocol test_firmware_logic test_host_core test_sim_models
                 test_robot_unit test_daemon_unit
 # W-data: the log generator's unit tests (tests/workbench/hidden)
 ASAN_TARGETS += test_sim_log
+# W-engine: the workbench engine's unit tests (tests/workbench/test_workbench_engine.cpp)
+ASAN_TARGETS += test_workbench_engine
 asan: deps firmware
 	cmake -S . -B $(ASAN_BUILD) -G $(CMAKE_GENERATOR) -DCMAKE_BUILD_TYPE=Debug \
 	  -DAUGER_SANITIZE=ON -DAUGER_WITH_SIM=ON
