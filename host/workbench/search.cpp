@@ -693,13 +693,16 @@ DiagnoseResult diagnose(const Dataset& full, ModelChoice mc, const DiagnoseOptio
     if (ga != gb) return ga;
     return a.delta_bic < b.delta_bic;
   });
-  // Near ties: neighbours whose held-out errors are within 5 % and whose BIC gain is within 10 %.
+  // Near ties: neighbours whose held-out errors are within 10 % and BIC gains within 10 %, or
+  // whose held-out errors are within 2 %.
   for (std::size_t i = 0; i + 1 < res.candidates.size(); ++i) {
     Candidate& a = res.candidates[i];
     Candidate& b = res.candidates[i + 1];
       const bool held_close = std::fabs(a.heldout_ratio - b.heldout_ratio) <= 0.1 * std::max(a.heldout_ratio, 1e-9);
     const bool bic_close = std::fabs(a.delta_bic - b.delta_bic) <= std::max(10.0, 0.1 * std::fabs(a.delta_bic));
-    if (held_close && bic_close && a.delta_bic < -10) {
+    // Held-out errors within 2 % cannot be told apart on new data, whatever the training BIC says.
+    const bool held_same = std::fabs(a.heldout_ratio - b.heldout_ratio) <= 0.02 * std::max(a.heldout_ratio, 1e-9);
+    if (((held_close && bic_close) || held_same) && a.delta_bic < -10 && b.delta_bic < -10) {
       a.near_tie = b.near_tie = true;
       if (a.tell_apart.empty()) a.tell_apart = tell_apart(a.fitted.effect, b.fitted.effect);
       b.tell_apart = tell_apart(a.fitted.effect, b.fitted.effect);
