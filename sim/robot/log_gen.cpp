@@ -34,7 +34,8 @@ const std::vector<EffectInfo>& effect_table() {
       {"traction_saturation", true, true, {{"long_max_n", 12.0}, {"lat_max_n", 4.0}, {"sharpness", 0.0}},
        "per screw and axis f / (1 + |f / f_max|^n)^(1/n) (n = sharpness; 0: f_max tanh(f / f_max))"},
       {"force_lag", true, true, {{"tau_s", 0.15}, {"damping", 0.8}}, "second-order build-up of traction"},
-      {"screw_dead_band", true, true, {{"omega_rpm", 2.0}}, "smooth dead band omega - w0 tanh(omega / w0)"},
+      {"screw_dead_band", true, true, {{"omega_rpm", 2.0}, {"corner_frac", 0.1}},
+       "smooth dead band: softplus corner of width corner_frac w0 (0: omega - w0 tanh(omega / w0))"},
       {"terrain_slope", true, false, {{"roll_deg", 0.0}, {"pitch_deg", 2.0}},
        "3-D incline: ground normal R_y(pitch) R_x(roll) e_z"},
       {"resistance_offset", true, false, {{"asym", 0.2}},
@@ -212,6 +213,7 @@ void apply_robot_effect(const EffectSpec& e, double seconds, TruthParams& tp, Mo
   } else if (id == "screw_dead_band") {
     tp.dead_band.on = true;
     tp.dead_band.omega_dead_rpm = param(e, "omega_rpm");
+    tp.dead_band.corner_rpm = param(e, "corner_frac") * param(e, "omega_rpm");
   } else if (id == "terrain_slope") {
     tp.incline.on = true;
     tp.incline.roll_rad = deg_to_rad(param(e, "roll_deg"));
@@ -478,6 +480,7 @@ LogGenResult generate_gantry_log(const TerrainParams& terrain, double mass_kg, c
   const double sat_n = sat ? param(e, "sharpness") : 0;
   const double tau = lag ? param(e, "tau_s") : 0, zeta_lag = lag ? param(e, "damping") : 0;
   const double w0 = dead ? param(e, "omega_rpm") : 0;
+  const double corner = dead ? param(e, "corner_frac") * w0 : 0;
   // Gantry soft patch: a stretch of rail of length 2 radius_m centred at at_frac of the rail.
   const double patch_c = patch ? param(e, "at_frac") * rail_m : 0, patch_r = patch ? param(e, "radius_m") : 0;
   const double patch_extra = patch ? param(e, "extra") : 0;
@@ -489,7 +492,7 @@ LogGenResult generate_gantry_log(const TerrainParams& terrain, double mass_kg, c
   auto traction = [&](const S& s, const Vec4& w, std::array<double, 2>& f) {
     for (int i = 0; i < 2; ++i) {
       double wi = lag ? s.y[static_cast<std::size_t>(i)] : w[i];
-      if (dead && !lag) wi = wi - w0 * std::tanh(wi / w0);
+      if (dead && !lag) wi = dead_band_rpm(wi, w0, corner);
       double fi = sigma * b[static_cast<std::size_t>(i)] * wi;
       if (sat) fi = saturate_force(fi, f_max, sat_n);
       f[static_cast<std::size_t>(i)] = fi;
@@ -512,7 +515,7 @@ LogGenResult generate_gantry_log(const TerrainParams& terrain, double mass_kg, c
     for (int i = 0; i < 2; ++i) {
       const auto ii = static_cast<std::size_t>(i);
       double wi = w[i];
-      if (dead) wi = wi - w0 * std::tanh(wi / w0);
+      if (dead) wi = dead_band_rpm(wi, w0, corner);
       d.y[ii] = s.yd[ii];
       d.yd[ii] = lag ? (wi - s.y[ii] - 2.0 * zeta_lag * tau * s.yd[ii]) / (tau * tau) : 0.0;
     }
@@ -572,6 +575,7 @@ LogGenResult generate_gantry_log(const TerrainParams& terrain, double mass_kg, c
   int run_no = 0;
   std::array<double, 2> rev{u01(rng), u01(rng)}, rev_prev = rev;
   Vec4 omega = Vec4::Zero(), target = Vec4::Zero();
+  double force_window_n = 0.0;
   // Base alongside for the effect size (same commands, no effect, reset every segment).
   double base_x = s.x, base_u = 0, next_reset = 0;
   const double a_base = std::exp(-drag / mass_kg * kCouple_s);
@@ -595,9 +599,10 @@ LogGenResult generate_gantry_log(const TerrainParams& terrain, double mass_kg, c
       g.omega_rpm[static_cast<std::size_t>(i)] =
           k == 0 ? 0.0 : encoder_rpm(rev_prev[static_cast<std::size_t>(i)], rev[static_cast<std::size_t>(i)], cfg.counts_per_rev);
     rev_prev = rev;
-    std::array<double, 2> f{};
-    traction(s, omega, f);
-    g.force_n = f[0] + f[1] + cfg.gantry_force_noise_n * n01(noise_rng);
+    // The force sensor's reading: the traction averaged over the same 10 ms window as the
+    // encoder speed (its anti-aliasing filter), so both columns describe the same interval.
+    g.force_n = (k == 0 ? 0.0 : force_window_n / 10.0) + cfg.gantry_force_noise_n * n01(noise_rng);
+    force_window_n = 0.0;
     g.position_m = s.x + cfg.gantry_position_noise_m * n01(noise_rng);
     log.write(g);
     bool acting = id != "none";
@@ -613,6 +618,9 @@ LogGenResult generate_gantry_log(const TerrainParams& terrain, double mass_kg, c
     for (int j = 0; j < 10; ++j) {
       const Vec4 mean_rpm = ideal_screw_step(omega, target, cfg.ideal_tau_s, kCouple_s);
       for (int h = 0; h < 2; ++h) rk4(s, mean_rpm, kCouple_s / 2);
+      std::array<double, 2> f{};
+      traction(s, mean_rpm, f);
+      force_window_n += f[0] + f[1];
       for (int i = 0; i < 2; ++i) rev[static_cast<std::size_t>(i)] += mean_rpm[i] * (kCouple_s / 60.0);
       // Base: exact first-order step of m u' = -D u + sigma_nominal B omega.
       const double sig0 = lateral ? terrain.sigma_lat : terrain.sigma_long;

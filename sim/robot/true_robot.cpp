@@ -95,7 +95,7 @@ TrueRobot::Deriv TrueRobot::derivative(const TruthState& s, const Vec4& omega_rp
   Vec4 w_in = omega_rpm;
   if (p_.dead_band.on) {
     const double w0 = p_.dead_band.omega_dead_rpm;
-    for (int i = 0; i < 4; ++i) w_in[i] = omega_rpm[i] - w0 * std::tanh(omega_rpm[i] / w0);
+    for (int i = 0; i < 4; ++i) w_in[i] = dead_band_rpm(omega_rpm[i], w0, p_.dead_band.corner_rpm);
   }
   Vec4 w_tr = w_in;
   if (p_.lag.on) {

@@ -51,10 +51,19 @@ struct ForceLag {  // the traction builds up through a second-order filter of th
   bool on = false;
   double tau_s = 0.15, damping = 0.8;
 };
-struct DeadBand {  // smooth dead band: omega_eff = omega - omega_dead tanh(omega / omega_dead)
-  bool on = false;
+struct DeadBand {  // smooth dead band: omega_eff = omega - omega_dead tanh(omega / omega_dead), or
+  bool on = false;  // with corner_rpm > 0 a softplus corner: sign(omega) c ln(1 + e^((|omega| - w0) / c))
   double omega_dead_rpm = 1.5;
+  double corner_rpm = 0.0;
 };
+// Smooth dead band of one screw speed (DeadBand's forms); monotonic in omega.
+inline double dead_band_rpm(double omega_rpm, double w0_rpm, double corner_rpm) {
+  if (corner_rpm <= 0) return omega_rpm - w0_rpm * std::tanh(omega_rpm / w0_rpm);
+  const double z = (std::fabs(omega_rpm) - w0_rpm) / corner_rpm;
+  // softplus(z) = ln(1 + e^z), written to stay finite for large z
+  const double soft = z > 30 ? z : std::log1p(std::exp(z));
+  return std::copysign(corner_rpm * soft, omega_rpm) - std::copysign(corner_rpm * std::log1p(std::exp(-w0_rpm / corner_rpm)), omega_rpm);
+}
 struct Blocking {  // MODEL-NOTES: |omega| < omega_block: mu m g / 4 dry resistance at the contact
   bool on = false;
   double omega_block_rpm = 1.5, mu = 0.5, eps_mps = 0.002;

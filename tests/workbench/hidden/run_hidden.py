@@ -113,7 +113,7 @@ ROBOT_EFFECTS = {
     # second-order build-up (soil compressing ahead of the helix), tau 0.12-0.25 s, overdamped
     # 1.3-2.0.
     "force_lag": lambda r: spec("force_lag", tau_s=uniform(r, 0.12, 0.25), damping=uniform(r, 1.3, 2.0)),
-    # smooth dead band 1.5-3 rpm.
+    # dead zone with a smooth corner (0.1 w0 wide), w0 1.5-3 rpm.
     "screw_dead_band": lambda r: spec("screw_dead_band", omega_rpm=uniform(r, 1.5, 3.0)),
     # a tilt of 0.08-0.2 deg in any direction (1.4-3.5 mm per metre).
     "terrain_slope": lambda r: (lambda a, d: spec("terrain_slope", roll_deg=a * math.sin(d), pitch_deg=a * math.cos(d)))(
@@ -175,7 +175,8 @@ class Case:
 
     @property
     def name(self):
-        return ("gantry-" + self.axis[:3] + "/" if self.axis else "") + self.effect
+        # Gantry cases of both axes count together per effect (the axis alternates with the seed).
+        return ("gantry/" if self.axis else "") + self.effect
 
     def fail(self, why):
         self.failures.append(why)
@@ -225,7 +226,8 @@ def acting_intervals(truth_path):
 
 def check_case(case, args, workdir):
     rng = random.Random("%s/%s/%d" % (case.axis or "robot", case.effect, case.seed))
-    base = os.path.join(workdir, "%s-%d" % (case.name.replace("/", "-"), case.seed))
+    base = os.path.join(workdir, "%s%s-%d" % (case.name.replace("/", "-"), "-" + case.axis[:3] if case.axis else "",
+                                               case.seed))
     log, truth = base + ".csv", base + ".truth.csv"
     if case.kind == "none":
         gen = "none"
@@ -355,7 +357,7 @@ def main():
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--seconds", type=float, default=150.0)
     ap.add_argument("--timeout", type=float, default=300.0)
-    ap.add_argument("--only", default="", help="comma-separated case names (e.g. force_lag,gantry-lon/none)")
+    ap.add_argument("--only", default="", help="comma-separated case names (e.g. force_lag,gantry/none)")
     ap.add_argument("--no-gantry", action="store_true")
     ap.add_argument("--keep", default="", help="keep the logs in this directory")
     args = ap.parse_args()
@@ -381,13 +383,13 @@ def main():
         done = list(pool.map(lambda c: check_case(c, args, workdir), cases))
 
     # The table: one row per case, then per effect.
-    print("%-30s %4s %-10s %7s %5s %6s %5s  %s" % ("case", "seed", "traj", "nominal", "rank", "fit", "diag", "result"))
+    print("%-30s %4s %-14s %7s %5s %6s %5s  %s" % ("case", "seed", "traj", "nominal", "rank", "fit", "diag", "result"))
     by_effect = {}
     for c in sorted(done, key=lambda c: (c.name, c.seed)):
         by_effect.setdefault(c.name, []).append(c)
         fmt = lambda v, f: (f % v) if isinstance(v, (int, float)) and v == v else "-"
-        print("%-30s %4d %-10s %7s %5s %6s %5s  %s" % (
-            c.name, c.seed, c.traj, fmt(c.info.get("nominal"), "%.1fx"), fmt(c.info.get("rank"), "%d"),
+        print("%-30s %4d %-14s %7s %5s %6s %5s  %s" % (
+            c.name, c.seed, (c.axis[:3] + " " if c.axis else "") + c.traj, fmt(c.info.get("nominal"), "%.1fx"), fmt(c.info.get("rank"), "%d"),
             fmt(c.info.get("fit"), "%.2fx"), fmt(c.info.get("t_diag"), "%.0fs"), "PASS" if not c.failures else "FAIL: " + "; ".join(c.failures)))
         if c.failures:
             print("%36s generator --effect %s; top %s" % ("", c.info.get("gen"), c.info.get("top")))
