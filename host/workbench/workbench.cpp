@@ -252,12 +252,28 @@ void simulate_range(const Model& model, const Dataset& data, const SimOptions& o
   // at t - pose_delay_s, interpolated in the segment's own prediction; the IMU and the screw
   // speeds share the robot's clock and stay.
   std::vector<Vec3> shifted;
+  // The model's poses over the warm-up before the segment (in the segment's frame), so that a
+  // pose row late by pose_delay_s at the segment's start is compared with the state before it.
+  std::vector<Vec3> warm_pose;
+  std::vector<double> warm_t;
   auto shift_poses = [&](std::size_t b, std::size_t e) {
     if (!delayed || b >= e) return;
     shifted.resize(e - b);
     std::size_t j = b;
     for (std::size_t k = b; k < e; ++k) {
-      const double ts = std::clamp(data.t_s[k] - o.pose_delay_s, data.t_s[b], data.t_s[e - 1]);
+      const double want = data.t_s[k] - o.pose_delay_s;
+      if (want < data.t_s[b] && !warm_t.empty() && want >= warm_t.front()) {
+        std::size_t i = 0;
+        while (i + 1 < warm_t.size() && warm_t[i + 1] <= want) ++i;
+        const Vec3 p1 = i + 1 < warm_t.size() ? warm_pose[i + 1]
+                                             : Vec3(out.pred[b][kX], out.pred[b][kY], out.pred[b][kPsi]);
+        const double t1 = i + 1 < warm_t.size() ? warm_t[i + 1] : data.t_s[b];
+        const double a = t1 > warm_t[i] ? (want - warm_t[i]) / (t1 - warm_t[i]) : 0.0;
+        shifted[k - b] = Vec3((1 - a) * warm_pose[i].x() + a * p1.x(), (1 - a) * warm_pose[i].y() + a * p1.y(),
+                              warm_pose[i].z() + a * wrap_angle(p1.z() - warm_pose[i].z()));
+        continue;
+      }
+      const double ts = std::clamp(want, data.t_s[b], data.t_s[e - 1]);
       while (j + 1 < e && data.t_s[j + 1] <= ts) ++j;
       while (j > b && data.t_s[j] > ts) --j;
       const std::size_t j1 = std::min(j + 1, e - 1);
@@ -321,7 +337,13 @@ void simulate_range(const Model& model, const Dataset& data, const SimOptions& o
       zeta = steady_velocity(model, w0);
       dyn.reset(model);
       Vec3 eta_w = Vec3::Zero();
+      warm_t.clear();
+      warm_pose.clear();
       for (std::size_t i = kw; i < k; ++i) {
+        if (delayed) {
+          warm_t.push_back(data.t_s[i]);
+          warm_pose.push_back(eta_w);
+        }
         const double dt = data.t_s[i + 1] - data.t_s[i];
         const Vec4 w = data.omega_rpm[i + 1];
         dyn.t_s = data.t_s[i];
@@ -329,6 +351,12 @@ void simulate_range(const Model& model, const Dataset& data, const SimOptions& o
       }
       const auto& m = data.meas[k];
       eta = Vec3(m[kX], m[kY], m[kPsi]);
+      // Warm-up poses into the segment's frame: the warm-up's end is the start pose.
+      const double dpsi = eta.z() - eta_w.z(), c = std::cos(dpsi), sn = std::sin(dpsi);
+      for (Vec3& q : warm_pose) {
+        const double rx = q.x() - eta_w.x(), ry = q.y() - eta_w.y();
+        q = Vec3(eta.x() + c * rx - sn * ry, eta.y() + sn * rx + c * ry, wrap_angle(q.z() + dpsi));
+      }
       if (kw == k) dyn.tau_drive_n = model.SB * data.omega_rpm[k];  // no warm-up: the nominal force
     }
     if (!started) continue;
