@@ -60,6 +60,8 @@ host: deps firmware
 # makes `ctest -L unit` below fail, not pass).
 ASAN_TARGETS := test_protocol test_firmware_logic test_host_core test_sim_models \
                 test_robot_unit test_daemon_unit test_operator_unit
+# The log generator's unit tests (tests/workbench/hidden) and the workbench engine's.
+ASAN_TARGETS += test_sim_log test_workbench_engine
 asan: deps firmware
 	cmake -S . -B $(ASAN_BUILD) -G $(CMAKE_GENERATOR) -DCMAKE_BUILD_TYPE=Debug \
 	  -DAUGER_SANITIZE=ON -DAUGER_WITH_SIM=ON
@@ -106,6 +108,9 @@ test: deps check-protocol host asan fuzz-smoke board
 test-full: test
 	$(MAKE) fuzz FUZZ_RUNS=5000000
 	$(BUILD)/tests/robot/test_robot_fil "[.full]"
+	# W-data: the hidden-effect suite, 10 seeds per effect, at least 9 must pass (docs/workbench-suite.md)
+	python3 tests/workbench/hidden/run_hidden.py --auger $(BUILD)/host/auger/auger \
+	  --sim-log $(BUILD)/sim/robot/auger-sim-log --seeds 10 --min-pass 9 --jobs 2
 
 # The simulated robot on sand driven by augerd: a square and the helix diagonal with each
 # allocator, tracking errors printed (scripts/demo.sh; about 90 s after the build).

@@ -42,9 +42,10 @@ void drive_force(const Model& model, DynamicsData& data, const Vec4& omega_rpm, 
                                   data.effect_state.data() + model.effect_state_offset[k]);
 }
 
-void effect_body_force(const Model& model, DynamicsData& data, const Vec3& eta, const Vec3& zeta,
+void effect_body_force(const Model& model, DynamicsData& data, double t_s, const Vec3& eta, const Vec3& zeta,
                        const Vec4& omega_rpm, double dt_s) {
   EffectContext& c = data.ctx;
+  c.t_s = t_s;
   c.eta = eta;
   c.zeta = zeta;
   c.omega_rpm = omega_rpm;
@@ -71,7 +72,7 @@ void dynamics_step(const Model& model, DynamicsData& data, Vec3& eta, Vec3& zeta
   EffectContext& c = data.ctx;
   for (int s = 0; s < n_sub; ++s) {
     drive_force(model, data, omega_rpm, h, data.tau_drive_n);
-    effect_body_force(model, data, eta, zeta, omega_rpm, h);
+    effect_body_force(model, data, data.t_s + s * h, eta, zeta, omega_rpm, h);
     const Vec3 tau = data.tau_drive_n + data.tau_effect_n;
     // Closed-form velocity at any time inside the sub-step, for the pose integration.
     auto zeta_at = [&](double t) {
@@ -92,6 +93,7 @@ void dynamics_step(const Model& model, DynamicsData& data, Vec3& eta, Vec3& zeta
     eta.z() = wrap_angle(psi_exact);
     zeta = z1;
   }
+  data.t_s += dt_s;
 }
 
 Vec3 steady_velocity(const Model& model, const Vec4& omega_rpm) {

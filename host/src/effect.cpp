@@ -2,6 +2,9 @@
 #include "auger/effect.hpp"
 
 #include <algorithm>
+#include <cmath>
+
+#include "effects/effects.hpp"
 
 namespace auger {
 
@@ -56,31 +59,11 @@ std::shared_ptr<const Effect> EffectRegistry::create(const EffectConfig& c) cons
 }
 
 void register_builtin_effects(EffectRegistry& r) {
-  auto non_negative = [](double v, const char* name) {
-    if (!(v >= 0) || !std::isfinite(v)) throw std::invalid_argument(std::string(name) + " must be >= 0");
-  };
-  r.add({"coulomb_friction", "dry friction per DOF, hard sign form, stiction = sliding level",
-         {{"force_x_n", 0, false, "longitudinal level"},
-          {"force_y_n", 0, false, "lateral level"},
-          {"torque_psi_nm", 0, false, "yaw level"}},
-         [non_negative](const std::vector<double>& v) {
-           non_negative(v[0], "force_x_n");
-           non_negative(v[1], "force_y_n");
-           non_negative(v[2], "torque_psi_nm");
-           return std::make_shared<CoulombFriction>(Vec3(v[0], v[1], v[2]));
-         }});
-  r.add({"screw_dead_band", "a screw slower than omega_dead_rpm gives no force",
-         {{"omega_dead_rpm", 0, true, "dead band half-width"}},
-         [non_negative](const std::vector<double>& v) {
-           non_negative(v[0], "omega_dead_rpm");
-           return std::make_shared<ScrewDeadBand>(v[0]);
-         }});
-  r.add({"imu_heading_bias", "the IMU reports psi + bias_rad",
-         {{"bias_rad", 0, true, "constant heading bias"}},
-         [](const std::vector<double>& v) {
-           if (!std::isfinite(v[0])) throw std::invalid_argument("bias_rad must be finite");
-           return std::make_shared<ImuHeadingBias>(v[0]);
-         }});
+  // The library's list: one register_* per file of host/src/effects/ (docs/workbench.md).
+  effects::register_friction(r);
+  effects::register_drive(r);
+  effects::register_terrain(r);
+  effects::register_sensors(r);
 }
 
 const EffectRegistry& EffectRegistry::builtin() {
@@ -112,18 +95,21 @@ void CoulombFriction::body_force(const Model&, const EffectContext& ctx, Vec3& f
 }
 
 // ---------------------------------------------------------------- ScrewDeadBand
-ScrewDeadBand::ScrewDeadBand(double omega_dead_rpm) : omega_dead_rpm_(omega_dead_rpm) {}
+ScrewDeadBand::ScrewDeadBand(double omega_dead_rpm, bool shift) : omega_dead_rpm_(omega_dead_rpm), shift_(shift) {}
 const std::string& ScrewDeadBand::id() const {
   static const std::string s = "screw_dead_band";
   return s;
 }
 std::vector<std::pair<std::string, double>> ScrewDeadBand::params() const {
-  return {{"omega_dead_rpm", omega_dead_rpm_}};
+  return {{"omega_dead_rpm", omega_dead_rpm_}, {"shift", shift_ ? 1.0 : 0.0}};
 }
 void ScrewDeadBand::drive_force(const Model& model, const Vec4& omega_rpm, double, Vec3& tau_n,
                                 double*) const {
-  for (int i = 0; i < 4; ++i)
-    if (std::fabs(omega_rpm[i]) < omega_dead_rpm_) tau_n -= model.SB.col(i) * omega_rpm[i];  // eq. (7)
+  for (int i = 0; i < 4; ++i) {
+    const double w = omega_rpm[i];
+    if (std::fabs(w) < omega_dead_rpm_) tau_n -= model.SB.col(i) * w;  // eq. (7) without screw i
+    else if (shift_) tau_n -= model.SB.col(i) * std::copysign(omega_dead_rpm_, w);
+  }
 }
 
 // ---------------------------------------------------------------- ImuHeadingBias

@@ -86,7 +86,8 @@ void ekf_predict(const Model& model, const EkfConfig& cfg, Ekf& ekf, DynamicsDat
   // state, held over the step. F treats them as constant: their derivative is a Coulomb
   // friction's jump at rest, which the process noise covers.
   dyn.tau_drive_n = ekf.tau_n;
-  effect_body_force(model, dyn, ekf.x.head<3>(), ekf.x.tail<3>(), omega_rpm, dt);
+  effect_body_force(model, dyn, dyn.t_s, ekf.x.head<3>(), ekf.x.tail<3>(), omega_rpm, dt);
+  dyn.t_s += dt;  // time-dependent effects (a change of terrain) count from the filter's start
   ekf.tau_n += dyn.tau_effect_n;
   ekf.x = ekf_process(model, ekf.x, ekf.tau_n, dt, &ekf.F);
   ekf.x[2] = wrap_angle(ekf.x[2]);

@@ -6,11 +6,11 @@ std::vector<auger::cli::Subcommand> auger::cli::workbench_subcommands() {
   using namespace auger::wb;
   return {
       {"compare", "LOG [--model FILE] [--json]", "the model against a log: open loop, segments, IMU heading, one step ahead, noise floor, where it fails", run_compare},
-      {"diagnose", "LOG [--model FILE] [--json]", "which physical effect is missing: fit every library effect, rank them", run_diagnose},
-      {"fit", "LOG --add EFFECT[,EFFECT...] [--out MODEL] [--json]", "re-identify with effects added, error before and after, write a model file", run_fit},
+      {"diagnose", "LOG [--model FILE] [--only ID,...] [--threads N] [--json]", "which physical effect is missing: fit every library effect, rank them", run_diagnose},
+      {"fit", "LOG --add EFFECT[,EFFECT...] [--out MODEL] [--model FILE] [--json]", "re-identify with effects added, error before and after, write a model file", run_fit},
       {"effects", "[--json]", "the effect library: identifiers, parameters, what each means", run_effects},
-      {"identify", "GANTRY_LOG... [--json]", "sigma and D from gantry logs, eqs. (15)-(17), with confidence intervals", run_identify},
-      {"merge", "ROBOT_LOG CAMERA_LOG [--out LOG] [--json]", "align a pose log from another computer by t0_unix_s and IMU/camera yaw rate", run_merge},
-      {"report", "LOG --out DIR [--model FILE]", "a self-contained HTML report with plots", run_report},
+      {"identify", "GANTRY_LOG... [--confidence P] [--json]", "sigma and D from gantry logs, eqs. (15)-(17), with confidence intervals", run_identify},
+      {"merge", "ROBOT_LOG CAMERA_LOG [--out LOG] [--max-shift S] [--json]", "align a pose log from another computer by t0_unix_s and IMU/camera yaw rate", run_merge},
+      {"report", "LOG --out DIR [--model FILE] [--effect ID] [--no-diagnose] [--json]", "a self-contained HTML report with plots", run_report},
   };
 }

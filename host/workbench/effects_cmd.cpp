@@ -1,9 +1,43 @@
-// Placeholder: `auger effects` is being written (issue 5).
+// `auger effects [--json]`: the effect library (docs/workbench.md has the same table).
 #include <cstdio>
 
+#include "args.hpp"
 #include "commands.hpp"
+#include "workbench.hpp"
 
-int auger::wb::run_effects(int, char**) {
-  std::fprintf(stderr, "auger effects: not implemented yet\n");
-  return 2;
+namespace auger::wb {
+
+int run_effects(int argc, char** argv) {
+  Args a;
+  if (!parse_args(argc, argv, {"--json", "--help"}, {}, a)) return 2;
+  if (a.has("--help") || !a.positional.empty()) {
+    std::fprintf(a.has("--help") ? stdout : stderr, "usage: auger effects [--json]\n  the effect library: identifiers, parameters, units\n");
+    return a.has("--help") ? 0 : 2;
+  }
+  const auto lib = effect_library();
+  if (a.has("--json")) {
+    Json j;
+    j.begin_object().begin_array("effects");
+    for (const auto& e : lib) {
+      j.begin_object().str("id", e.id).str("summary", e.summary).boolean("needs_imu", e.needs_imu);
+      j.begin_array("params");
+      for (const auto& p : e.params) {
+        j.begin_object().str("name", p.name).str("unit", p.unit).str("doc", p.doc);
+        j.num("default", p.default_value).boolean("required", p.required).num("lower", p.lower).num("upper", p.upper);
+        j.boolean("integer", p.integer).end_object();
+      }
+      j.end_array().end_object();
+    }
+    j.end_array().end_object();
+    std::printf("%s\n", j.text().c_str());
+    return 0;
+  }
+  for (const auto& e : lib) {
+    std::printf("%s%s\n    %s\n", e.id.c_str(), e.needs_imu ? "  (needs an IMU heading)" : "", e.summary.c_str());
+    for (const auto& p : e.params)
+      std::printf("    %-18s %-14s %s\n", p.name.c_str(), p.unit.empty() ? "-" : p.unit.c_str(), p.doc.c_str());
+  }
+  return 0;
 }
+
+}  // namespace auger::wb

@@ -1,9 +1,100 @@
-// Placeholder: `auger fit` is being written (issue 5).
+// `auger fit LOG --add EFFECT[,EFFECT...] [--out MODEL] [--model FILE] [--json]`: re-identify
+// the paper's parameters with effects added, error before and after (docs/workbench.md).
 #include <cstdio>
+#include <fstream>
+#include <string>
 
+#include "args.hpp"
 #include "commands.hpp"
+#include "workbench.hpp"
 
-int auger::wb::run_fit(int, char**) {
-  std::fprintf(stderr, "auger fit: not implemented yet\n");
-  return 2;
+namespace auger::wb {
+
+std::vector<std::string> split_ids(const std::string& text);  // diagnose.cpp
+
+int run_fit(int argc, char** argv) {
+  Args a;
+  if (!parse_args(argc, argv, {"--json", "--help", "--progress"}, {"--model", "--add", "--out"}, a)) return 2;
+  if (a.has("--help") || a.positional.size() != 1) {
+    std::fprintf(a.has("--help") ? stdout : stderr,
+                 "usage: auger fit LOG --add EFFECT[,EFFECT...] [--out MODEL] [--model FILE] [--json]\n"
+                 "  re-identifies sigma and D (eqs. (15)-(17)) together with the effects added, prints the\n"
+                 "  error per DOF before and after (also x noise floor), writes a model file.\n"
+                 "  --add paper_params re-identifies the paper's parameters alone.\n");
+    return a.has("--help") ? 0 : 2;
+  }
+  const std::vector<std::string> ids = split_ids(a.get("--add"));
+  if (ids.empty()) {
+    std::fprintf(stderr, "auger fit: --add EFFECT[,EFFECT...] is required (auger effects lists them)\n");
+    return 2;
+  }
+  for (const auto& id : ids) {
+    bool known = false;
+    for (const auto& le : effect_library()) known |= le.id == id;
+    if (!known) {
+      std::fprintf(stderr, "auger fit: unknown effect '%s' (auger effects lists them)\n", id.c_str());
+      return 2;
+    }
+  }
+  try {
+    const Dataset d = load_dataset(a.positional[0]);
+    const FitResult r = fit(d, choose_model(d, a.get("--model")), ids, a.has("--progress"));
+    // The file must load back and give the same model (checked here, not assumed).
+    const std::string out = a.get("--out");
+    if (!out.empty()) {
+      std::ofstream f(out);
+      if (!(f << r.model_toml)) {
+        std::fprintf(stderr, "auger fit: cannot write %s\n", out.c_str());
+        return 2;
+      }
+      f.close();
+      choose_model(d, out);
+    } else {
+      parse_model_file(r.model_toml, "(fitted model)");
+    }
+    if (a.has("--json")) {
+      Json j;
+      j.begin_object().str("log", d.path);
+      j.channels("noise_floor", r.noise_floor, d.active);
+      j.begin_object("before").channels("rms", r.err_before.rms, d.active).channels("ratio", r.err_before.ratio_to_noise, d.active).end_object();
+      j.begin_object("after").channels("rms", r.err_after.rms, d.active).channels("ratio", r.err_after.ratio_to_noise, d.active).end_object();
+      j.begin_array("effects");
+      for (const auto& e : r.effects) {
+        j.begin_object().str("effect", e.effect).str("description", e.description);
+        j.begin_object("params");
+        for (const auto& p : e.params) j.num(p.name.c_str(), p.value);
+        j.end_object().begin_object("params_sigma");
+        for (const auto& p : e.params) j.num(p.name.c_str(), p.sigma);
+        j.end_object().end_object();
+      }
+      j.end_array();
+      j.str("model_file", out.empty() ? "" : out);
+      j.end_object();
+      std::printf("%s\n", j.text().c_str());
+      return 0;
+    }
+    std::printf("log %s; model before: %s\n", d.path.c_str(), r.before.source.c_str());
+    std::printf("error per DOF (segments)      before                 after\n");
+    for (int c = 0; c < kChannels; ++c) {
+      const auto cc = static_cast<std::size_t>(c);
+      if (!d.active[cc]) continue;
+      std::printf("  %-8s  %10.4g %-3s (%5.2fx)   %10.4g %-3s (%5.2fx)\n", channel_name(c), r.err_before.rms[cc],
+                  channel_unit(c), r.err_before.ratio_to_noise[cc], r.err_after.rms[cc], channel_unit(c),
+                  r.err_after.ratio_to_noise[cc]);
+    }
+    std::printf("\nfitted:\n");
+    for (const auto& e : r.effects) {
+      std::printf("  %s: %s\n   ", e.effect.c_str(), e.description.c_str());
+      for (const auto& p : e.params) std::printf(" %s = %.5g +- %.2g %s;", p.name.c_str(), p.value, p.sigma, p.unit.c_str());
+      std::printf("\n");
+    }
+    if (!out.empty()) std::printf("\nmodel file written: %s (auger compare LOG --model %s)\n", out.c_str(), out.c_str());
+    else std::printf("\n%s", r.model_toml.c_str());
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "auger fit: %s\n", e.what());
+    return 2;
+  }
 }
+
+}  // namespace auger::wb

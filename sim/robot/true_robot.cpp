@@ -46,7 +46,11 @@ TrueRobot::TrueRobot(const Model& nominal, const TruthParams& params) : m_(nomin
   const double torque_nom = m_.SB.row(2).sum();
   if (!(std::fabs(torque_nom) > 0) || !std::isfinite(m_.D_diag[2]))
     throw std::invalid_argument("TrueRobot: the terrain needs D_psi and a yaw row of B");
-  const double d_psi_true = m_.D_diag[2] * torque_true / torque_nom;
+  yaw_scale_ = torque_true / torque_nom;
+  const double d_psi_true = m_.D_diag[2] * yaw_scale_;
+  i_z_ = m_.robot.I_z_kgm2 * (p_.nominal_yaw_time_constant ? yaw_scale_ : 1.0);
+  if (p_.offset.on && !(std::fabs(p_.offset.asym) < 1.0))
+    throw std::invalid_argument("TrueRobot: resistance offset asym must lie in (-1, 1)");
   double contact_yaw = 0.0;
   for (const auto& r : pos_) contact_yaw += cdx_ * r.y() * r.y() + cdy_ * r.x() * r.x();
   d_psi_res_ = d_psi_true - contact_yaw;
@@ -58,10 +62,16 @@ TrueRobot::TrueRobot(const Model& nominal, const TruthParams& params) : m_(nomin
   double lambda = (m_.D_diag[0] + m_.D_diag[1]) / m;
   if (p_.friction.on) lambda += p_.friction.stiction_n / p_.friction.eps_mps / m;
   if (p_.blocking.on) lambda += p_.blocking.mu * g_n / p_.blocking.eps_mps / m;
-  double lambda_z = d_psi_true / m_.robot.I_z_kgm2;
-  if (p_.friction.on) lambda_z += p_.friction.stiction_nm / p_.friction.eps_radps / m_.robot.I_z_kgm2;
+  // The soft patch and a terrain change scale the drag; the front contacts of the offset too.
+  double drag_gain = 1.0;
+  if (p_.soft_patch.on) drag_gain *= 1.0 + std::max(0.0, p_.soft_patch.extra);
+  if (p_.terrain_change.on) drag_gain *= std::max(1.0, p_.terrain_change.drag_scale);
+  if (p_.offset.on) drag_gain *= 1.0 + std::fabs(p_.offset.asym);
+  lambda *= drag_gain;
+  double lambda_z = drag_gain * d_psi_true / i_z_;
+  if (p_.friction.on) lambda_z += p_.friction.stiction_nm / p_.friction.eps_radps / i_z_;
   if (p_.blocking.on)
-    lambda_z += p_.blocking.mu * g_n / p_.blocking.eps_mps * 0.25 * (pos_[0].squaredNorm()) * 4 / m_.robot.I_z_kgm2;
+    lambda_z += p_.blocking.mu * g_n / p_.blocking.eps_mps * 0.25 * (pos_[0].squaredNorm()) * 4 / i_z_;
   if (std::max(lambda, lambda_z) * p_.substep_s > 2.5)
     throw std::invalid_argument("TrueRobot: substep_s too long for the smoothing eps of the dry forces");
 }
@@ -85,7 +95,7 @@ TrueRobot::Deriv TrueRobot::derivative(const TruthState& s, const Vec4& omega_rp
   Vec4 w_in = omega_rpm;
   if (p_.dead_band.on) {
     const double w0 = p_.dead_band.omega_dead_rpm;
-    for (int i = 0; i < 4; ++i) w_in[i] = omega_rpm[i] - w0 * std::tanh(omega_rpm[i] / w0);
+    for (int i = 0; i < 4; ++i) w_in[i] = dead_band_rpm(omega_rpm[i], w0, p_.dead_band.corner_rpm);
   }
   Vec4 w_tr = w_in;
   if (p_.lag.on) {
@@ -99,16 +109,26 @@ TrueRobot::Deriv TrueRobot::derivative(const TruthState& s, const Vec4& omega_rp
     d.lag_ddot.setZero();
   }
 
+  // Terrain change: the blend b goes 0 -> 1 around t_s (a smooth switch, not a step).
+  double sigma_gain = 1.0, drag_gain = 1.0;
+  if (p_.terrain_change.on) {
+    const TerrainChange& tc = p_.terrain_change;
+    const double b = 0.5 * (1.0 + std::tanh((t_s - tc.t_s) / std::max(tc.width_s, 1e-6)));
+    sigma_gain = 1.0 + b * (tc.sigma_scale - 1.0);
+    drag_gain = 1.0 + b * (tc.drag_scale - 1.0);
+  }
+  const double cpsi = std::cos(s.eta[2]), spsi = std::sin(s.eta[2]);
+
   Eigen::Vector2d f_body = Eigen::Vector2d::Zero();
-  double m_z = -d_psi_res_ * r;
+  double m_z = -drag_gain * d_psi_res_ * r;
   for (std::size_t i = 0; i < 4; ++i) {
     const Eigen::Vector2d& p = pos_[i];
     // Traction of screw i from its speed (N per rpm, eq. (7) distributed per screw).
-    double f_long = m_.terrain.sigma_long * w_tr[static_cast<int>(i)];
-    double f_lat = m_.terrain.sigma_lat * w_tr[static_cast<int>(i)];
+    double f_long = sigma_gain * m_.terrain.sigma_long * w_tr[static_cast<int>(i)];
+    double f_lat = sigma_gain * m_.terrain.sigma_lat * w_tr[static_cast<int>(i)];
     if (p_.saturation.on) {
-      f_long = p_.saturation.long_max_n * std::tanh(f_long / p_.saturation.long_max_n);
-      f_lat = p_.saturation.lat_max_n * std::tanh(f_lat / p_.saturation.lat_max_n);
+      f_long = saturate_force(f_long, p_.saturation.long_max_n, p_.saturation.sharpness);
+      f_lat = saturate_force(f_lat, p_.saturation.lat_max_n, p_.saturation.sharpness);
     }
     if (p_.loss.on && static_cast<int>(i) == p_.loss.screw && t_s >= p_.loss.t_on_s) {
       f_long *= p_.loss.factor;
@@ -120,7 +140,29 @@ TrueRobot::Deriv TrueRobot::derivative(const TruthState& s, const Vec4& omega_rp
     Eigen::Vector2d f_block = Eigen::Vector2d::Zero();
     if (p_.blocking.on && std::fabs(omega_rpm[static_cast<int>(i)]) < p_.blocking.omega_block_rpm)
       f_block = -(p_.blocking.mu * normal_n / 4.0) * smooth_direction(c, p_.blocking.eps_mps);
-    const Eigen::Vector2d f_drag(-cdx_ * c.x(), -cdy_ * c.y());
+    // Contact drag; the resistance offset makes the front pair plough more than the rear (so a
+    // sideways velocity gives a yaw moment a D_y l_x v, and r a lateral force), the soft patch
+    // adds drag to a contact inside its disc.
+    double k_drag = drag_gain;
+    if (p_.soft_patch.on) {
+      const SoftPatch& sp = p_.soft_patch;
+      const double xw = s.eta[0] + cpsi * p.x() - spsi * p.y() - sp.x_m;
+      const double yw = s.eta[1] + spsi * p.x() + cpsi * p.y() - sp.y_m;
+      const double inside = 0.5 * (1.0 - std::tanh((std::hypot(xw, yw) - sp.radius_m) / sp.edge_m));
+      k_drag *= 1.0 + sp.extra * inside;
+    }
+    const Eigen::Vector2d f_plain(-k_drag * cdx_ * c.x(), -k_drag * cdy_ * c.y());
+    Eigen::Vector2d f_drag = f_plain;
+    if (p_.offset.on) {
+      const double asym = p.x() > 0 ? p_.offset.asym : -p_.offset.asym;
+      const Eigen::Vector2d f_asym = asym * f_plain;
+      f_drag += f_asym;
+      // With the model's yaw time constant the truth's yaw equation is yaw_scale times the
+      // model's (drive, drag and inertia alike), so the moment of the asymmetric part is scaled
+      // with it: the centre of resistance then sits at asym l_x for the model too (its force on
+      // y from r is not a moment and is not scaled).
+      if (p_.nominal_yaw_time_constant) m_z += (yaw_scale_ - 1.0) * (p.x() * f_asym.y() - p.y() * f_asym.x());
+    }
     const Eigen::Vector2d f = f_tr + f_block + f_drag;
     f_body += f;
     m_z += p.x() * f.y() - p.y() * f.x();
@@ -129,7 +171,6 @@ TrueRobot::Deriv TrueRobot::derivative(const TruthState& s, const Vec4& omega_rp
     if (load_nm) (*load_nm)[static_cast<int>(i)] = p_.r_eff_m * drive_[i].dot(f_tr + f_block);
   }
 
-  const double cpsi = std::cos(s.eta[2]), spsi = std::sin(s.eta[2]);
   if (p_.incline.on) {
     // Weight minus its normal part, in the world frame, then into the body frame (J^T).
     const Eigen::Vector3d g_world(0, 0, -m * kGravity_mps2);
@@ -139,17 +180,33 @@ TrueRobot::Deriv TrueRobot::derivative(const TruthState& s, const Vec4& omega_rp
   if (p_.friction.on) {
     const DryFriction& fr = p_.friction;
     const double load = normal_n / (m * kGravity_mps2);  // friction scales with the normal load
-    const Eigen::Vector2d w(u, v);
-    const double sp = w.norm();
-    const double level = fr.coulomb_n + (fr.stiction_n - fr.coulomb_n) * std::exp(-(sp / fr.stribeck_mps) * (sp / fr.stribeck_mps));
-    f_body -= load * level * smooth_direction(w, fr.eps_mps);
+    auto stribeck = [&](double speed, double scale) {
+      return scale * (fr.coulomb_n + (fr.stiction_n - fr.coulomb_n) * std::exp(-(speed / fr.stribeck_mps) * (speed / fr.stribeck_mps)));
+    };
+    if (fr.per_axis) {
+      f_body.x() -= load * stribeck(u, 1.0) * std::tanh(u / fr.eps_mps);
+      f_body.y() -= load * stribeck(v, fr.y_ratio) * std::tanh(v / fr.eps_mps);
+    } else {
+      const Eigen::Vector2d w(u, v);
+      f_body -= load * stribeck(w.norm(), 1.0) * smooth_direction(w, fr.eps_mps);
+    }
     const double level_z = fr.coulomb_nm + (fr.stiction_nm - fr.coulomb_nm) *
                                                std::exp(-(r / fr.stribeck_radps) * (r / fr.stribeck_radps));
     m_z -= load * level_z * std::tanh(r / fr.eps_radps);
   }
 
-  // Rigid body in the plane, body frame: m (u' - r v) = F_x, m (v' + r u) = F_y, I r' = M_z.
-  d.zeta_dot = Vec3(f_body.x() / m + r * v, f_body.y() / m - r * u, m_z / m_.robot.I_z_kgm2);
+  if (p_.quad_drag.on) {
+    // Quadratic ploughing, smooth through zero (u sqrt(u^2 + u0^2)) so RK4 sees no kink.
+    const QuadraticDrag& q = p_.quad_drag;
+    f_body.x() -= q.c_x_nspm2 * u * std::sqrt(u * u + q.u0_mps * q.u0_mps);
+    f_body.y() -= q.c_y_nspm2 * v * std::sqrt(v * v + q.u0_mps * q.u0_mps);
+    m_z -= q.c_psi_nmspr2 * r * std::sqrt(r * r + q.r0_radps * q.r0_radps);
+  }
+
+  // Rigid body in the plane, body frame: m (u' - r v) = F_x, m (v' + r u) = F_y, I r' = M_z
+  // (Coriolis terms optional, see TruthParams::coriolis).
+  const double cor = p_.coriolis ? 1.0 : 0.0;
+  d.zeta_dot = Vec3(f_body.x() / m + cor * r * v, f_body.y() / m - cor * r * u, m_z / i_z_);
   // eq. (5): eta' = J(psi) zeta.
   d.eta_dot = Vec3(cpsi * u - spsi * v, spsi * u + cpsi * v, r);
   return d;

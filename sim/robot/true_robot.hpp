@@ -8,6 +8,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 
 #include <Eigen/Core>
 
@@ -21,6 +22,10 @@ constexpr double kGravity_mps2 = 9.81;
 struct DryFriction {  // body-level, smooth Stribeck curve times tanh (not a hard sign)
   bool on = false;
   double coulomb_n = 8.0, stiction_n = 12.0, stribeck_mps = 0.01, eps_mps = 0.0003;
+  // per_axis: x and y each get their own curve (levels coulomb_n / stiction_n along x, those
+  // times y_ratio along y) instead of one curve on the planar speed |(u, v)|.
+  bool per_axis = false;
+  double y_ratio = 1.0;
   double coulomb_nm = 1.0, stiction_nm = 1.5, stribeck_radps = 0.03, eps_radps = 0.002;
 };
 struct Incline {  // the ground is a plane tilted by roll (about world x) then pitch (about world y)
@@ -32,26 +37,68 @@ struct TractionLoss {  // screw `screw` keeps only `factor` of its traction from
   int screw = 0;
   double factor = 0.3, t_on_s = 0.0;
 };
-struct TractionSaturation {  // smooth: f = f_max tanh(f_linear / f_max), per screw and axis
-  bool on = false;
+struct TractionSaturation {  // smooth, per screw and axis: f = f_max tanh(f_linear / f_max), or
+  bool on = false;           // with sharpness n > 0 f = f_lin / (1 + |f_lin / f_max|^n)^(1/n)
   double long_max_n = 14.0, lat_max_n = 4.0;
+  double sharpness = 0.0;    // 0: tanh; larger n bends closer to a hard limit (still smooth)
 };
+// Smooth saturation of one force component (TractionSaturation's forms).
+inline double saturate_force(double f_n, double f_max_n, double sharpness) {
+  if (sharpness <= 0) return f_max_n * std::tanh(f_n / f_max_n);
+  return f_n / std::pow(1.0 + std::pow(std::fabs(f_n / f_max_n), sharpness), 1.0 / sharpness);
+}
 struct ForceLag {  // the traction builds up through a second-order filter of the screw speed
   bool on = false;
   double tau_s = 0.15, damping = 0.8;
 };
-struct DeadBand {  // smooth dead band: omega_eff = omega - omega_dead tanh(omega / omega_dead)
-  bool on = false;
+struct DeadBand {  // smooth dead band: omega_eff = omega - omega_dead tanh(omega / omega_dead), or
+  bool on = false;  // with corner_rpm > 0 a softplus corner: sign(omega) c ln(1 + e^((|omega| - w0) / c))
   double omega_dead_rpm = 1.5;
+  double corner_rpm = 0.0;
 };
+// Smooth dead band of one screw speed (DeadBand's forms); monotonic in omega.
+inline double dead_band_rpm(double omega_rpm, double w0_rpm, double corner_rpm) {
+  if (corner_rpm <= 0) return omega_rpm - w0_rpm * std::tanh(omega_rpm / w0_rpm);
+  const double z = (std::fabs(omega_rpm) - w0_rpm) / corner_rpm;
+  // softplus(z) = ln(1 + e^z), written to stay finite for large z
+  const double soft = z > 30 ? z : std::log1p(std::exp(z));
+  return std::copysign(corner_rpm * soft, omega_rpm) - std::copysign(corner_rpm * std::log1p(std::exp(-w0_rpm / corner_rpm)), omega_rpm);
+}
 struct Blocking {  // MODEL-NOTES: |omega| < omega_block: mu m g / 4 dry resistance at the contact
   bool on = false;
   double omega_block_rpm = 1.5, mu = 0.5, eps_mps = 0.002;
 };
 
+struct QuadraticDrag {  // per DOF, smooth at rest: -c u sqrt(u^2 + u0^2) (not the hard u|u|)
+  bool on = false;
+  double u0_mps = 0.005, r0_radps = 0.01;
+  double c_x_nspm2 = 0.0, c_y_nspm2 = 0.0;  // N / (m/s)^2
+  double c_psi_nmspr2 = 0.0;                // N m / (rad/s)^2, on r |r|
+};
+struct ResistanceOffset {  // front contacts plough (1 + asym) x their drag, rear (1 - asym) x
+  bool on = false;
+  double asym = 0.0;  // in (-1, 1); the lateral centre of resistance moves by asym l_x forward
+};
+struct TerrainChange {  // from about t_s on (tanh blend over width_s) sigma and drag are scaled
+  bool on = false;
+  double t_s = 0.0, width_s = 0.5;
+  double sigma_scale = 1.0, drag_scale = 1.0;
+};
+struct SoftPatch {  // NOT in the workbench's library: a disc of soft ground (world frame) where a
+  bool on = false;  // contact ploughs (1 + extra) x its drag; smooth edge of width edge_m
+  double x_m = 0.0, y_m = 0.0, radius_m = 0.5, edge_m = 0.03, extra = 1.0;
+};
+
 struct TruthParams {
   double substep_s = 0.0005;  // RK4 step; stable for the tanh friction down to eps ~ 1.5 mm/s
   double r_eff_m = 0.0775;    // load torque = r_eff x traction along the screw's drive direction
+  // Base form. The defaults are the physical robot (FIL tests, demo). The batch log generator
+  // switches both off so that with no extra effect the truth IS the nominal linear model
+  // (docs/robot-sim.md "Base truth of the log generator"): no Coriolis terms, and a yaw inertia
+  // scaled by the same factor as the calibrated yaw drag, so the yaw time constant I_z / D_psi
+  // is the model's (the real lever arms make the yaw equation that factor times the model's).
+  bool coriolis = true;
+  bool nominal_yaw_time_constant = false;
   DryFriction friction;
   Incline incline;
   TractionLoss loss;
@@ -59,6 +106,10 @@ struct TruthParams {
   ForceLag lag;
   DeadBand dead_band;
   Blocking blocking;
+  QuadraticDrag quad_drag;
+  ResistanceOffset offset;
+  TerrainChange terrain_change;
+  SoftPatch soft_patch;
 };
 
 // State: pose eta (world), body velocity zeta, and the force-lag filter (value, rate per screw).
@@ -93,6 +144,10 @@ class TrueRobot {
   double contact_drag_x() const { return cdx_; }
   double contact_drag_y() const { return cdy_; }
   double yaw_drag_residual() const { return d_psi_res_; }
+  // Calibrated total yaw drag over the model's D_psi (the lever-arm ratio T_true / T_nom).
+  double yaw_scale() const { return yaw_scale_; }
+  // Yaw inertia in use (I_z, or I_z yaw_scale() with nominal_yaw_time_constant).
+  double yaw_inertia_kgm2() const { return i_z_; }
 
   // Derivative of the full state (exposed for tests); also fills per-screw load torques.
   struct Deriv {
@@ -106,7 +161,7 @@ class TrueRobot {
   TruthParams p_;
   TruthState s_;
   double t_s_ = 0;
-  double cdx_ = 0, cdy_ = 0, d_psi_res_ = 0;
+  double cdx_ = 0, cdy_ = 0, d_psi_res_ = 0, yaw_scale_ = 1, i_z_ = 0;
   std::array<Eigen::Vector2d, 4> pos_;    // contact positions (body)
   std::array<Eigen::Vector2d, 4> drive_;  // unit drive direction (a_i, b_i) of K_i's row
   std::array<double, 4> s_sign_{}, h_sign_{};

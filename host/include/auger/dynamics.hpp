@@ -22,6 +22,7 @@ struct DynamicsData {
   explicit DynamicsData(const Model& model);
   void reset(const Model& model);  // resets the effects' state
   std::vector<double> effect_state;
+  double t_s = 0;  // time of the next step's start; dynamics_step advances it (time-dependent effects)
   EffectContext ctx;
   Vec3 tau_drive_n = Vec3::Zero();   // last sub-step's drive force (after drive effects)
   Vec3 tau_effect_n = Vec3::Zero();  // last sub-step's effect body forces
@@ -31,8 +32,8 @@ struct DynamicsData {
 void drive_force(const Model& model, DynamicsData& data, const Vec4& omega_rpm, double dt_s, Vec3& tau_n);
 
 // eq. (6)'s added body forces: the model's effects for the state (eta, zeta) over a step of dt_s
-// with omega_rpm and data.tau_drive_n held; the sum lands in data.tau_effect_n.
-void effect_body_force(const Model& model, DynamicsData& data, const Vec3& eta, const Vec3& zeta,
+// starting at t_s, with omega_rpm and data.tau_drive_n held; the sum lands in data.tau_effect_n.
+void effect_body_force(const Model& model, DynamicsData& data, double t_s, const Vec3& eta, const Vec3& zeta,
                        const Vec4& omega_rpm, double dt_s);
 
 // One step of eqs. (5)-(7) over dt_s with omega_rpm held, in n_sub equal sub-steps (effects

@@ -41,6 +41,7 @@ struct EffectContext {
   double dt_s = 0;
   Vec3 zeta_free;     // velocity at the step's end with the forces applied so far
   Vec3 gain;          // d zeta_end / d force per DOF
+  double t_s = 0;     // time at the step's start (DynamicsData::t_s), for time-dependent effects
 };
 
 // Ideal sensor readings of a state; sensor effects change them.
@@ -48,6 +49,7 @@ struct SensorValues {
   Vec3 pose;           // external tracking: x_m, y_m, psi_rad
   double imu_psi_rad;  // IMU heading
   double imu_r_radps;  // IMU yaw rate
+  double t_s = 0;      // time of the reading (set by the caller), for drifting sensors
 };
 
 class Effect {
@@ -75,11 +77,20 @@ class Effect {
 };
 
 // A parameter a factory accepts; required parameters have no default.
+// The fields after `doc` tell the workbench how to fit the parameter (docs/workbench.md,
+// "Adding an effect"): its unit, bounds, typical size (start and finite-difference scale),
+// whether it is searched over integers (a screw index) and whether it is fitted at all.
 struct ParamSpec {
   std::string name;
   double default_value = 0;
   bool required = false;
   std::string doc;
+  std::string unit;
+  double lower = -1e300, upper = 1e300;
+  double typical = 1.0;
+  bool integer = false;  // enumerated lower..upper by the search, not fitted by Gauss-Newton
+  bool fitted = true;    // false: kept at the default while fitting
+  bool log_scale = false;  // positive, fitted in log (spans decades, e.g. a force limit)
 };
 
 struct EffectParamValue {
@@ -105,6 +116,9 @@ class EffectRegistry {
     std::string doc;
     std::vector<ParamSpec> params;
     Factory make;
+    // Plain words for fitted values, e.g. "a constant force of 15 N opposing motion along x".
+    std::function<std::string(const std::vector<double>& values)> describe;
+    bool needs_imu = false;  // only visible in the IMU heading channel
   };
 
   void add(Entry entry);  // throws std::invalid_argument on a duplicate id
@@ -142,10 +156,12 @@ class CoulombFriction final : public Effect {
   Vec3 limit_;
 };
 
-// Dead band: a screw turning slower than omega_dead_rpm produces no force.
+// Dead band: a screw turning slower than omega_dead_rpm produces no force. With shift (a dead
+// zone, the registry's default) a faster screw pushes as if it turned omega_dead_rpm slower;
+// without, it pushes with its full speed.
 class ScrewDeadBand final : public Effect {
  public:
-  explicit ScrewDeadBand(double omega_dead_rpm);
+  explicit ScrewDeadBand(double omega_dead_rpm, bool shift = false);
   const std::string& id() const override;
   std::vector<std::pair<std::string, double>> params() const override;
   void drive_force(const Model& model, const Vec4& omega_rpm, double dt_s, Vec3& tau_n,
@@ -153,6 +169,7 @@ class ScrewDeadBand final : public Effect {
 
  private:
   double omega_dead_rpm_;
+  bool shift_;
 };
 
 // A constant IMU heading bias: the IMU reports psi + bias_rad.

@@ -1,0 +1,21 @@
+// The effect library's registration list (docs/workbench.md "Adding an effect"): each file of
+// host/src/effects/ defines its effects and one register_* function; register_builtin_effects
+// (effect.cpp) calls every function listed here. To add an effect: a new file here, one line
+// below, one line in host/CMakeLists.txt's auger_core list.
+#pragma once
+
+#include <string>
+
+#include "auger/effect.hpp"
+
+namespace auger::effects {
+
+void register_friction(EffectRegistry& r);      // friction.cpp: coulomb_friction, stick_slip_friction, quadratic_drag
+void register_drive(EffectRegistry& r);         // drive.cpp: screw_dead_band, screw_traction_loss, traction_saturation, force_lag
+void register_terrain(EffectRegistry& r);       // terrain.cpp: terrain_slope, resistance_offset, terrain_change
+void register_sensors(EffectRegistry& r);       // sensors.cpp: imu_heading_bias, imu_heading_drift, pose_time_offset
+
+// Number formatting for describe() texts: "15", "0.12", "3.4e-05".
+std::string fmt(double value);
+
+}  // namespace auger::effects

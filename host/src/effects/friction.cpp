@@ -1,0 +1,148 @@
+// Friction effects: hard-sign dry friction (Coulomb, and stick-slip with a higher breakaway
+// level) and quadratic drag, all as body forces of eq. (6) applied implicitly over a step
+// (EffectContext: zeta_end = zeta_free + gain .* force), so they stop at zero, never chatter.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "effects.hpp"
+
+namespace auger {
+namespace effects {
+
+std::string fmt(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g", v);
+  return buf;
+}
+
+namespace {
+
+const char* kDofWords[3] = {"along x", "along y", "in yaw"};
+
+void check_non_negative(double v, const char* name) {
+  if (!(v >= 0) || !std::isfinite(v)) throw std::invalid_argument(std::string(name) + " must be >= 0");
+}
+
+std::string dry_words(const std::vector<double>& v, const std::string& what) {
+  std::string s;
+  for (int k = 0; k < 3; ++k) {
+    if (!(v[static_cast<std::size_t>(k)] > 0)) continue;
+    if (!s.empty()) s += ", ";
+    s += "a constant " + std::string(k == 2 ? "torque of " : "force of ") + fmt(v[static_cast<std::size_t>(k)]) +
+         (k == 2 ? " N m" : " N") + " opposing motion " + kDofWords[k];
+  }
+  return (s.empty() ? std::string("no force") : s) + ": " + what;
+}
+
+// Stick-slip (Stribeck): the friction level is the sliding level times
+// 1 + (breakaway_ratio - 1) exp(-|v| / stribeck_mps), so the body needs breakaway_ratio times the
+// sliding force to start and the resistance falls as it speeds up. The level is taken at the
+// step's start velocity, the force applied implicitly as for Coulomb friction (it stops at zero).
+class StickSlipFriction final : public Effect {
+ public:
+  StickSlipFriction(const Vec3& kinetic, double breakaway, double stribeck_mps)
+      : kinetic_(kinetic), breakaway_(breakaway), v_s_(stribeck_mps) {}
+  const std::string& id() const override {
+    static const std::string s = "stick_slip_friction";
+    return s;
+  }
+  std::vector<std::pair<std::string, double>> params() const override {
+    return {{"force_x_n", kinetic_.x()}, {"force_y_n", kinetic_.y()}, {"torque_psi_nm", kinetic_.z()},
+            {"breakaway_ratio", breakaway_}, {"stribeck_mps", v_s_}};
+  }
+  void body_force(const Model&, const EffectContext& ctx, Vec3& force_n, double*) const override {
+    for (int k = 0; k < 3; ++k) {
+      const double stop = -ctx.zeta_free[k] / ctx.gain[k];
+      const double level = kinetic_[k] * (1.0 + (breakaway_ - 1.0) * std::exp(-std::fabs(ctx.zeta[k]) / v_s_));
+      force_n[k] = std::clamp(stop, -level, level);
+    }
+  }
+
+ private:
+  Vec3 kinetic_;
+  double breakaway_, v_s_;
+};
+
+// Quadratic drag -c_k v_k |v_k| per DOF, solved implicitly at the step's end velocity:
+// with v = v_free + g f and f = -c v|v|, g c v^2 + v - v_free = 0 for v of v_free's sign.
+class QuadraticDrag final : public Effect {
+ public:
+  explicit QuadraticDrag(const Vec3& c) : c_(c) {}
+  const std::string& id() const override {
+    static const std::string s = "quadratic_drag";
+    return s;
+  }
+  std::vector<std::pair<std::string, double>> params() const override {
+    return {{"c_x_nspm2", c_.x()}, {"c_y_nspm2", c_.y()}, {"c_psi_nmspr2", c_.z()}};
+  }
+  void body_force(const Model&, const EffectContext& ctx, Vec3& force_n, double*) const override {
+    for (int k = 0; k < 3; ++k) {
+      const double vf = ctx.zeta_free[k], a = ctx.gain[k] * c_[k];
+      if (a <= 0 || vf == 0) {
+        force_n[k] = 0;
+        continue;
+      }
+      const double s = vf > 0 ? 1.0 : -1.0;
+      const double v = s * (-1.0 + std::sqrt(1.0 + 4.0 * a * std::fabs(vf))) / (2.0 * a);
+      force_n[k] = (v - vf) / ctx.gain[k];
+    }
+  }
+
+ private:
+  Vec3 c_;
+};
+
+}  // namespace
+
+void register_friction(EffectRegistry& r) {
+  r.add({"coulomb_friction", "dry friction per DOF, hard sign form, stiction = sliding level",
+         {{"force_x_n", 0, false, "longitudinal level", "N", 0, 500, 10},
+          {"force_y_n", 0, false, "lateral level", "N", 0, 500, 10},
+          {"torque_psi_nm", 0, false, "yaw level", "N m", 0, 50, 0.5}},
+         [](const std::vector<double>& v) {
+           check_non_negative(v[0], "force_x_n");
+           check_non_negative(v[1], "force_y_n");
+           check_non_negative(v[2], "torque_psi_nm");
+           return std::make_shared<CoulombFriction>(Vec3(v[0], v[1], v[2]));
+         },
+         [](const std::vector<double>& v) { return dry_words(v, "dry (Coulomb) friction"); }});
+  r.add({"stick_slip_friction",
+         "dry friction per DOF with a Stribeck breakaway: breakaway_ratio times the sliding level at rest",
+         {{"force_x_n", 0, false, "sliding level, longitudinal", "N", 0, 500, 10},
+          {"force_y_n", 0, false, "sliding level, lateral", "N", 0, 500, 10},
+          {"torque_psi_nm", 0, false, "sliding level, yaw", "N m", 0, 50, 0.5},
+          {"breakaway_ratio", 1.5, false, "breakaway (static) / sliding level", "", 1, 5, 1.3},
+          {"stribeck_mps", 0.005, false, "speed over which the breakaway excess decays (m/s; rad/s in yaw)", "m/s",
+           1e-4, 0.2, 0.005, false, true, true}},
+         [](const std::vector<double>& v) {
+           check_non_negative(v[0], "force_x_n");
+           check_non_negative(v[1], "force_y_n");
+           check_non_negative(v[2], "torque_psi_nm");
+           if (!(v[3] >= 1) || !std::isfinite(v[3])) throw std::invalid_argument("breakaway_ratio must be >= 1");
+           if (!(v[4] > 0) || !std::isfinite(v[4])) throw std::invalid_argument("stribeck_mps must be > 0");
+           return std::make_shared<StickSlipFriction>(Vec3(v[0], v[1], v[2]), v[3], v[4]);
+         },
+         [](const std::vector<double>& v) {
+           return dry_words(v, "stick-slip friction, breaking away at " + fmt(v[3]) + " times that, decaying over " +
+                                   fmt(v[4] * 1000) + " mm/s");
+         }});
+  r.add({"quadratic_drag", "a resistance -c v |v| per DOF on top of the linear D of eq. (6)",
+         {{"c_x_nspm2", 0, false, "longitudinal coefficient", "N/(m/s)^2", 0, 1e5, 500},
+          {"c_y_nspm2", 0, false, "lateral coefficient", "N/(m/s)^2", 0, 1e5, 500},
+          {"c_psi_nmspr2", 0, false, "yaw coefficient", "N m/(rad/s)^2", 0, 1e4, 10}},
+         [](const std::vector<double>& v) {
+           check_non_negative(v[0], "c_x_nspm2");
+           check_non_negative(v[1], "c_y_nspm2");
+           check_non_negative(v[2], "c_psi_nmspr2");
+           return std::make_shared<QuadraticDrag>(Vec3(v[0], v[1], v[2]));
+         },
+         [](const std::vector<double>& v) {
+           return "quadratic drag: a resistance growing with the square of the speed (" + fmt(v[0]) +
+                  " N at 1 m/s along x, " + fmt(v[1]) + " N at 1 m/s along y, " + fmt(v[2]) +
+                  " N m at 1 rad/s in yaw)";
+         }});
+}
+
+}  // namespace effects
+}  // namespace auger

@@ -1,0 +1,88 @@
+// Sensor effects: what the IMU and the pose tracking report, not how the robot moves.
+#include <cmath>
+
+#include "effects.hpp"
+
+namespace auger {
+namespace effects {
+namespace {
+
+// The IMU heading drifts: it reports psi + bias_rad + drift_radps * t_s (gyro bias integrated).
+class ImuHeadingDrift final : public Effect {
+ public:
+  ImuHeadingDrift(double bias, double drift) : bias_(bias), drift_(drift) {}
+  const std::string& id() const override {
+    static const std::string s = "imu_heading_drift";
+    return s;
+  }
+  std::vector<std::pair<std::string, double>> params() const override {
+    return {{"bias_rad", bias_}, {"drift_radps", drift_}};
+  }
+  void sensors(const Model&, const Vec3&, const Vec3&, SensorValues& v) const override {
+    v.imu_psi_rad = wrap_angle(v.imu_psi_rad + bias_ + drift_ * v.t_s);
+    v.imu_r_radps += drift_;
+  }
+
+ private:
+  double bias_, drift_;
+};
+
+// The pose rows are late: a row at t shows the robot at t - offset_s (camera latency, clocks
+// of two computers). It changes nothing in the dynamics; the workbench shifts the screw speeds
+// against the poses by it (wb::SimOptions::pose_delay_s), and augerd's estimator should apply
+// each pose as of t - offset_s.
+class PoseTimeOffset final : public Effect {
+ public:
+  explicit PoseTimeOffset(double offset_s) : offset_s_(offset_s) {}
+  const std::string& id() const override {
+    static const std::string s = "pose_time_offset";
+    return s;
+  }
+  std::vector<std::pair<std::string, double>> params() const override { return {{"offset_s", offset_s_}}; }
+
+ private:
+  double offset_s_;
+};
+
+}  // namespace
+
+void register_sensors(EffectRegistry& r) {
+  EffectRegistry::Entry bias{"imu_heading_bias", "the IMU reports psi + bias_rad",
+                             {{"bias_rad", 0, true, "constant heading bias", "rad", -3.2, 3.2, 0.02}},
+                             [](const std::vector<double>& v) {
+                               if (!std::isfinite(v[0])) throw std::invalid_argument("bias_rad must be finite");
+                               return std::make_shared<ImuHeadingBias>(v[0]);
+                             },
+                             [](const std::vector<double>& v) {
+                               return "the IMU heading is off by a constant " + fmt(v[0]) + " rad (" +
+                                      fmt(v[0] * 180 / kPi) + " deg): IMU heading bias";
+                             },
+                             true};
+  r.add(std::move(bias));
+  EffectRegistry::Entry drift{"imu_heading_drift", "the IMU reports psi + bias_rad + drift_radps t_s",
+                              {{"bias_rad", 0, false, "heading bias at t = 0", "rad", -3.2, 3.2, 0.02},
+                               {"drift_radps", 0, false, "heading drift rate", "rad/s", -0.1, 0.1, 2e-4}},
+                              [](const std::vector<double>& v) {
+                                if (!std::isfinite(v[0]) || !std::isfinite(v[1]))
+                                  throw std::invalid_argument("bias_rad and drift_radps must be finite");
+                                return std::make_shared<ImuHeadingDrift>(v[0], v[1]);
+                              },
+                              [](const std::vector<double>& v) {
+                                return "the IMU heading drifts by " + fmt(v[1] * 180 / kPi * 60) +
+                                       " deg per minute (offset " + fmt(v[0]) + " rad at t = 0): IMU heading drift";
+                              },
+                              true};
+  r.add(std::move(drift));
+  r.add({"pose_time_offset", "pose rows show the robot offset_s earlier than their t_s (latency)",
+         {{"offset_s", 0, true, "pose latency relative to the screw speeds", "s", -1, 1, 0.05}},
+         [](const std::vector<double>& v) {
+           if (!(std::fabs(v[0]) <= 5)) throw std::invalid_argument("offset_s must be within +-5 s");
+           return std::make_shared<PoseTimeOffset>(v[0]);
+         },
+         [](const std::vector<double>& v) {
+           return "the poses are " + fmt(v[0] * 1000) + " ms late against the screw speeds: time offset between pose and screw speeds";
+         }});
+}
+
+}  // namespace effects
+}  // namespace auger

@@ -1,0 +1,138 @@
+// gnuplot driver of `auger report` (report_plot.hpp).
+#include "report_plot.hpp"
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+namespace auger::wb {
+namespace {
+
+std::string quote_shell(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+std::string slurp(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+void replace_all(std::string& s, const std::string& from, const std::string& to) {
+  for (std::size_t p = s.find(from); p != std::string::npos; p = s.find(from, p + to.size())) s.replace(p, from.size(), to);
+}
+
+}  // namespace
+
+Gnuplot::Gnuplot() {
+  const char* env = std::getenv("AUGER_GNUPLOT");
+  exe_ = env && *env ? env : "gnuplot";
+  char templ[] = "/tmp/auger-report-XXXXXX";
+  if (!mkdtemp(templ)) throw PlotError("cannot create a temporary directory for the plots");
+  dir_ = templ;
+  const std::string out = dir_ + "/version.txt";
+  const std::string cmd = quote_shell(exe_) + " --version >" + quote_shell(out) + " 2>&1";
+  const int status = std::system(cmd.c_str());
+  version_ = slurp(out);
+  while (!version_.empty() && (version_.back() == '\n' || version_.back() == '\r')) version_.pop_back();
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || version_.rfind("gnuplot", 0) != 0) {
+    std::string msg = "gnuplot not found or not working ('" + exe_ +
+                      " --version' failed): auger report draws its plots with gnuplot; install the Debian "
+                      "package gnuplot-nox (scripts/install-deps.sh does)";
+    std::system(("rm -rf " + quote_shell(dir_)).c_str());
+    throw PlotError(msg);
+  }
+}
+
+Gnuplot::~Gnuplot() {
+  const char* keep = std::getenv("AUGER_REPORT_KEEP_PLOTS");  // debugging: keep scripts and data
+  if (keep && *keep) {
+    std::fprintf(stderr, "auger report: plot scripts and data kept in %s\n", dir_.c_str());
+    return;
+  }
+  if (!dir_.empty()) {
+    const int rc = std::system(("rm -rf " + quote_shell(dir_)).c_str());
+    (void)rc;
+  }
+}
+
+std::string Gnuplot::data(const std::string& name, const std::vector<std::vector<double>>& columns) {
+  const std::string path = dir_ + "/" + name + ".dat";
+  std::ofstream f(path);
+  const std::size_t n = columns.empty() ? 0 : columns.front().size();
+  char buf[32];
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t c = 0; c < columns.size(); ++c) {
+      const double v = columns[c][i];
+      if (std::isfinite(v)) std::snprintf(buf, sizeof buf, "%.9g", v);
+      else std::snprintf(buf, sizeof buf, "NaN");
+      f << (c ? " " : "") << buf;
+    }
+    f << '\n';
+  }
+  if (!f) throw PlotError("cannot write plot data " + path);
+  return "'" + path + "'";
+}
+
+std::string Gnuplot::svg(const std::string& name, const std::string& script, int width, int height) {
+  const std::string id = "p" + std::to_string(++count_) + "_" + name;
+  const std::string svg_path = dir_ + "/" + id + ".svg", gp_path = dir_ + "/" + id + ".gp",
+                    err_path = dir_ + "/" + id + ".err";
+  {
+    std::ofstream gp(gp_path);
+    gp << "set terminal svg size " << width << "," << height
+       << " noenhanced font 'sans,11' background rgb 'white'\n"
+       << "set output '" << svg_path << "'\n"
+       << "set datafile missing NaN\nset grid\nset key outside top center horizontal\n"
+       << script << "\nset output\n";
+    if (!gp) throw PlotError("cannot write " + gp_path);
+  }
+  const std::string cmd = quote_shell(exe_) + " " + quote_shell(gp_path) + " >/dev/null 2>" + quote_shell(err_path);
+  const int status = std::system(cmd.c_str());
+  std::string svg = slurp(svg_path);
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || svg.find("</svg>") == std::string::npos)
+    throw PlotError("gnuplot failed on plot '" + name + "': " + slurp(err_path));
+  // Inline: no XML prologue; ids unique across the report's plots.
+  const std::size_t start = svg.find("<svg");
+  svg = svg.substr(start, svg.rfind("</svg>") + 6 - start);
+  replace_all(svg, "id='gp", "id='" + id + "_gp");
+  replace_all(svg, "'#gp", "'#" + id + "_gp");
+  replace_all(svg, "id=\"gnuplot_", "id=\"" + id + "_gnuplot_");
+  for (const char* filter : {"textbox", "greybox"}) {
+    replace_all(svg, std::string("id='") + filter + "'", "id='" + id + "_" + filter + "'");
+    replace_all(svg, std::string("url(#") + filter + ")", "url(#" + id + "_" + filter + ")");
+  }
+  replace_all(svg, "id=\"gpPt", "id=\"" + id + "_gpPt");
+  replace_all(svg, "\"#gpPt", "\"#" + id + "_gpPt");
+  return svg;
+}
+
+std::vector<std::size_t> decimate(const std::vector<double>& t, const std::vector<double>& v, std::size_t max_points,
+                                  bool peaks) {
+  std::vector<std::size_t> keep;
+  const std::size_t n = t.size();
+  if (n <= max_points || max_points == 0) {
+    for (std::size_t i = 0; i < n; ++i) keep.push_back(i);
+    return keep;
+  }
+  const std::size_t bin = (n + max_points - 1) / max_points;
+  for (std::size_t b = 0; b < n; b += bin) {
+    std::size_t best = b;
+    if (peaks) {
+      for (std::size_t i = b; i < std::min(n, b + bin); ++i)
+        if (std::isfinite(v[i]) && (!std::isfinite(v[best]) || std::fabs(v[i]) > std::fabs(v[best]))) best = i;
+    }
+    keep.push_back(best);
+  }
+  return keep;
+}
+
+}  // namespace auger::wb

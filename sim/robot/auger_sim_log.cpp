@@ -1,0 +1,130 @@
+// auger-sim-log: writes robot or gantry logs (LOG-FORMAT.md) with one hidden effect, in batch
+// (ideal screws, no firmware, no pacing). docs/robot-sim.md "auger-sim-log".
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <iostream>
+#include <string>
+
+#include "auger/model_file.hpp"
+#include "log_gen.hpp"
+
+namespace {
+
+void usage(std::FILE* f) {
+  std::fprintf(f,
+               "usage: auger-sim-log --out FILE [--effect ID[:name=value,...]] [--seed N]\n"
+               "       [--trajectory single-dof|manual] [--seconds S] [--terrain NAME]\n"
+               "       [--gantry longitudinal|lateral] [--model FILE]\n"
+               "       [--pose-noise-m S] [--psi-noise-rad S] [--pose-rate-hz F]\n"
+               "       [--imu-psi-noise-rad S] [--imu-r-noise-radps S]\n"
+               "       [--gantry-position-noise-m S] [--gantry-force-noise-n S]\n"
+               "       [--truth-out FILE] [--list-effects]\n"
+               "A robot log (gantry log with --gantry) of the simulated truth with one hidden effect\n"
+               "(default none), driven open loop by ideal screws; metadata only format and terrain\n"
+               "(gantry: also axis, mass_kg). --truth-out writes the true pose and where the effect\n"
+               "acts; a summary (effect size, resolved parameters) goes to stderr as one JSON line.\n");
+}
+
+double number(const char* opt, const char* text) {
+  char* end = nullptr;
+  const double v = std::strtod(text, &end);
+  if (end == text || *end != '\0') {
+    std::fprintf(stderr, "auger-sim-log: %s: '%s' is not a number\n", opt, text);
+    std::exit(2);
+  }
+  return v;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  auger::sim::LogGenConfig cfg;
+  std::string out_path, truth_path, model_path;
+  bool terrain_given = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto val = [&]() -> const char* {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "auger-sim-log: %s needs a value\n", a.c_str());
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    try {
+      if (a == "--out") out_path = val();
+      else if (a == "--truth-out") truth_path = val();
+      else if (a == "--model") model_path = val();
+      else if (a == "--effect") cfg.effect = auger::sim::parse_effect_spec(val());
+      else if (a == "--seed") cfg.seed = static_cast<std::uint64_t>(number("--seed", val()));
+      else if (a == "--seconds") cfg.seconds = number("--seconds", val());
+      else if (a == "--terrain") { cfg.terrain = val(); terrain_given = true; }
+      else if (a == "--pose-noise-m") { const double s = number("--pose-noise-m", val()); cfg.pose_noise[0] = cfg.pose_noise[1] = s; }
+      else if (a == "--psi-noise-rad") cfg.pose_noise[2] = number("--psi-noise-rad", val());
+      else if (a == "--pose-rate-hz") cfg.pose_rate_hz = number("--pose-rate-hz", val());
+      else if (a == "--imu-psi-noise-rad") cfg.imu_psi_noise_rad = number("--imu-psi-noise-rad", val());
+      else if (a == "--imu-r-noise-radps") cfg.imu_r_noise_radps = number("--imu-r-noise-radps", val());
+      else if (a == "--gantry-position-noise-m") cfg.gantry_position_noise_m = number("--gantry-position-noise-m", val());
+      else if (a == "--gantry-force-noise-n") cfg.gantry_force_noise_n = number("--gantry-force-noise-n", val());
+      else if (a == "--trajectory") {
+        const std::string t = val();
+        if (t == "single-dof") cfg.trajectory = auger::sim::Trajectory::single_dof;
+        else if (t == "manual") cfg.trajectory = auger::sim::Trajectory::manual;
+        else { std::fprintf(stderr, "auger-sim-log: --trajectory: '%s' is not single-dof or manual\n", t.c_str()); return 2; }
+      } else if (a == "--gantry") {
+        const std::string g = val();
+        if (g == "longitudinal") cfg.gantry = auger::sim::GantryAxis::longitudinal;
+        else if (g == "lateral") cfg.gantry = auger::sim::GantryAxis::lateral;
+        else { std::fprintf(stderr, "auger-sim-log: --gantry: '%s' is not longitudinal or lateral\n", g.c_str()); return 2; }
+      } else if (a == "--list-effects") {
+        for (const auto& e : auger::sim::known_effects()) {
+          std::printf("%-20s %s%s  ", e.id.c_str(), e.robot ? "robot" : "", e.gantry ? (e.robot ? ",gantry" : "gantry") : "");
+          for (const auto& [n, v] : e.params) std::printf("%s=%g ", n.c_str(), v);
+          std::printf(" # %s\n", e.doc.c_str());
+        }
+        return 0;
+      } else if (a == "-h" || a == "--help") { usage(stdout); return 0; }
+      else { std::fprintf(stderr, "auger-sim-log: unknown option '%s'\n", a.c_str()); usage(stderr); return 2; }
+    } catch (const std::exception& ex) {
+      std::fprintf(stderr, "auger-sim-log: %s: %s\n", a.c_str(), ex.what());
+      return 2;
+    }
+  }
+  if (out_path.empty()) { usage(stderr); return 2; }
+  const bool gantry = cfg.gantry != auger::sim::GantryAxis::none;
+  if (!terrain_given) cfg.terrain = "sand";
+  if (model_path.empty()) model_path = gantry ? AUGER_DEFAULT_GANTRY_MODEL : AUGER_DEFAULT_MODEL;
+  try {
+    const auto wall0 = std::chrono::steady_clock::now();
+    const auger::ModelFile file = auger::load_model_file(model_path);
+    std::ofstream out(out_path);
+    if (!out) { std::fprintf(stderr, "auger-sim-log: cannot write %s\n", out_path.c_str()); return 1; }
+    auger::sim::LogGenResult res;
+    if (gantry) {
+      const auger::TerrainEntry* t = file.find_terrain(cfg.terrain);
+      if (!t) { std::fprintf(stderr, "auger-sim-log: %s has no terrain '%s'\n", model_path.c_str(), cfg.terrain.c_str()); return 2; }
+      if (!file.gantry_mass_kg) { std::fprintf(stderr, "auger-sim-log: %s has no [gantry] mass_kg\n", model_path.c_str()); return 2; }
+      res = auger::sim::generate_gantry_log(t->params, *file.gantry_mass_kg, cfg, out);
+    } else {
+      res = auger::sim::generate_robot_log(auger::build_model(file, cfg.terrain), cfg, out);
+    }
+    out.close();
+    if (!out) { std::fprintf(stderr, "auger-sim-log: writing %s failed\n", out_path.c_str()); return 1; }
+    if (!truth_path.empty()) {
+      std::ofstream tr(truth_path);
+      auger::sim::write_truth(res, tr);
+      if (!tr) { std::fprintf(stderr, "auger-sim-log: writing %s failed\n", truth_path.c_str()); return 1; }
+    }
+    const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+    std::fprintf(stderr, "{\"effect\": \"%s\", \"effect_rms\": [%.6g, %.6g, %.6g], \"rows\": %zu, \"wall_s\": %.3f",
+                 cfg.effect.id.c_str(), res.effect_rms[0], res.effect_rms[1], res.effect_rms[2], res.truth.size(), wall_s);
+    for (std::size_t i = 0; i < res.notes.size(); ++i) std::fprintf(stderr, "%s\"%s\"", i ? ", " : ", \"notes\": [", res.notes[i].c_str());
+    std::fprintf(stderr, "%s}\n", res.notes.empty() ? "" : "]");
+  } catch (const std::exception& ex) {
+    std::fprintf(stderr, "auger-sim-log: %s\n", ex.what());
+    return 1;
+  }
+  return 0;
+}

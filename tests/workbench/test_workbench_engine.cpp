@@ -1,0 +1,343 @@
+// Unit tests of the workbench engine (host/workbench/workbench.hpp) on synthetic logs made here
+// with the host model itself (not the simulator): noise floor, segment simulation, regimes,
+// JSON, and for every effect of the library (present and future) that its parameters are
+// recovered when the data was made with it.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <random>
+#include <sstream>
+
+#include "workbench.hpp"
+
+using namespace auger;
+using namespace auger::wb;
+
+namespace {
+
+const TerrainParams kSand{"sand", 0.812, 0.247, 560.33, 320.08, 11.46};
+
+// Screw speeds of a mixed drive: pieces of forward, lateral, yaw and combined motion with
+// ramps and stops (rpm), piece length piece_s.
+Vec4 drive_profile(double t, double piece_s = 4.0) {
+  const int piece = static_cast<int>(t / piece_s) % 8;
+  const double ramp = std::min(1.0, std::fmod(t, piece_s) / 0.8);
+  const Vec4 fwd(-1, -1, 1, 1), lat(-1, 1, 1, -1), yaw(1, 1, 1, 1);
+  Vec4 w;
+  switch (piece) {
+    case 0: w = 12 * fwd; break;
+    case 1: w = 8 * lat; break;
+    case 2: w = Vec4::Zero(); break;
+    case 3: w = 10 * yaw; break;
+    case 4: w = -15 * fwd; break;
+    case 5: w = 6 * fwd + 6 * lat; break;
+    case 6: w = -10 * lat + 3 * yaw; break;
+    default: w = 18 * fwd - 4 * yaw; break;
+  }
+  return ramp * w;
+}
+
+struct SynthOptions {
+  double seconds = 60;
+  double pose_noise_m = 0.003, psi_noise_rad = 0.005, imu_noise_rad = 0.005;
+  int pose_every = 5;          // 20 Hz poses in a 100 Hz log
+  double pose_delay_s = 0;     // poses show the state this much earlier
+  bool gaps = true;            // a 1 s gap without poses every 20 s
+  unsigned seed = 1;
+};
+
+// A log of the host model `truth` driven by drive_profile, noise added.
+Dataset synth(const Model& truth, const SynthOptions& o) {
+  Dataset d;
+  d.path = "synthetic";
+  d.terrain = "sand";
+  std::mt19937 rng(o.seed);
+  std::normal_distribution<double> n01(0, 1);
+  const double dt = 0.01;
+  const auto n = static_cast<std::size_t>(o.seconds / dt) + 1;
+  DynamicsData dyn(truth);
+  Vec3 eta(0.5, -0.2, 0.3), zeta = Vec3::Zero();
+  std::vector<Vec3> states(n);
+  std::vector<double> imu(n);
+  SensorValues sv;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double t = static_cast<double>(k) * dt;
+    d.t_s.push_back(t);
+    d.omega_rpm.push_back(drive_profile(t));  // mean over the interval ending at t (log convention)
+    states[k] = eta;
+    sv.t_s = t;
+    predict_sensors(truth, eta, zeta, sv);
+    imu[k] = sv.imu_psi_rad;
+    dyn.t_s = t;
+    dynamics_step(truth, dyn, eta, zeta, drive_profile(t + dt), dt, 4);
+  }
+  const auto delay = static_cast<std::size_t>(std::lround(o.pose_delay_s / dt));
+  for (std::size_t k = 0; k < n; ++k) {
+    ChannelValues m{kNaN, kNaN, kNaN, kNaN};
+    const double t = d.t_s[k];
+    const bool gap = o.gaps && std::fmod(t, 20.0) > 12.0 && std::fmod(t, 20.0) < 13.0;
+    if (k % static_cast<std::size_t>(o.pose_every) == 0 && !gap) {
+      const Vec3& s = states[k >= delay ? k - delay : 0];
+      m[kX] = s.x() + o.pose_noise_m * n01(rng);
+      m[kY] = s.y() + o.pose_noise_m * n01(rng);
+      m[kPsi] = wrap_angle(s.z() + o.psi_noise_rad * n01(rng));
+    }
+    m[kImuPsi] = wrap_angle(imu[k] + o.imu_noise_rad * n01(rng));
+    d.meas.push_back(m);
+  }
+  d.active = {true, true, true, true};
+  return d;
+}
+
+ModelChoice nominal() {
+  ModelChoice mc;
+  mc.model = make_model(RobotParams{}, kSand);
+  mc.source = "test";
+  mc.terrain = "sand";
+  return mc;
+}
+
+// Parameter values for an effect to make data with: a clear but plausible size from each
+// parameter's typical value (the registry's fitting metadata), so a new effect gets one too.
+std::vector<double> test_values(const EffectRegistry::Entry& e, double duration_s) {
+  std::vector<double> v;
+  for (const auto& p : e.params) {
+    double x = p.lower < 0 ? 0.5 * p.typical : p.typical;
+    if (p.integer) x = 2;  // screw 2
+    else if (!p.fitted) x = p.name == "t_change_s" ? duration_s * 0.45 : p.default_value;
+    else if (p.log_scale) x = p.typical * 0.6;  // a limit that bites
+    else if (p.name.find("factor") != std::string::npos) x = 0.7;
+    else if (p.upper <= 1.0 && p.lower >= 0) x = std::min(0.6, x);  // fractions
+    v.push_back(std::clamp(x, p.lower, p.upper));
+  }
+  return v;
+}
+
+}  // namespace
+
+TEST_CASE("noise floor: recovers white noise within 10 % with sparse poses and NaN gaps") {
+  SynthOptions o;
+  o.pose_noise_m = 0.004;
+  o.psi_noise_rad = 0.007;
+  o.imu_noise_rad = 0.002;
+  const Dataset d = synth(nominal().model, o);
+  const ChannelValues f = estimate_noise_floor(d);
+  CHECK(f[kX] == Approx(0.004).epsilon(0.10));
+  CHECK(f[kY] == Approx(0.004).epsilon(0.10));
+  CHECK(f[kPsi] == Approx(0.007).epsilon(0.10));
+  CHECK(f[kImuPsi] == Approx(0.002).epsilon(0.10));
+  // Ten times the noise gives ten times the floor: it measures the noise, not the motion.
+  o.pose_noise_m = 0.0004;
+  const ChannelValues g = estimate_noise_floor(synth(nominal().model, o));
+  CHECK(g[kX] == Approx(0.0004).epsilon(0.10));
+}
+
+TEST_CASE("simulation: the exact model reproduces a noise-free log; segments restart every segment_s") {
+  SynthOptions o;
+  o.pose_noise_m = o.psi_noise_rad = o.imu_noise_rad = 0;
+  o.seconds = 80;
+  const Model m = nominal().model;
+  const Dataset d = synth(m, o);
+  SimOptions so;
+  so.n_sub = 4;
+  Prediction p;
+  simulate(m, d, so, p);
+  const ChannelValues one{1, 1, 1, 1};
+  const ErrorStats e = error_stats(d, p, one);
+  // Left: the yaw transient older than the 2 s warm-up (I_z / D_psi = 0.32 s), ~1e-3 of any noise.
+  CHECK(e.rms[kX] < 1e-5);
+  CHECK(e.rms[kY] < 1e-5);
+  CHECK(e.rms[kPsi] < 1e-5);
+  CHECK(e.rms[kImuPsi] < 1e-5);
+  // 80 s in 25 s segments: starts at 0, 25, 50, 75 s (each at the first measured pose).
+  REQUIRE(p.segment_start.size() == 4);
+  CHECK(d.t_s[p.segment_start[1]] == Approx(25.0));
+  CHECK(d.t_s[p.segment_start[3]] == Approx(75.0));
+  // A model with the wrong drag is far off the same log.
+  ModelChoice wrong = nominal();
+  TerrainParams t = kSand;
+  t.D_x *= 1.3;
+  wrong.model = make_model(RobotParams{}, t);
+  Prediction pw;
+  simulate(wrong.model, d, so, pw);
+  CHECK(error_stats(d, pw, one).rms[kX] > 1e-3);
+}
+
+TEST_CASE("compare: a log of the nominal model is at the noise floor; a missing effect is well above") {
+  const Dataset d = synth(nominal().model, SynthOptions{});
+  const CompareResult r = compare(d, nominal());
+  for (int c : {kX, kY, kPsi, kImuPsi}) {
+    CHECK(r.segments_err.ratio_to_noise[static_cast<std::size_t>(c)] > 0.9);
+    CHECK(r.segments_err.ratio_to_noise[static_cast<std::size_t>(c)] < 1.15);
+  }
+  CHECK(!r.windows.empty());
+  CHECK(r.worst.size() == 5);
+  CHECK(r.worst[0].ratio_to_noise >= r.worst[4].ratio_to_noise);
+  const Model with = make_model(RobotParams{}, kSand, {std::make_shared<CoulombFriction>(Vec3(8, 5, 0.3))});
+  const CompareResult rw = compare(synth(with, SynthOptions{}), nominal());
+  CHECK(rw.segments_err.ratio_to_noise[kX] > 3.0);
+}
+
+TEST_CASE("regimes: labels follow the screw speeds") {
+  Dataset d;
+  const Model m = nominal().model;
+  const Vec4 fwd(-1, -1, 1, 1), lat(-1, 1, 1, -1), yaw(1, 1, 1, 1);
+  for (int k = 0; k < 5; ++k) {
+    d.t_s.push_back(k * 0.01);
+    d.meas.push_back({0, 0, 0.0, kNaN});
+  }
+  auto label = [&](const Vec4& w) {
+    d.omega_rpm.assign(5, w);
+    return classify_sample(m, d, 2);
+  };
+  CHECK(label(10 * fwd).motion == "x");
+  CHECK(label(10 * fwd).direction == "forward");
+  CHECK(label(-10 * fwd).direction == "backward");
+  CHECK(label(10 * lat).motion == "y");
+  CHECK(label(10 * yaw).motion == "yaw");
+  CHECK(label(10 * fwd + 10 * lat).motion == "combined");
+  CHECK(label(Vec4::Zero()).motion == "still");
+  CHECK(label(3 * fwd).speed == "0-5 rpm");
+  CHECK(label(15 * fwd).speed == "12+ rpm");
+  CHECK(label(10 * fwd).heading == "heading -45..45 deg");
+  d.omega_rpm = {Vec4::Zero(), 2 * fwd, 4 * fwd, 6 * fwd, 8 * fwd};
+  CHECK(classify_sample(m, d, 2).phase == "accelerating");
+}
+
+TEST_CASE("JSON: one object, escaped strings, null for NaN, only active channels") {
+  Json j;
+  j.begin_object().num("a", 1.5).str("s", "say \"hi\"\n").begin_array("w").begin_object().boolean("b", true);
+  j.end_object().num(nullptr, kNaN).end_array();
+  j.channels("c", {1, 2, 3, 4}, {true, false, true, false}).end_object();
+  CHECK(j.text() == "{\"a\":1.5,\"s\":\"say \\\"hi\\\"\\u000a\",\"w\":[{\"b\":true},null],\"c\":{\"x\":1,\"psi\":3}}");
+}
+
+TEST_CASE("every library effect: fitted from data made with it, the error falls to the noise floor",
+          "[effects]") {
+  // The same test applies to an effect added to the registry (docs/workbench.md): its typical
+  // parameter sizes make the data, `fit` must bring every channel within 1.2x the noise floor.
+  for (const auto& [id, entry] : EffectRegistry::builtin().entries()) {
+    SECTION(id) {
+      SynthOptions o;
+      o.seconds = 64;
+      const std::vector<double> values = test_values(entry, o.seconds);
+      std::vector<std::shared_ptr<const Effect>> effects{entry.make(values)};
+      if (id == "pose_time_offset") {
+        o.pose_delay_s = values[0];
+        effects.clear();
+      }
+      const Dataset d = synth(make_model(RobotParams{}, kSand, effects), o);
+      const FitResult r = fit(d, nominal(), {id});
+      INFO(id << ": " << r.effects.back().description);
+      for (int c = 0; c < kChannels; ++c) {
+        INFO("channel " << channel_name(c) << " before " << r.err_before.ratio_to_noise[static_cast<std::size_t>(c)]);
+        CHECK(r.err_after.ratio_to_noise[static_cast<std::size_t>(c)] < 1.2);
+      }
+      // The fitted model file loads back and gives the same error.
+      const ModelFile mf = parse_model_file(r.model_toml, "fitted");
+      const Model back = build_model(mf, "sand");
+      Prediction p;
+      simulate(back, d, sim_options_for(back), p);
+      const ErrorStats back_err = error_stats(d, p, r.noise_floor);
+      for (int c = 0; c < kChannels; ++c)
+        CHECK(back_err.ratio_to_noise[static_cast<std::size_t>(c)] ==
+              Approx(r.err_after.ratio_to_noise[static_cast<std::size_t>(c)]).epsilon(1e-6));
+    }
+  }
+}
+
+TEST_CASE("fit recovers the parameters of the effect that made the data") {
+  SynthOptions o;
+  o.seconds = 64;
+  SECTION("quadratic drag") {
+    const Model truth = make_model(RobotParams{}, kSand, {EffectRegistry::builtin().entries().at("quadratic_drag").make({3000, 2000, 0})});
+    const FitResult r = fit(synth(truth, o), nominal(), {"quadratic_drag"});
+    const auto& p = r.effects.back().params;
+    CHECK(p[0].value == Approx(3000).epsilon(0.15));
+    CHECK(p[1].value == Approx(2000).epsilon(0.15));
+    CHECK(std::fabs(p[0].value - 3000) < 4 * p[0].sigma + 100);  // the uncertainty is honest
+    // The paper's parameters stay where they were (they did not absorb the drag).
+    CHECK(r.effects.front().params[2].value == Approx(560.33).epsilon(0.05));
+  }
+  SECTION("loss of traction: which screw and how much") {
+    const Model truth = make_model(RobotParams{}, kSand, {EffectRegistry::builtin().entries().at("screw_traction_loss").make({1, 0.5})});
+    const FitResult r = fit(synth(truth, o), nominal(), {"screw_traction_loss"});
+    CHECK(r.effects.back().params[0].value == 1);
+    CHECK(r.effects.back().params[1].value == Approx(0.5).margin(0.05));
+  }
+}
+
+TEST_CASE("diagnose: ranks the effect that made the data first; no effect is not significant") {
+  SynthOptions o;
+  o.seconds = 70;
+  DiagnoseOptions opt;
+  opt.only = {"coulomb_friction", "quadratic_drag", "screw_dead_band", "paper_params", "force_lag"};
+  const Model truth = make_model(RobotParams{}, kSand, {std::make_shared<CoulombFriction>(Vec3(8, 5, 0.3))});
+  const DiagnoseResult r = diagnose(synth(truth, o), nominal(), opt);
+  REQUIRE(r.candidates.size() == opt.only.size());
+  CHECK(r.candidates[0].fitted.effect == "coulomb_friction");
+  CHECK(r.significant);
+  CHECK(r.candidates[0].heldout_ratio < 1.2);
+  CHECK(r.candidates[0].delta_bic < r.candidates[1].delta_bic);
+  CHECK(r.n_eff <= r.n);
+  o.seed = 7;
+  const DiagnoseResult none = diagnose(synth(nominal().model, o), nominal(), opt);
+  CHECK_FALSE(none.significant);
+  CHECK(none.nominal_heldout_ratio < 1.15);
+}
+
+namespace {
+
+// A gantry log (one module on the rail, eqs. (11)-(17)) made with the workbench's own gantry
+// model: constant-speed pieces both ways, position and load-cell force with noise.
+Dataset synth_gantry(const std::vector<std::shared_ptr<const Effect>>& effects, unsigned seed) {
+  Dataset d;
+  d.path = "synthetic-gantry";
+  d.gantry = true;
+  d.axis = "longitudinal";
+  d.terrain = "sand";
+  d.active = {true, false, false, false};
+  const ModelChoice mc = choose_model(d);
+  const Model truth = make_model(mc.model.robot, mc.model.terrain, effects);
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n01(0, 1);
+  DynamicsData dyn(truth);
+  Vec3 eta = Vec3::Zero(), zeta = Vec3::Zero();
+  const double dt = 0.01;
+  auto omega = [](double t) {
+    const double levels[6] = {-5, -12, 0, 8, -18, 3};
+    const double w = levels[static_cast<int>(t / 6.0) % 6];
+    return Vec4(w, w, 0, 0);
+  };
+  for (int k = 0; k <= 7200; ++k) {
+    const double t = k * dt;
+    d.t_s.push_back(t);
+    d.omega_rpm.push_back(omega(t));
+    d.meas.push_back({eta.x() + 0.002 * n01(rng), 0.0, 0.0, kNaN});
+    d.force_n.push_back(dyn.tau_drive_n.x() + 0.3 * n01(rng));  // drive force of the interval ending at t
+    dynamics_step(truth, dyn, eta, zeta, omega(t + dt), dt, 4);
+  }
+  return d;
+}
+
+}  // namespace
+
+TEST_CASE("gantry: one DOF through the same machinery; the load cell separates a dead band from friction") {
+  const Dataset none = synth_gantry({}, 3);
+  const ModelChoice mc = choose_model(none);
+  CHECK(mc.model.robot.m_kg == 16.0);
+  const CompareResult r = compare(none, mc);
+  CHECK(r.noise_floor[kX] == Approx(0.002).epsilon(0.15));
+  CHECK(r.segments_err.ratio_to_noise[kX] < 1.15);
+  CHECK(std::isnan(r.noise_floor[kY]));  // one channel only
+  const auto& reg = EffectRegistry::builtin().entries();
+  const Dataset band = synth_gantry({reg.at("screw_dead_band").make({2.5, 1})}, 4);
+  DiagnoseOptions opt;
+  opt.only = {"coulomb_friction", "screw_dead_band"};
+  const DiagnoseResult dr = diagnose(band, choose_model(band), opt);
+  REQUIRE(dr.candidates.size() == 2);
+  CHECK(dr.candidates[0].fitted.effect == "screw_dead_band");
+  CHECK(dr.candidates[0].fitted.params[0].value == Approx(2.5).epsilon(0.1));
+  CHECK(dr.significant);
+  CHECK_FALSE(diagnose(none, choose_model(none), opt).significant);
+}
