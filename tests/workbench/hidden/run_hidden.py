@@ -32,6 +32,7 @@ import json
 import math
 import os
 import random
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -401,7 +402,12 @@ def main():
         good = n >= min(min_pass, len(cs))
         ok = ok and good
         print("%-30s %d/%d %s" % (name, n, len(cs), "ok" if good else "FAILED"))
-    print("\n%d cases in %.0f s, logs in %s: %s" % (len(done), time.time() - t0, workdir, "PASS" if ok else "FAIL"))
+    # A temporary directory goes when everything passed; on a failure it stays for a look.
+    keep = args.keep or not ok
+    print("\n%d cases in %.0f s, logs %s: %s" % (len(done), time.time() - t0,
+                                               ("in " + workdir) if keep else "removed", "PASS" if ok else "FAIL"))
+    if not keep:
+        shutil.rmtree(workdir, ignore_errors=True)
     return 0 if ok else 1
 
 
