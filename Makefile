@@ -104,11 +104,11 @@ test: deps check-protocol host asan fuzz-smoke board
 	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) ctest --output-on-failure
 
 # Longer suites (docs/benchmarks.md has their times): the parser fuzzer for 5 million inputs,
-# and the sand diagonal with the firmware in the loop across the blocking thresholds.
+# the sand diagonal with the firmware in the loop across the blocking thresholds, and the
+# hidden-effect suite with 10 seeds per effect, at least 9 must pass (docs/workbench-suite.md).
 test-full: test
 	$(MAKE) fuzz FUZZ_RUNS=5000000
 	$(BUILD)/tests/robot/test_robot_fil "[.full]"
-	# W-data: the hidden-effect suite, 10 seeds per effect, at least 9 must pass (docs/workbench-suite.md)
 	python3 tests/workbench/hidden/run_hidden.py --auger $(BUILD)/host/auger/auger \
 	  --sim-log $(BUILD)/sim/robot/auger-sim-log --seeds 10 --min-pass 9 --jobs 2
 
