@@ -13,7 +13,13 @@ void print_stats(const char* what, const ErrorStats& e, const Dataset& d) {
   std::printf("  %-22s", what);
   for (int c = 0; c < kChannels; ++c) {
     if (!d.active[static_cast<std::size_t>(c)]) continue;
-    std::printf("  %s %.4g %s (%.2fx)", channel_name(c), e.rms[static_cast<std::size_t>(c)], channel_unit(c),
+    const double rms = e.rms[static_cast<std::size_t>(c)];
+    // A variant may not apply to a channel (the IMU-heading run has no separate IMU error).
+    if (!(rms == rms)) {
+      std::printf("  %s -", channel_name(c));
+      continue;
+    }
+    std::printf("  %s %.4g %s (%.2fx)", channel_name(c), rms, channel_unit(c),
                 e.ratio_to_noise[static_cast<std::size_t>(c)]);
   }
   std::printf("\n");
