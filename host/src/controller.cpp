@@ -8,6 +8,10 @@ namespace auger {
 
 Controller::Controller(const Model& model, const ControllerConfig& config)
     : model_(model), config_(config), dr_(model) {
+  // A model fitted with pose_time_offset (auger fit) says by how much the poses lag the screw
+  // speeds: the EKF then takes each pose as of that much earlier.
+  for (const auto& e : model_.effects)
+    if (e->id() == "pose_time_offset") pose_delay_s_ = e->params().front().second;
   reset(Vec3::Zero());
 }
 
@@ -76,10 +80,10 @@ const std::array<double, 4>& Controller::step(double t_s, const std::array<Screw
       if (sensors.has_imu_psi) ekf_update_imu_psi(model_, config_.ekf, ekf_, sensors.imu_psi_rad);
       if (sensors.has_imu_r) ekf_update_imu_r(model_, config_.ekf, ekf_, sensors.imu_r_radps);
       if (sensors.has_pose) {
-        if (std::isnan(sensors.pose_t_s))
+        if (std::isnan(sensors.pose_t_s) && pose_delay_s_ == 0)
           ekf_update_pose(model_, ekf_, sensors.pose, sensors.pose_cov);
         else if (!ekf_update_pose_delayed(model_, ekf_, pose_history_, sensors.pose, sensors.pose_cov,
-                                          sensors.pose_t_s))
+                                          (std::isnan(sensors.pose_t_s) ? t_s : sensors.pose_t_s) - pose_delay_s_))
           ++stale_poses_;
       }
       pose_history_.push(t_s, ekf_h_pose(model_, ekf_.x, nullptr));

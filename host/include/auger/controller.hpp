@@ -79,6 +79,7 @@ class Controller {
   Ekf ekf_;
   PoseHistory pose_history_;
   long stale_poses_ = 0;
+  double pose_delay_s_ = 0;  // the model's pose_time_offset effect: poses show the robot this much earlier
   ReferenceState ref_;
   PidState pid_;
   PidTerms pid_terms_{};

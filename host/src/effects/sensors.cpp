@@ -29,8 +29,8 @@ class ImuHeadingDrift final : public Effect {
 
 // The pose rows are late: a row at t shows the robot at t - offset_s (camera latency, clocks
 // of two computers). It changes nothing in the dynamics; the workbench shifts the screw speeds
-// against the poses by it (wb::SimOptions::pose_delay_s), and augerd's estimator should apply
-// each pose as of t - offset_s.
+// against the poses by it (wb::SimOptions::pose_delay_s), and the controller's EKF (augerd)
+// takes each pose as of t - offset_s (Controller, PoseHistory).
 class PoseTimeOffset final : public Effect {
  public:
   explicit PoseTimeOffset(double offset_s) : offset_s_(offset_s) {}
