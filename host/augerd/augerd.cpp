@@ -29,6 +29,7 @@
 #include "line_server.hpp"
 #include "lines.hpp"
 #include "module_link.hpp"
+#include "status_text.hpp"
 
 namespace augerd {
 namespace {
@@ -48,17 +49,7 @@ constexpr int kExitOk = 0, kExitStartup = 1, kExitConfig = 2;
 // 16-bit sequence numbers wrap: a is at or after b when the signed difference is >= 0.
 bool seq_at_or_after(uint16_t a, uint16_t b) { return int16_t(uint16_t(a - b)) >= 0; }
 
-std::string fault_bits_text(uint16_t status) {
-  static const std::pair<uint16_t, const char*> names[] = {{PROTO_F_CMD_TIMEOUT, "F_CMD_TIMEOUT"},
-                                                           {PROTO_F_OVERCURRENT, "F_OVERCURRENT"},
-                                                           {PROTO_F_UNDERVOLTAGE, "F_UNDERVOLTAGE"},
-                                                           {PROTO_F_SENSOR, "F_SENSOR"},
-                                                           {PROTO_F_WATCHDOG, "F_WATCHDOG"}};
-  std::string s;
-  for (const auto& [bit, name] : names)
-    if (status & bit) s += (s.empty() ? "" : "+") + std::string(name);
-  return s.empty() ? "fault" : s;
-}
+using auger::io::fault_bits_text;  // every call has a fault bit set
 
 struct Module {
   std::string port;

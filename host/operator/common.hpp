@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "status_text.hpp"
+
 namespace auger::op {
 
 // Bad usage: the subcommand prints it and exits 2.
@@ -19,8 +21,8 @@ double parse_number(const std::string& option, const std::string& text);
 std::string option_value(int argc, char** argv, int& i);
 
 // Names of the status word's bits (docs/protocol.md): "EN SP" or faults "F_OVERCURRENT+F_SENSOR".
-std::string state_bits_text(uint16_t status);
-std::string fault_bits_text(uint16_t status);  // "none" if no fault bit
+using io::fault_bits_text;  // "none" if no fault bit
+using io::state_bits_text;
 
 // Seconds on CLOCK_MONOTONIC.
 double now_s();

@@ -88,18 +88,8 @@ echo "$status"
 sleep 1  # the truth log records the robot at rest after the stop
 kill -TERM "$sim_pid"
 wait "$sim_pid" || true
-awk -F, -v s="$status" '
-  /^#/ { next }
-  !hdr { for (i = 1; i <= NF; i++) col[$i] = i; hdr = 1; next }
-  { x = $col["x_m"]; y = $col["y_m"] }
-  END {
-    n = split(s, f, " ")
-    for (i = 1; i <= n; i++) { split(f[i], kv, "="); v[kv[1]] = kv[2] }
-    err = sqrt((x - 0.2) ^ 2 + (y - 0.1) ^ 2)
-    est = sqrt((v["x_m"] - x) ^ 2 + (v["y_m"] - y) ^ 2)
-    printf "qemu_augerd: true pose %.3f m from the goal, estimate %.3f m from the truth, fault=%s\n", err, est, v["fault"]
-    exit !(hdr && err < 0.03 && est < 0.03 && v["fault"] == "none" && v["enabled"] == 1)
-  }' "$work/truth.csv" || fail "the robot did not arrive"
+awk -F, -v s="$status" -v gx=0.2 -v gy=0.1 -v name=qemu_augerd -f "$src/tests/support/check_arrival.awk" \
+  "$work/truth.csv" || fail "the robot did not arrive"
 
 # SIGTERM through qemu: augerd stops cleanly (exit 0) and prints its loop statistics.
 kill -TERM "$augerd_pid"
