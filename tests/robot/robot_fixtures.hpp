@@ -55,7 +55,7 @@ inline double diagonal_angle_rad(const auger::Model& m) {
   return std::atan2(m.terrain.sigma_lat / m.terrain.D_y, m.terrain.sigma_long / m.terrain.D_x);
 }
 inline DiagonalRun run_diagonal(auger::sim::ScrewMode mode, auger::AllocatorKind kind, double omega_block_rpm,
-                                double duration_s, std::uint64_t seed = 1) {
+                                double duration_s, std::uint64_t seed = 1, bool noiseless_sensors = false) {
   using namespace auger;
   const Model m = nominal("sand");
   ControllerConfig cc = controller_config(model_file(), "sand");
@@ -74,6 +74,10 @@ inline DiagonalRun run_diagonal(auger::sim::ScrewMode mode, auger::AllocatorKind
   sc.elf_path = AUGER_FIRMWARE_ELF_PATH;
   sc.seed = seed;
   sc.terrain = "sand";
+  if (noiseless_sensors) {
+    sc.camera.noise_std.setZero();
+    sc.imu = sim::ImuParams{0.0, 0.0, 0.0, 0.0};
+  }
   sim::Scheduler s(m, tp, sc);
   s.set_controller(&c);
   s.run_until(0.1);  // modules boot
