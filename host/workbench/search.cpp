@@ -373,6 +373,7 @@ FitOutcome fit_stick_slip(const Problem& pr, const Part& stick, int max_iter, co
     FitOutcome o = levenberg_marquardt(pr, {s}, max_iter);
     sims += o.sims;
     if (o.cost < best.cost) best = std::move(o);
+    if (best.r.size() && best.cost < 1.3 * static_cast<double>(best.r.size())) break;  // at the noise
   }
   best.sims = sims;
   return best;
