@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
 #include <map>
 #include <mutex>
@@ -323,9 +324,73 @@ std::vector<std::vector<Part>> starts(const std::vector<Part>& parts) {
   return out;
 }
 
+constexpr const char* kCoulomb = "coulomb_friction";
+constexpr const char* kStickSlip = "stick_slip_friction";
+
+FitOutcome fit_parts_generic(const Problem& pr, const std::vector<Part>& parts, int max_iter, const Dataset& d);
+
+// Stick-slip friction fitted alone. Its cost over (sliding level, breakaway ratio, Stribeck
+// speed) is rugged: whether a start from rest breaks away in one step or the next is a jump,
+// and from the generic starts (typical levels) LM stalls in a compromise (a long, shallow
+// decay) far from the truth. The Coulomb fit of the same log gives the scale of the levels: it
+// is a sliding level averaged with the breakaway, so the sliding level lies at 0.6-1x of it.
+// A coarse grid around it (one simulation each) picks the starts, LM refines the best few,
+// and the Coulomb optimum itself (ratio 1) is one of them, so stick-slip never fits worse than
+// the Coulomb friction it contains.
+FitOutcome fit_stick_slip(const Problem& pr, const Part& stick, int max_iter, const Dataset& d,
+                          const FitOutcome* coulomb_fit) {
+  FitOutcome own;
+  if (!coulomb_fit || !std::isfinite(coulomb_fit->cost)) {
+    own = fit_parts_generic(pr, {make_part(kCoulomb, *pr.base, d)}, max_iter, d);
+    coulomb_fit = &own;
+  }
+  int sims = coulomb_fit == &own ? own.sims : 0;
+  if (!std::isfinite(coulomb_fit->cost) || coulomb_fit->parts.size() != 1 || coulomb_fit->parts[0].values.size() < 3)
+    return fit_parts_generic(pr, {stick}, max_iter, d);
+  const std::vector<double>& c = coulomb_fit->parts[0].values;  // force_x_n, force_y_n, torque_psi_nm
+  auto with = [&](double level_factor, double ratio, double v_s) {
+    Part p = stick;
+    for (int k = 0; k < 3; ++k) p.values[static_cast<std::size_t>(k)] = level_factor * c[static_cast<std::size_t>(k)];
+    p.values[3] = ratio;
+    p.values[4] = v_s;
+    return p;
+  };
+  std::vector<std::pair<double, Part>> grid;
+  Prediction work;
+  Eigen::VectorXd r;
+  for (double f : {1.0, 0.85, 0.7})
+    for (double ratio : {1.3, 1.7, 2.2})
+      for (double v_s : {0.001, 0.0025, 0.006}) {
+        Part p = with(f, ratio, v_s);
+        ++sims;
+        if (residuals(pr, {p}, r, work)) grid.push_back({r.squaredNorm(), std::move(p)});
+      }
+  std::sort(grid.begin(), grid.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<Part> seeds{with(1.0, 1.0, 0.0025)};  // the Coulomb optimum
+  for (std::size_t i = 0; i < grid.size() && i < 2; ++i) seeds.push_back(grid[i].second);
+  FitOutcome best;
+  for (const Part& s : seeds) {
+    FitOutcome o = levenberg_marquardt(pr, {s}, max_iter);
+    sims += o.sims;
+    if (o.cost < best.cost) best = std::move(o);
+    if (best.r.size() && best.cost < 1.3 * static_cast<double>(best.r.size())) break;  // at the noise
+  }
+  best.sims = sims;
+  return best;
+}
+
+// The best fit of parts. coulomb_fit: the Coulomb friction fit of the same problem if known
+// (stick-slip starts from it; fitted here otherwise).
+FitOutcome fit_parts(const Problem& pr, const std::vector<Part>& parts, int max_iter, const Dataset& d,
+                     const FitOutcome* coulomb_fit = nullptr) {
+  if (parts.size() == 1 && parts[0].id == kStickSlip && parts[0].entry && parts[0].values.size() == 5)
+    return fit_stick_slip(pr, parts[0], max_iter, d, coulomb_fit);
+  return fit_parts_generic(pr, parts, max_iter, d);
+}
+
 // The best fit of parts over all integer choices (e.g. which screw), time grids (a change
 // time) and starting points.
-FitOutcome fit_parts(const Problem& pr, const std::vector<Part>& parts, int max_iter, const Dataset& d) {
+FitOutcome fit_parts_generic(const Problem& pr, const std::vector<Part>& parts, int max_iter, const Dataset& d) {
   // Expand integer parameters (gantry: only the two screws of the module).
   std::vector<std::vector<Part>> variants{parts};
   for (std::size_t p = 0; p < parts.size(); ++p)
@@ -639,19 +704,34 @@ DiagnoseResult diagnose(const Dataset& full, ModelChoice mc, const DiagnoseOptio
   const double n = static_cast<double>(r0.size());
   res.n = n;
 
-  const std::vector<std::string> ids = candidate_ids(data, opt);
+  std::vector<std::string> ids = candidate_ids(data, opt);
+  // Stick-slip starts from the Coulomb fit (fit_stick_slip): fitted last, so the Coulomb fit is
+  // done (or nearly) when a thread reaches it and the threads rarely wait.
+  std::stable_partition(ids.begin(), ids.end(), [](const std::string& id) { return id != kStickSlip; });
+  const auto coulomb_at = std::find(ids.begin(), ids.end(), kCoulomb);
+  const std::size_t coulomb_i = static_cast<std::size_t>(coulomb_at - ids.begin());
   std::vector<FitOutcome> outcomes(ids.size());
+  std::vector<char> fitted(ids.size(), 0);
+  std::condition_variable fitted_cv;
   std::atomic<std::size_t> next{0};
   std::mutex print;
   std::size_t done = 0;
   auto worker = [&]() {
     for (std::size_t i; (i = next++) < ids.size();) {
-      FitOutcome o = fit_parts(pr, {make_part(ids[i], base, data)}, 20, data);
+      const FitOutcome* coulomb_fit = nullptr;
+      if (ids[i] == kStickSlip && coulomb_i < ids.size()) {
+        std::unique_lock<std::mutex> lock(print);
+        fitted_cv.wait(lock, [&] { return fitted[coulomb_i] != 0; });
+        coulomb_fit = &outcomes[coulomb_i];  // not written again once fitted
+      }
+      FitOutcome o = fit_parts(pr, {make_part(ids[i], base, data)}, 20, data, coulomb_fit);
       std::lock_guard<std::mutex> lock(print);
       ++done;
       if (opt.progress)
         std::fprintf(stderr, "diagnose: %zu/%zu %s fitted (%d simulations)\n", done, ids.size(), ids[i].c_str(), o.sims);
       outcomes[i] = std::move(o);
+      fitted[i] = 1;
+      fitted_cv.notify_all();
     }
   };
   std::vector<std::thread> pool;

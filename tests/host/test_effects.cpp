@@ -1,5 +1,7 @@
 // Effect interface and registry: creation by id with checked parameters, and the shipped effects
 // against their closed-form behaviour.
+#include <cmath>
+
 #include <catch2/catch.hpp>
 
 #include "auger/dynamics.hpp"
@@ -92,4 +94,38 @@ TEST_CASE("IMU heading bias changes what the IMU reports, not the pose") {
   CHECK(v.pose == Vec3(1, 2, 3.1));
   CHECK(v.imu_psi_rad == Approx(wrap_angle(3.3)));
   CHECK(v.imu_r_radps == 0.3);
+}
+
+TEST_CASE("stick-slip friction: breakaway excess decays with the contacts' sliding speed, also in yaw") {
+  const EffectRegistry& r = EffectRegistry::builtin();
+  const double ratio = 2.0, v_s = 0.002;
+  auto e = r.create(config("stick_slip_friction", {{"force_x_n", 6, 8, 1},
+                                                   {"force_y_n", 2, 9, 1},
+                                                   {"torque_psi_nm", 0.1, 10, 1},
+                                                   {"breakaway_ratio", ratio, 11, 1},
+                                                   {"stribeck_mps", v_s, 12, 1}}));
+  const Model m = make_model(RobotParams{}, kSand, {});
+  const double radius_m = std::hypot(m.robot.l_x_m, m.robot.l_y_m);
+  EffectContext ctx;
+  ctx.gain = Vec3(1e-3, 1e-3, 1e-2);
+  ctx.zeta_free = Vec3(1, 1, 1);  // moving on: the force is minus the level
+  Vec3 f = Vec3::Zero();
+  // At rest: the breakaway level, ratio x sliding.
+  ctx.zeta = Vec3::Zero();
+  e->body_force(m, ctx, f, nullptr);
+  CHECK(f.x() == Approx(-ratio * 6));
+  CHECK(f.z() == Approx(-ratio * 0.1));
+  // Sliding at v_s along x, and turning so that the contacts slide at v_s: the excess is 1/e of
+  // the breakaway's in both (a yaw rate read as m/s would leave exp(-radius) of it instead).
+  ctx.zeta = Vec3(v_s, 0, v_s / radius_m);
+  e->body_force(m, ctx, f, nullptr);
+  const double factor = 1 + (ratio - 1) * std::exp(-1.0);
+  CHECK(f.x() == Approx(-6 * factor));
+  CHECK(f.z() == Approx(-0.1 * factor));
+  // Fast: the sliding level.
+  ctx.zeta = Vec3(0.1, 0.1, 0.3);
+  e->body_force(m, ctx, f, nullptr);
+  CHECK(f.x() == Approx(-6).epsilon(1e-6));
+  CHECK(f.y() == Approx(-2).epsilon(1e-6));
+  CHECK(f.z() == Approx(-0.1).epsilon(1e-6));
 }

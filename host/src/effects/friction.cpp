@@ -39,6 +39,9 @@ std::string dry_words(const std::vector<double>& v, const std::string& what) {
 // 1 + (breakaway_ratio - 1) exp(-|v| / stribeck_mps), so the body needs breakaway_ratio times the
 // sliding force to start and the resistance falls as it speeds up. The level is taken at the
 // step's start velocity, the force applied implicitly as for Coulomb friction (it stops at zero).
+// stribeck_mps is a sliding speed at the contacts: in yaw the screws' contacts slide at
+// r hypot(l_x, l_y) (eq. (1)'s mounts), so the yaw decay rate is stribeck_mps / hypot(l_x, l_y),
+// not the same number read as rad/s (which would make the yaw breakaway 3x too short-lived).
 class StickSlipFriction final : public Effect {
  public:
   StickSlipFriction(const Vec3& kinetic, double breakaway, double stribeck_mps)
@@ -51,10 +54,12 @@ class StickSlipFriction final : public Effect {
     return {{"force_x_n", kinetic_.x()}, {"force_y_n", kinetic_.y()}, {"torque_psi_nm", kinetic_.z()},
             {"breakaway_ratio", breakaway_}, {"stribeck_mps", v_s_}};
   }
-  void body_force(const Model&, const EffectContext& ctx, Vec3& force_n, double*) const override {
+  void body_force(const Model& m, const EffectContext& ctx, Vec3& force_n, double*) const override {
+    const double contact_radius_m = std::hypot(m.robot.l_x_m, m.robot.l_y_m);
     for (int k = 0; k < 3; ++k) {
       const double stop = -ctx.zeta_free[k] / ctx.gain[k];
-      const double level = kinetic_[k] * (1.0 + (breakaway_ - 1.0) * std::exp(-std::fabs(ctx.zeta[k]) / v_s_));
+      const double slide_mps = std::fabs(ctx.zeta[k]) * (k == 2 && contact_radius_m > 0 ? contact_radius_m : 1.0);
+      const double level = kinetic_[k] * (1.0 + (breakaway_ - 1.0) * std::exp(-slide_mps / v_s_));
       force_n[k] = std::clamp(stop, -level, level);
     }
   }
@@ -113,7 +118,7 @@ void register_friction(EffectRegistry& r) {
           {"force_y_n", 0, false, "sliding level, lateral", "N", 0, 500, 10},
           {"torque_psi_nm", 0, false, "sliding level, yaw", "N m", 0, 50, 0.5},
           {"breakaway_ratio", 1.5, false, "breakaway (static) / sliding level", "", 1, 5, 1.3},
-          {"stribeck_mps", 0.005, false, "speed over which the breakaway excess decays (m/s; rad/s in yaw)", "m/s",
+          {"stribeck_mps", 0.005, false, "sliding speed over which the breakaway excess decays (m/s; in yaw at the contacts, r hypot(l_x, l_y))", "m/s",
            1e-4, 0.2, 0.005, false, true, true}},
          [](const std::vector<double>& v) {
            check_non_negative(v[0], "force_x_n");
