@@ -144,6 +144,24 @@ void build_index(Problem& pr) {
         if (std::isfinite(d.force_n[k])) pr.force_index.push_back(k);
 }
 
+// Segment length of the search: 25 s, or a seventh of a short log, at least 5 s.
+double search_segment_s(const Dataset& data) { return std::clamp(data.duration_s() / 7.0, 5.0, 25.0); }
+
+// The search's problem on the decimated log `data` of `full`, over the segments `segs`.
+Problem make_problem(const Dataset& data, const Dataset& full, const Model& base, const ChannelValues& noise,
+                     Segments segs) {
+  Problem pr;
+  pr.data = &data;
+  pr.base = &base;
+  pr.noise = noise;
+  pr.segs = std::move(segs);
+  pr.options = sim_options_for(base);
+  pr.options.n_sub = 4;  // 12.5 ms sub-steps on the 50 ms steps of the decimated log
+  if (!full.force_n.empty()) pr.force_noise = estimate_noise(full.t_s, full.force_n);
+  build_index(pr);
+  return pr;
+}
+
 // Noise-normalised residuals of the model with the parts applied; false if the model cannot be
 // built (a parameter outside what the effect accepts).
 bool residuals(const Problem& pr, const std::vector<Part>& parts, Eigen::VectorXd& r, Prediction& work) {
@@ -671,8 +689,7 @@ DiagnoseResult diagnose(const Dataset& full, ModelChoice mc, const DiagnoseOptio
 
   // Training and held-out segments interleaved (every third held out), so that something that
   // starts at some time (a terrain change) is in both.
-  const double seg_s = std::clamp(data.duration_s() / 7.0, 5.0, 25.0);
-  const Segments all = make_segments(data, seg_s);
+  const Segments all = make_segments(data, search_segment_s(data));
   Segments train, held;
   for (std::size_t s = 0; s < all.size(); ++s) (s % 3 == 2 ? held : train).push_back(all[s]);
   if (held.empty() && train.size() > 1) {
@@ -681,15 +698,7 @@ DiagnoseResult diagnose(const Dataset& full, ModelChoice mc, const DiagnoseOptio
   }
   if (held.empty()) held = train;
 
-  Problem pr;
-  pr.data = &data;
-  pr.base = &base;
-  pr.noise = res.noise_floor;
-  pr.segs = train;
-  pr.options = sim_options_for(base);
-  pr.options.n_sub = 4;  // 12.5 ms sub-steps on the 50 ms steps of the decimated log
-  if (!full.force_n.empty()) pr.force_noise = estimate_noise(full.t_s, full.force_n);
-  build_index(pr);
+  Problem pr = make_problem(data, full, base, res.noise_floor, train);
 
   {
     Prediction p;  // as compare reports it
@@ -837,16 +846,7 @@ FitResult fit(const Dataset& full, ModelChoice mc, const std::vector<std::string
   const Model& base = mc.model;
   res.noise_floor = estimate_noise_floor(full);
   const Dataset data = decimate_for_search(full);
-  const Segments all = make_segments(data, std::clamp(data.duration_s() / 7.0, 5.0, 25.0));
-  Problem pr;
-  pr.data = &data;
-  pr.base = &base;
-  pr.noise = res.noise_floor;
-  pr.segs = all;
-  pr.options = sim_options_for(base);
-  pr.options.n_sub = 4;  // 12.5 ms sub-steps on the 50 ms steps of the decimated log
-  if (!full.force_n.empty()) pr.force_noise = estimate_noise(full.t_s, full.force_n);
-  build_index(pr);
+  Problem pr = make_problem(data, full, base, res.noise_floor, make_segments(data, search_segment_s(data)));
   std::vector<Part> parts{make_part(kPaperParams, base, data)};
   for (const auto& id : ids)
     if (id != kPaperParams) parts.push_back(make_part(id, base, data));
@@ -880,8 +880,7 @@ FitResult fit(const Dataset& full, ModelChoice mc, const std::vector<std::string
     pf.data = &full;
     pf.segs = make_segments(full, 25.0);
     pf.options.n_sub = SimOptions{}.n_sub;
-    if (!full.force_n.empty()) pf.force_noise = estimate_noise(full.t_s, full.force_n);
-    build_index(pf);
+    build_index(pf);  // force_noise as pr's: both from the full log
     FitOutcome polished = levenberg_marquardt(pf, o.parts, 6);
     if (progress) std::fprintf(stderr, "fit: polished on the full log (%d simulations)\n", polished.sims);
     if (std::isfinite(polished.cost)) {
