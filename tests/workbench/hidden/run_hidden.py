@@ -20,7 +20,7 @@ Table 4 runs, and manual-style driving), so 3 seeds give both kinds. Logs carry 
 and terrain metadata (gantry: axis, mass_kg, which the format requires).
 
 Usage: run_hidden.py --auger PATH --sim-log PATH [--seeds 3] [--min-pass N] [--jobs 2]
-                     [--only ID,ID] [--keep DIR] [--seconds 150] [--known-failing ID,ID]
+                     [--only ID,ID] [--keep DIR] [--seconds 150]
 --min-pass N: per effect, at least N of the seeds must pass (default: all). Exit 0 iff every
 effect meets it. Python 3 standard library only.
 """
@@ -361,9 +361,6 @@ def main():
     ap.add_argument("--only", default="", help="comma-separated case names (e.g. force_lag,gantry/none)")
     ap.add_argument("--no-gantry", action="store_true")
     ap.add_argument("--keep", default="", help="keep the logs in this directory")
-    ap.add_argument("--known-failing", default="",
-                    help="comma-separated effects (case names) that are known to fail: still run and "
-                         "reported, marked KNOWN FAILURE, not counted against the exit status")
     args = ap.parse_args()
     del here
     min_pass = args.seeds if args.min_pass is None else args.min_pass
@@ -398,17 +395,11 @@ def main():
         if c.failures:
             print("%36s generator --effect %s; top %s" % ("", c.info.get("gen"), c.info.get("top")))
     ok = True
-    known = set(filter(None, args.known_failing.split(",")))
     print()
     print("%-30s %s" % ("effect", "passed (need %d of %d)" % (min_pass, args.seeds)))
     for name, cs in sorted(by_effect.items()):
         n = sum(1 for c in cs if not c.failures)
         good = n >= min(min_pass, len(cs))
-        if name in known:
-            # Listed where the suite is registered (tests/workbench/CMakeLists.txt), with the reason.
-            print("%-30s %d/%d %s" % (name, n, len(cs), "ok: now passes, take it off --known-failing" if good
-                                      else "FAILED (KNOWN FAILURE, not counted)"))
-            continue
         ok = ok and good
         print("%-30s %d/%d %s" % (name, n, len(cs), "ok" if good else "FAILED"))
     # A temporary directory goes when everything passed; on a failure it stays for a look.
