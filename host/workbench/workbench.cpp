@@ -336,6 +336,10 @@ void simulate_range(const Model& model, const Dataset& data, const SimOptions& o
       const Vec4 w0 = data.omega_rpm[kw];
       zeta = steady_velocity(model, w0);
       dyn.reset(model);
+      // A zero-length step at w0 starts stateful drive effects (force_lag) at the steady force
+      // of w0 too: the first step's speed is the mean over the step that follows, and a run
+      // starting with the log's first row would otherwise begin with its force already built up.
+      drive_force(model, dyn, w0, 0.0, dyn.tau_drive_n);
       Vec3 eta_w = Vec3::Zero();
       warm_t.clear();
       warm_pose.clear();

@@ -1,6 +1,7 @@
 // Effect interface and registry: creation by id with checked parameters, and the shipped effects
 // against their closed-form behaviour.
 #include <cmath>
+#include <vector>
 
 #include <catch2/catch.hpp>
 
@@ -128,4 +129,68 @@ TEST_CASE("stick-slip friction: breakaway excess decays with the contacts' slidi
   CHECK(f.x() == Approx(-6).epsilon(1e-6));
   CHECK(f.y() == Approx(-2).epsilon(1e-6));
   CHECK(f.z() == Approx(-0.1).epsilon(1e-6));
+}
+
+namespace {
+// The force along x of a force_lag model driven from rest at 0 rpm by a step to w_rpm at t = 0,
+// sampled at the end of every step of h_s until t_end_s.
+std::vector<double> lag_step_response(double tau_s, double delay_s, double h_s, double t_end_s, double w_rpm) {
+  const Model m = make_model(RobotParams{}, kSand,
+                             {EffectRegistry::builtin().entries().at("force_lag").make({tau_s, delay_s})});
+  DynamicsData data(m);
+  Vec3 tau;
+  drive_force(m, data, Vec4::Zero(), 0.0, tau);  // a zero-length step: the state starts at rest
+  std::vector<double> fx;
+  const Vec4 w(w_rpm, w_rpm, -w_rpm, -w_rpm);  // straight along x (B's first row)
+  for (double t = 0; t < t_end_s - 1e-9; t += h_s) {
+    drive_force(m, data, w, h_s, tau);
+    fx.push_back(tau.x());
+  }
+  return fx;
+}
+}  // namespace
+
+TEST_CASE("force lag: a first-order lag after a dead time, the same for any step length") {
+  const double tau_s = 0.3, w = -10;
+  const double f_end = (make_model(RobotParams{}, kSand, {}).SB * Vec4(w, w, -w, -w)).x();
+  REQUIRE(std::fabs(f_end) > 1);
+  SECTION("no delay: the exact first-order step response at every step's end") {
+    const auto fx = lag_step_response(tau_s, 0.0, 0.01, 1.0, w);
+    for (std::size_t n = 0; n < fx.size(); ++n)
+      CHECK(fx[n] == Approx(f_end * (1 - std::exp(-0.01 * static_cast<double>(n + 1) / tau_s))).margin(1e-9));
+  }
+  SECTION("a delay of whole steps shifts the response by exactly those steps, zero before") {
+    const auto plain = lag_step_response(tau_s, 0.0, 0.01, 1.0, w);
+    const auto late = lag_step_response(tau_s, 0.07, 0.01, 1.0, w);
+    for (std::size_t n = 0; n < 7; ++n) CHECK(late[n] == Approx(0.0).margin(1e-9));
+    for (std::size_t n = 7; n < late.size(); ++n) CHECK(late[n] == Approx(plain[n - 7]).margin(1e-9));
+  }
+  SECTION("a delay between steps: the continuous response within 0.5 % at every step's end") {
+    const double d = 0.033;
+    for (double h : {0.01, 0.0125, 0.004}) {
+      const auto fx = lag_step_response(tau_s, d, h, 1.0, w);
+      for (std::size_t n = 0; n < fx.size(); ++n) {
+        const double t = h * static_cast<double>(n + 1);
+        const double exact = t <= d ? 0.0 : f_end * (1 - std::exp(-(t - d) / tau_s));
+        CHECK(std::fabs(fx[n] - exact) < 0.005 * std::fabs(f_end));
+      }
+    }
+  }
+  SECTION("a run starts at the steady force of its first speeds, which it keeps for the delay") {
+    const Model m = make_model(RobotParams{}, kSand,
+                               {EffectRegistry::builtin().entries().at("force_lag").make({tau_s, 0.05})});
+    DynamicsData data(m);
+    Vec3 tau;
+    drive_force(m, data, Vec4(w, w, -w, -w), 0.0, tau);
+    for (int n = 0; n < 5; ++n) {
+      drive_force(m, data, Vec4::Zero(), 0.01, tau);
+      CHECK(tau.x() == Approx(f_end).margin(1e-9));
+    }
+    drive_force(m, data, Vec4::Zero(), 0.01, tau);
+    CHECK(std::fabs(tau.x()) < 0.98 * std::fabs(f_end));
+  }
+  SECTION("the delay is bounded") {
+    CHECK_THROWS_WITH(EffectRegistry::builtin().entries().at("force_lag").make({0.2, 0.3}),
+                      Catch::Contains("delay_s must be in [0, 0.2]"));
+  }
 }

@@ -18,10 +18,10 @@ namespace {
 const TerrainParams kSand{"sand", 0.812, 0.247, 560.33, 320.08, 11.46};
 
 // Screw speeds of a mixed drive: pieces of forward, lateral, yaw and combined motion with
-// ramps and stops (rpm), piece length piece_s.
-Vec4 drive_profile(double t, double piece_s = 4.0) {
+// ramps (or steps) and stops (rpm), piece length piece_s.
+Vec4 drive_profile(double t, double piece_s = 4.0, bool ramps = true) {
   const int piece = static_cast<int>(t / piece_s) % 8;
-  const double ramp = std::min(1.0, std::fmod(t, piece_s) / 0.8);
+  const double ramp = ramps ? std::min(1.0, std::fmod(t, piece_s) / 0.8) : 1.0;
   const Vec4 fwd(-1, -1, 1, 1), lat(-1, 1, 1, -1), yaw(1, 1, 1, 1);
   Vec4 w;
   switch (piece) {
@@ -43,6 +43,7 @@ struct SynthOptions {
   int pose_every = 5;          // 20 Hz poses in a 100 Hz log
   double pose_delay_s = 0;     // poses show the state this much earlier
   bool gaps = true;            // a 1 s gap without poses every 20 s
+  bool steps = false;          // speeds step (from rest at t = 0 straight to the first piece's)
   unsigned seed = 1;
 };
 
@@ -55,21 +56,24 @@ Dataset synth(const Model& truth, const SynthOptions& o) {
   std::normal_distribution<double> n01(0, 1);
   const double dt = 0.01;
   const auto n = static_cast<std::size_t>(o.seconds / dt) + 1;
+  auto speed = [&](double t) { return o.steps && t <= 0 ? Vec4(Vec4::Zero()) : drive_profile(t, 4.0, !o.steps); };
   DynamicsData dyn(truth);
   Vec3 eta(0.5, -0.2, 0.3), zeta = Vec3::Zero();
+  Vec3 force_n;
+  drive_force(truth, dyn, speed(0), 0.0, force_n);  // at rest before t = 0: a lag starts from no force
   std::vector<Vec3> states(n);
   std::vector<double> imu(n);
   SensorValues sv;
   for (std::size_t k = 0; k < n; ++k) {
     const double t = static_cast<double>(k) * dt;
     d.t_s.push_back(t);
-    d.omega_rpm.push_back(drive_profile(t));  // mean over the interval ending at t (log convention)
+    d.omega_rpm.push_back(speed(t));  // mean over the interval ending at t (log convention)
     states[k] = eta;
     sv.t_s = t;
     predict_sensors(truth, eta, zeta, sv);
     imu[k] = sv.imu_psi_rad;
     dyn.t_s = t;
-    dynamics_step(truth, dyn, eta, zeta, drive_profile(t + dt), dt, 4);
+    dynamics_step(truth, dyn, eta, zeta, speed(t + dt), dt, 4);
   }
   const auto delay = static_cast<std::size_t>(std::lround(o.pose_delay_s / dt));
   for (std::size_t k = 0; k < n; ++k) {
@@ -161,6 +165,28 @@ TEST_CASE("simulation: the exact model reproduces a noise-free log; segments res
   Prediction pw;
   simulate(wrong.model, d, so, pw);
   CHECK(error_stats(d, pw, one).rms[kX] > 1e-3);
+}
+
+TEST_CASE("simulation: a lagged drive force starts from the speeds before the log, not the first step's") {
+  // The robot rests at t = 0 and its screws step to speed at once (the first row's speed is 0,
+  // the second's is not), as in a gantry run that starts with the log.
+  SynthOptions o;
+  o.pose_noise_m = o.psi_noise_rad = o.imu_noise_rad = 0;
+  o.seconds = 30;
+  o.steps = true;
+  const Model m = make_model(RobotParams{}, kSand,
+                             {EffectRegistry::builtin().entries().at("force_lag").make({0.5, 0.04})});
+  const Dataset d = synth(m, o);
+  REQUIRE(d.omega_rpm[0].norm() == 0);
+  REQUIRE(d.omega_rpm[1].norm() > 10);
+  SimOptions so;
+  so.n_sub = 4;
+  Prediction p;
+  simulate(m, d, so, p);
+  const ErrorStats e = error_stats(d, p, ChannelValues{1, 1, 1, 1});
+  CHECK(e.rms[kX] < 1e-5);
+  CHECK(e.rms[kY] < 1e-5);
+  CHECK(e.rms[kPsi] < 1e-5);
 }
 
 TEST_CASE("compare: a log of the nominal model is at the noise floor; a missing effect is well above") {

@@ -58,34 +58,80 @@ class TractionSaturation final : public Effect {
   double long_max_, lat_max_, p_;
 };
 
-// The drive force builds up with a first-order lag of time constant tau_s (exact for a held
-// input over a step). State: the lagged force (3) and whether it has been initialised (1):
-// a run starts at the steady force of its first screw speeds.
+// The drive force builds up after a dead time delay_s with a first-order lag of time constant
+// tau_s: the first-order-plus-dead-time form, because a build-up with more than one stage (the
+// soil has to shear before the screw's thread bites) looks like a delay followed by its slowest
+// stage; one lag alone leaves the early part of every speed change wrong.
+// The input S B omega is piecewise constant over the steps it is given for; the lag sees its
+// mean over the step delayed by delay_s (exact for any step length; delay_s 0 is the plain lag),
+// then follows it exactly as for a held input. State: [0] initialised, [1] time, [2] the newest
+// stored step, [3..5] the lagged force, then a ring of kSlots steps (start time, force (3)).
+// A run starts at the steady force of its first screw speeds, and before the first step the
+// input is taken to have been that force.
 class ForceLag final : public Effect {
  public:
-  explicit ForceLag(double tau_s) : tau_s_(tau_s) {}
+  static constexpr int kSlots = 128;  // covers delay_s up to its bound (0.2 s) for steps >= 1.6 ms
+  ForceLag(double tau_s, double delay_s) : tau_s_(tau_s), delay_s_(delay_s) {}
   const std::string& id() const override {
     static const std::string s = "force_lag";
     return s;
   }
-  std::vector<std::pair<std::string, double>> params() const override { return {{"tau_s", tau_s_}}; }
-  std::size_t state_size() const override { return 4; }
-  void reset_state(double* state) const override { std::fill(state, state + 4, 0.0); }
+  std::vector<std::pair<std::string, double>> params() const override {
+    return {{"tau_s", tau_s_}, {"delay_s", delay_s_}};
+  }
+  std::size_t state_size() const override { return kHeader + 4 * kSlots; }
+  void reset_state(double* state) const override { std::fill(state, state + state_size(), 0.0); }
   void drive_force(const Model&, const Vec4&, double dt_s, Vec3& tau_n, double* state) const override {
-    if (state[3] == 0) {
-      for (int k = 0; k < 3; ++k) state[k] = tau_n[k];
-      state[3] = 1;
-      return;
+    double* ring = state + kHeader;
+    if (state[0] == 0) {
+      state[0] = 1;
+      state[1] = 0;
+      state[2] = 0;
+      for (int k = 0; k < 3; ++k) state[3 + k] = tau_n[k];
+      for (int j = 0; j < kSlots; ++j) {
+        ring[4 * j] = -1e300;  // "since ever"
+        for (int k = 0; k < 3; ++k) ring[4 * j + 1 + k] = tau_n[k];
+      }
     }
+    const double now_s = state[1];
+    const Vec3 input = delay_s_ > 0 && dt_s > 0 ? delayed_mean(state, ring, tau_n, now_s, dt_s) : tau_n;
+    // Store this step's input, then advance the lag over it.
+    const int head = (static_cast<int>(state[2]) + 1) % kSlots;
+    state[2] = head;
+    ring[4 * head] = now_s;
+    for (int k = 0; k < 3; ++k) ring[4 * head + 1 + k] = tau_n[k];
+    state[1] = now_s + dt_s;
     const double a = tau_s_ > 0 ? std::exp(-dt_s / tau_s_) : 0.0;
     for (int k = 0; k < 3; ++k) {
-      state[k] = a * state[k] + (1.0 - a) * tau_n[k];
-      tau_n[k] = state[k];
+      state[3 + k] = a * state[3 + k] + (1.0 - a) * input[k];
+      tau_n[k] = state[3 + k];
     }
   }
 
  private:
-  double tau_s_;
+  static constexpr int kHeader = 6;
+
+  // Mean of the input over [now - delay, now + dt - delay): stored steps, newest first, and the
+  // current step (which starts at now) when the delay is shorter than the step.
+  Vec3 delayed_mean(const double* state, const double* ring, const Vec3& current, double now_s, double dt_s) const {
+    const double a = now_s - delay_s_, b = a + dt_s;
+    Vec3 sum = Vec3::Zero();
+    if (b > now_s) sum += (b - std::max(a, now_s)) * current;
+    double end_s = now_s;  // end of the step looked at
+    int j = static_cast<int>(state[2]);
+    for (int n = 0; n < kSlots && end_s > a; ++n) {
+      const double* slot = ring + 4 * j;
+      // The oldest slot stands for all time before it (the ring is full or the run just began).
+      const double start_s = n == kSlots - 1 ? -1e300 : slot[0];
+      const double lo = std::max(a, start_s), hi = std::min(b, end_s);
+      if (hi > lo) sum += (hi - lo) * Vec3(slot[1], slot[2], slot[3]);
+      end_s = start_s;
+      j = (j + kSlots - 1) % kSlots;
+    }
+    return sum / dt_s;
+  }
+
+  double tau_s_, delay_s_;
 };
 
 }  // namespace
@@ -135,14 +181,18 @@ void register_drive(EffectRegistry& r) {
            return "each screw's thrust saturates at " + fmt(v[0]) + " N along and " + fmt(v[1]) +
                   " N across the robot: saturation of the traction force";
          }});
-  r.add({"force_lag", "the drive force follows S B omega with a first-order lag tau_s",
-         {{"tau_s", 0, true, "time constant", "s", 0, 3, 0.1}},
+  r.add({"force_lag", "the drive force follows S B omega after a dead time delay_s with a first-order lag tau_s",
+         {{"tau_s", 0, true, "time constant", "s", 0, 3, 0.1},
+          {"delay_s", 0, false, "dead time before the force starts to build up", "s", 0, 0.2, 0.03}},
          [non_negative](const std::vector<double>& v) {
            non_negative(v[0], "tau_s");
-           return std::make_shared<ForceLag>(v[0]);
+           if (!(v[1] >= 0 && v[1] <= 0.2)) throw std::invalid_argument("delay_s must be in [0, 0.2]");
+           return std::make_shared<ForceLag>(v[0], v[1]);
          },
          [](const std::vector<double>& v) {
-           return "the screws' force builds up with a time constant of " + fmt(v[0]) + " s: lag of force build-up";
+           return "the screws' force builds up with a time constant of " + fmt(v[0]) + " s" +
+                  (v[1] > 0 ? " after a dead time of " + fmt(v[1]) + " s" : std::string()) +
+                  ": lag of force build-up";
          }});
 }
 
