@@ -101,12 +101,14 @@ fuzz-smoke: $(FUZZ_BUILD)/fuzz_parser $(FUZZ_BUILD)/corpus
 
 test: deps check-protocol host asan fuzz-smoke board
 	cd $(ASAN_BUILD) && ctest --output-on-failure -L unit -j $(JOBS)
-	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) ctest --output-on-failure
+	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) ctest --output-on-failure -LE long
 
-# Longer suites (docs/benchmarks.md has their times): the parser fuzzer for 5 million inputs,
-# the sand diagonal with the firmware in the loop across the blocking thresholds, and the
-# hidden-effect suite with 10 seeds per effect, at least 9 must pass (docs/workbench-suite.md).
+# Longer suites (docs/benchmarks.md has their times): the tests labelled `long` (flash-all into
+# four simulated modules), the parser fuzzer for 5 million inputs, the sand diagonal with the
+# firmware in the loop across the blocking thresholds, and the hidden-effect suite with 10
+# seeds per effect, at least 9 must pass (docs/workbench-suite.md).
 test-full: test
+	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) ctest --output-on-failure -L long
 	$(MAKE) fuzz FUZZ_RUNS=5000000
 	$(BUILD)/tests/robot/test_robot_fil "[.full]"
 	python3 tests/workbench/hidden/run_hidden.py --auger $(BUILD)/host/auger/auger \
