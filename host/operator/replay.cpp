@@ -233,9 +233,6 @@ int run_replay(int argc, char** argv) {
     }
     std::printf("%s\n", differs ? "DIFFERENT: the replayed controller does not reproduce the log" : "same: the log is reproduced");
     return differs ? 1 : 0;
-  } catch (const UsageError& e) {
-    std::fprintf(stderr, "auger replay: %s\n", e.what());
-    return 2;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "auger replay: %s\n", e.what());
     return 2;

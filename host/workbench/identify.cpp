@@ -66,9 +66,6 @@ int run_identify(int argc, char** argv) {
   try {
     for (const auto& f : files) logs.push_back(read_gantry_data(f));
     results = identify_gantry(logs, options);
-  } catch (const LogError& e) {
-    std::fprintf(stderr, "auger identify: %s\n", e.what());
-    return 2;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "auger identify: %s\n", e.what());
     return 2;

@@ -477,9 +477,6 @@ int run_report(int argc, char** argv) {
       std::printf("auger report: wrote %s (%d plots, %zu sections)\n", page_path.c_str(), n_plots, sections.size());
     }
     return 0;
-  } catch (const PlotError& e) {
-    std::fprintf(stderr, "auger report: %s\n", e.what());
-    return 2;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "auger report: %s\n", e.what());
     return 2;
