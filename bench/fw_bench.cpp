@@ -99,10 +99,11 @@ public:
                                    [](uint32_t v, const Symbol& s) { return v < s.addr; });
         return it == syms_.begin() ? nullptr : &*(it - 1);
     }
+    // By name; LTO may have renamed a static function to name.lto_priv.N.
     const Symbol* find(const std::string& name) const
     {
         for (const auto& s : syms_)
-            if (s.name == name) return &s;
+            if (s.name == name || s.name.rfind(name + ".", 0) == 0) return &s;
         return nullptr;
     }
 

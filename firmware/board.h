@@ -120,6 +120,10 @@ void uart_init(void);
 bool uart_read(uint8_t *byte);
 /* Queue a whole frame or nothing: never blocks. False (and counted) if it did not fit. */
 bool uart_write(const uint8_t *data, uint8_t len);
+/* Room for len bytes in one piece at the ring's head, or NULL (then use uart_write): a frame
+ * encoded in place and committed costs no copy (~280 cycles for a telemetry frame). */
+uint8_t *uart_tx_claim(uint8_t len);
+void uart_tx_commit(uint8_t len); /* after uart_tx_claim(len) and writing len bytes */
 uint16_t uart_rx_overflows(void); /* ring full or hardware overrun, wraps */
 uint16_t uart_tx_dropped(void);
 

@@ -53,6 +53,31 @@ bool uart_write(const uint8_t *data, uint8_t len)
     return true;
 }
 
+uint8_t *uart_tx_claim(uint8_t len)
+{
+    uint8_t head = uart_tx_head;
+    if ((uint16_t)head + len > UART_TX_SIZE && head == uart_tx_tail) {
+        /* Empty (the usual case: a telemetry frame leaves in 1.3 ms of its 10): start over
+         * at the front so that the frame fits in one piece. The ISR has masked itself and
+         * reads tail == head; both move together, with interrupts off. */
+        ATOMIC_BLOCK(ATOMIC_RESTORESTATE)
+        {
+            if (uart_tx_head == uart_tx_tail) uart_tx_head = uart_tx_tail = 0;
+        }
+        head = uart_tx_head;
+    }
+    uint8_t used = (uint8_t)((head - uart_tx_tail) & (UART_TX_SIZE - 1u));
+    if ((uint16_t)used + len > UART_TX_SIZE - 1u || (uint16_t)head + len > UART_TX_SIZE) return 0;
+    return &uart_tx_buf[head];
+}
+
+void uart_tx_commit(uint8_t len)
+{
+    __asm__ __volatile__("" ::: "memory"); /* the bytes are in the ring before head moves */
+    uart_tx_head = (uint8_t)((uart_tx_head + len) & (UART_TX_SIZE - 1u));
+    UCSR0B |= (1 << UDRIE0);
+}
+
 uint16_t uart_rx_overflows(void)
 {
     uint16_t n;

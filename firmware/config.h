@@ -10,7 +10,7 @@
 
 /* ---- firmware identity ---------------------------------------------------------------- */
 #define FW_VERSION_MAJOR 0
-#define FW_VERSION_MINOR 1
+#define FW_VERSION_MINOR 2
 #define FW_VERSION_PATCH 0
 
 /* ---- per-module settings: defaults of the EEPROM settings ------------------------------- */
@@ -75,13 +75,43 @@
 #ifndef CMD_TIMEOUT_MS
 #define CMD_TIMEOUT_MS 250
 #endif
+/* Current foldback (foldback.h): from this pack current up to OVERCURRENT_MA the output is
+ * derated linearly to zero; 0 turns it off. 4.5 A leaves the firmware-in-the-loop loads
+ * above what the heaviest load of the firmware-in-the-loop tests draws (docs/firmware.md). */
+#ifndef FOLDBACK_MA
+#define FOLDBACK_MA 4500
+#endif
+/* Stall detection (safety.h): motor current (pack current / duty) of at least this, with at
+ * least STALL_U_MIN_PCT of the rated voltage on the motor and at most STALL_SPEED_CRPM, for
+ * STALL_TIME_MS in a row, latches PROTO_F_STALL. A locked rotor with a quarter of 12 V draws
+ * 5 A; the free motor 0.5 A, so an encoder that stopped counting is not taken for a stall.
+ * STALL_CURRENT_MA 0 turns it off. */
+#ifndef STALL_CURRENT_MA
+#define STALL_CURRENT_MA 2000
+#endif
+#ifndef STALL_TIME_MS
+#define STALL_TIME_MS 100
+#endif
+#ifndef STALL_U_MIN_PCT
+#define STALL_U_MIN_PCT 25
+#endif
+/* 1 count per 10 ms reads 34 crpm: at most one count per period is "no rotation". */
+#ifndef STALL_SPEED_CRPM
+#define STALL_SPEED_CRPM 50
+#endif
+/* Telemetry every 10, 20, 50 or 100 ms (the control step stays at 10 ms). */
+#ifndef TELEMETRY_PERIOD_MS
+#define TELEMETRY_PERIOD_MS 10
+#endif
 
 /* ---- control loop ------------------------------------------------------------------------- */
 #define TICK_HZ 1000u          /* Timer2 tick: 16 MHz / 128 / 125 */
 #define CONTROL_PERIOD_MS 10u  /* 100 Hz: control step, INA219 cycle, telemetry */
 /* The INA219 cycle starts this many ticks into the period, so its readings are at most
- * (CONTROL_PERIOD_MS - INA_PHASE_MS) ms old when the control step uses them. */
-#define INA_PHASE_MS 5u
+ * (CONTROL_PERIOD_MS - INA_PHASE_MS) ms old when the control step uses them: fresh for the
+ * current foldback, with a millisecond to spare for the longest cycle (five transactions,
+ * 0.75 ms). */
+#define INA_PHASE_MS 8u
 
 /* PID sample time T of eq. (24), in the unit the gains assume (seconds by default). */
 #ifndef PID_T
@@ -118,6 +148,12 @@
 /* Consecutive failed INA219 cycles before PROTO_F_SENSOR latches (one cycle per 10 ms). */
 #ifndef INA_FAIL_CYCLES
 #define INA_FAIL_CYCLES 3
+#endif
+/* The configuration is read back (and the calibration rewritten) every this many cycles,
+ * and at once when the current reads exactly 0 with the motor driven (ina219.c: a reset
+ * chip's current register reads 0). */
+#ifndef INA_VERIFY_CYCLES
+#define INA_VERIFY_CYCLES 10
 #endif
 /* Longest wait for one TWI transaction, ms (a 6-byte transaction takes 0.15 ms at 400 kHz). */
 #define TWI_TIMEOUT_MS 3u
@@ -193,6 +229,25 @@
 #endif
 #if INA_FAIL_CYCLES < 1 || INA_FAIL_CYCLES > 255
 #error "INA_FAIL_CYCLES must be 1..255"
+#endif
+#if INA_VERIFY_CYCLES < 1 || INA_VERIFY_CYCLES > 255
+#error "INA_VERIFY_CYCLES must be 1..255"
+#endif
+#if FOLDBACK_MA != 0 && FOLDBACK_MA >= OVERCURRENT_MA
+#error "FOLDBACK_MA must be 0 (off) or below OVERCURRENT_MA"
+#endif
+#if STALL_CURRENT_MA < 0 || STALL_CURRENT_MA > 32767
+#error "STALL_CURRENT_MA must be 0..32767"
+#endif
+#if STALL_TIME_MS < CONTROL_PERIOD_MS || STALL_TIME_MS > 2550
+#error "STALL_TIME_MS must be 10..2550"
+#endif
+#if STALL_U_MIN_PCT < 1 || STALL_U_MIN_PCT > 100
+#error "STALL_U_MIN_PCT must be 1..100"
+#endif
+#if TELEMETRY_PERIOD_MS != 10 && TELEMETRY_PERIOD_MS != 20 && TELEMETRY_PERIOD_MS != 50 && \
+    TELEMETRY_PERIOD_MS != 100
+#error "TELEMETRY_PERIOD_MS must be 10, 20, 50 or 100"
 #endif
 
 #endif /* AUGER_CONFIG_H */

@@ -53,22 +53,30 @@ ENC_VECT:
     ldi  r31, hi8(enc_isr_table)          ; lo8(enc_isr_table) is 0 (256-aligned)
     lpm  r30, Z                           ; delta: 0, +1, 0xFF or ENC_ILLEGAL (0x80)
     cpi  r30, 0x80
-    breq 2f
+    breq 4f
     lds  r31, enc_isr_count
     add  r31, r30
     sts  enc_isr_count, r31
-    lds  r31, enc_isr_count+1
-    sbrc r30, 7                           ; delta -1: high byte + 0xFF + carry
-    dec  r31                              ; (dec and ldi leave the carry of the add alone)
-    ldi  r30, 0
-    adc  r31, r30
-    sts  enc_isr_count+1, r31
+    ; The high byte changes only when +1 carries out of the low byte or -1 (0xFF) does not:
+    ; one edge in 256. sts keeps the carry of the add.
+    brcs 2f
+    sbrc r30, 7
+    rjmp 3f                               ; -1 without carry: borrow
 1:  in   r31, _SFR_IO_ADDR(ISR_SAVE2)
     out  _SFR_IO_ADDR(SREG), r31
     in   r31, _SFR_IO_ADDR(ISR_SAVE1)
     in   r30, _SFR_IO_ADDR(ISR_SAVE0)
     reti
-2:  lds  r30, enc_isr_illegal
+2:  sbrc r30, 7
+    rjmp 1b                               ; -1 with carry: the high byte stays
+    lds  r31, enc_isr_count+1             ; +1 with carry
+    inc  r31
+    rjmp 5f
+3:  lds  r31, enc_isr_count+1
+    dec  r31
+5:  sts  enc_isr_count+1, r31
+    rjmp 1b
+4:  lds  r30, enc_isr_illegal
     lds  r31, enc_isr_illegal+1
     adiw r30, 1
     sts  enc_isr_illegal+1, r31

@@ -12,10 +12,15 @@ static bool configured;
 /* The chip was found reset this cycle: its current register predates the new calibration
  * (it is updated at the end of a conversion), so this cycle reports no new current. */
 static bool reset_seen;
+static bool have_values;  /* bus voltage and current of this cycle are read */
+static bool checked;      /* the configuration was read back this cycle */
+static bool driven;       /* the motor is driven this cycle */
+static uint8_t since_verify;
+static bool bus_due;      /* the bus voltage is read every other cycle */
 static uint32_t step_start_ms;
 static uint8_t tx[3];
 static uint8_t rx[2];
-static uint16_t bus_reg;
+static uint16_t bus_reg, current_reg;
 static ina_reading_t latest;
 static bool have_new;
 static uint8_t fail_streak;
@@ -25,39 +30,35 @@ static void launch(uint8_t s, uint32_t t_ms)
 {
     step = s;
     step_start_ms = t_ms;
-    bool ok;
+    uint8_t wlen = 1, rlen = 2;
     switch (s) {
     case STEP_CHECK:
         /* A load transient can reset the chip: configuration (range, averaging) and
-         * calibration back to their power-on values. Reading the configuration back each
-         * cycle catches it; the calibration is rewritten anyway (below). */
+         * calibration back to their power-on values (the current then reads 0). */
         tx[0] = INA_REG_CONFIG;
-        ok = twi_start(INA_ADDR, tx, 1, rx, 2);
         break;
     case STEP_CONFIG:
         tx[0] = INA_REG_CONFIG;
         tx[1] = (uint8_t)(INA_CONFIG_VALUE >> 8);
         tx[2] = (uint8_t)(INA_CONFIG_VALUE & 0xFFu);
-        ok = twi_start(INA_ADDR, tx, 3, rx, 0);
+        wlen = 3;
+        rlen = 0;
         break;
     case STEP_CAL:
-        /* Rewritten every cycle: a load transient can reset the chip to cal = 0, which
-         * makes the current register read 0 while the motor is stalled. */
         tx[0] = INA_REG_CAL;
         tx[1] = (uint8_t)(INA_CAL >> 8);
         tx[2] = (uint8_t)(INA_CAL & 0xFFu);
-        ok = twi_start(INA_ADDR, tx, 3, rx, 0);
+        wlen = 3;
+        rlen = 0;
         break;
     case STEP_BUS:
         tx[0] = INA_REG_BUS;
-        ok = twi_start(INA_ADDR, tx, 1, rx, 2);
         break;
     default:
         tx[0] = INA_REG_CURRENT;
-        ok = twi_start(INA_ADDR, tx, 1, rx, 2);
         break;
     }
-    if (!ok) step = STEP_IDLE; /* cannot happen: a cycle owns the bus */
+    if (!twi_start(INA_ADDR, tx, wlen, rx, rlen)) step = STEP_IDLE; /* cannot happen: a cycle owns the bus */
 }
 
 static void fail_cycle(void)
@@ -68,6 +69,16 @@ static void fail_cycle(void)
     if (fail_streak >= INA_FAIL_CYCLES) failure_pending = true;
 }
 
+static void deliver(void)
+{
+    latest.voltage_mv = ina_bus_mv(bus_reg); /* the latest bus reading */
+    if (!reset_seen) latest.current_ma = ina_current_ma(current_reg, CURRENT_LSB_UA);
+    reset_seen = false;
+    have_new = true;
+    fail_streak = 0;
+    step = STEP_IDLE;
+}
+
 void ina_init(void)
 {
     twi_init();
@@ -76,14 +87,30 @@ void ina_init(void)
     fail_streak = 0;
 }
 
-void ina_start_cycle(uint32_t t_ms)
+void ina_start_cycle(uint32_t t_ms, bool motor_driven)
 {
     if (step != STEP_IDLE) {
         /* The previous cycle never finished. */
         twi_abort();
         fail_cycle();
     }
-    launch(configured ? STEP_CHECK : STEP_CONFIG, t_ms);
+    driven = motor_driven;
+    have_values = false;
+    checked = false;
+    if (!configured) {
+        since_verify = 0;
+        launch(STEP_CONFIG, t_ms);
+    } else if (++since_verify >= INA_VERIFY_CYCLES) {
+        since_verify = 0;
+        checked = true;
+        launch(STEP_CHECK, t_ms);
+    } else {
+        /* The battery voltage moves slowly (its sag under a current surge lasts as long as
+         * the surge); 50 Hz serves the duty cap and the 200 ms under-voltage filter, and
+         * saves a transaction (7 interrupts) every other period. */
+        bus_due = !bus_due;
+        launch(bus_due ? STEP_BUS : STEP_CURRENT, t_ms);
+    }
 }
 
 void ina_poll(uint32_t t_ms)
@@ -105,7 +132,10 @@ void ina_poll(uint32_t t_ms)
     switch (step) {
     case STEP_CHECK:
         if ((uint16_t)(((uint16_t)rx[0] << 8) | rx[1]) == INA_CONFIG_VALUE) {
-            launch(STEP_CAL, t_ms);
+            /* Intact: the calibration is rewritten all the same on the periodic check (a
+             * single upset register); after a current of 0 it was right, so deliver. */
+            if (have_values) deliver();
+            else launch(STEP_CAL, t_ms);
         } else {
             reset_seen = true;
             launch(STEP_CONFIG, t_ms);
@@ -116,20 +146,24 @@ void ina_poll(uint32_t t_ms)
         launch(STEP_CAL, t_ms);
         break;
     case STEP_CAL:
-        launch(STEP_BUS, t_ms);
+        if (have_values) deliver();
+        else launch(STEP_BUS, t_ms);
         break;
     case STEP_BUS:
         bus_reg = (uint16_t)(((uint16_t)rx[0] << 8) | rx[1]);
         launch(STEP_CURRENT, t_ms);
         break;
     default:
-        latest.voltage_mv = ina_bus_mv(bus_reg);
-        if (!reset_seen)
-            latest.current_ma = ina_current_ma((uint16_t)(((uint16_t)rx[0] << 8) | rx[1]), CURRENT_LSB_UA);
-        reset_seen = false;
-        have_new = true;
-        fail_streak = 0;
-        step = STEP_IDLE;
+        current_reg = (uint16_t)(((uint16_t)rx[0] << 8) | rx[1]);
+        have_values = true;
+        if (current_reg == 0 && driven && !checked) {
+            /* A reset chip (calibration 0) reads exactly 0: look now, not at the next
+             * periodic check, so a stalled motor is never hidden for long. */
+            checked = true;
+            launch(STEP_CHECK, t_ms);
+        } else {
+            deliver();
+        }
         break;
     }
 }

@@ -1,8 +1,11 @@
 /*
- * INA219 driver: a non-blocking cycle (configuration check, calibration write, bus voltage
- * read, current read)
- * started once per control period and advanced from the main loop over the
- * interrupt-driven TWI master. Every transaction has a timeout.
+ * INA219 driver: a non-blocking cycle (current read, and the bus voltage every other cycle)
+ * started once per control period and advanced from the main loop over the interrupt-driven
+ * TWI master.
+ * Every INA_VERIFY_CYCLES cycles it first reads the configuration back and rewrites the
+ * calibration; a current of exactly 0 with the motor driven (what a chip reset to its
+ * power-on values reads) triggers that check in the same cycle. Every transaction has a
+ * timeout.
  */
 #ifndef AUGER_INA219_H
 #define AUGER_INA219_H
@@ -16,7 +19,8 @@ typedef struct {
 } ina_reading_t;
 
 void ina_init(void);
-void ina_start_cycle(uint32_t t_ms);
+/* motor_driven: a current of 0 would be implausible (a reset chip reads 0). */
+void ina_start_cycle(uint32_t t_ms, bool motor_driven);
 void ina_poll(uint32_t t_ms);
 /* A cycle is in progress (a transaction or its timeout to watch). */
 bool ina_busy(void);

@@ -1,8 +1,9 @@
 /*
  * Motor module main loop: one 1 kHz tick drives everything. Per tick: the command timeout
- * and the INA219 cycle start; every 10 ticks the control step (velocity, PID, PWM,
- * telemetry). Between ticks: received bytes, INA219 progress, EEPROM writes, then sleep.
- * Interrupt handlers only capture; all decisions are taken here.
+ * and the INA219 cycle start; every 10 ticks the control step (velocity, PID with current
+ * foldback, stall detection, PWM, telemetry every telemetry_period_ms). Between ticks:
+ * received bytes, INA219 progress, EEPROM writes, then sleep. Interrupt handlers only
+ * capture; all decisions are taken here.
  */
 #include <avr/interrupt.h>
 #include <string.h>
@@ -12,6 +13,7 @@
 #include "board.h"
 #include "config.h"
 #include "enc.h"
+#include "foldback.h"
 #include "ina219.h"
 #include "pid.h"
 #include "protocol.h"
@@ -25,12 +27,20 @@
 #define _MMCU_ __attribute__((section(".mmcu"), used))
 AVR_MCU(F_CPU, "atmega328p");
 
-#define WDRF_BIT 3 /* MCUSR bit of a watchdog reset */
+#define MCUSR_CAUSES 0x0Fu /* PORF, EXTRF, BORF, WDRF */
+/* Left in .noinit RAM by every run: found at the next boot, RAM outlived the reset. */
+#define RUN_MARKER 0xA55Au
+/* Stack scan (~21 000 cycles) every 10 s: the headroom changes only with new code paths. */
+#define STACK_SCAN_STEPS 1000u
+
+__attribute__((section(".noinit"))) static uint16_t run_marker;
 
 static proto_config_t settings;
-static bool settings_from_eeprom;
+static uint8_t settings_flags; /* PROTO_ID_* */
+static uint8_t reset_cause;    /* PROTO_RC_* */
 static safety_t safety;
 static pid_state_t pid;
+static foldback_t foldback;
 static vel_t vel;
 static enc_extend_t enc_ext;
 static proto_parser_t parser;
@@ -44,9 +54,36 @@ static uint16_t encoder_errors;
 static int16_t duty_x10000;    /* in omega's sign convention */
 static bool duty_limited;
 static ina_reading_t power;
+static int16_t duty_cap_x10000;  /* for power.voltage_mv (a division: only when it changes) */
+static uint16_t cap_voltage_mv;
 static bool eeprom_busy;
 static bool config_report_pending;
-static uint8_t stack_check_steps;
+static uint8_t telemetry_steps;  /* control steps per telemetry frame */
+static uint8_t telemetry_count;
+static uint16_t stack_check_steps;
+
+/* Why this run started: MCUSR (with the watchdog marker, encoder_isr.S); when a bootloader
+ * cleared it, RAM tells a power-on (no marker of a previous run) from a warm reset. */
+static uint8_t decode_reset_cause(void)
+{
+    uint8_t cause = (uint8_t)(fw_reset_cause & MCUSR_CAUSES);
+    if (cause == 0) cause = run_marker == RUN_MARKER ? PROTO_RC_WARM : PROTO_RC_POWER_ON;
+    run_marker = RUN_MARKER;
+    return cause;
+}
+
+/* A frame encoded in place in the TX ring when it fits in one piece, else through a copy. */
+#define SEND_FRAME(len, encode, value)                                    \
+    do {                                                                  \
+        uint8_t *dst_ = uart_tx_claim(len);                               \
+        if (dst_) {                                                       \
+            encode(value, dst_);                                          \
+            uart_tx_commit(len);                                          \
+        } else {                                                          \
+            uint8_t buf_[len];                                            \
+            uart_write(buf_, (uint8_t)encode(value, buf_));               \
+        }                                                                 \
+    } while (0)
 
 static void send_identity(void)
 {
@@ -56,23 +93,31 @@ static void send_identity(void)
     id.fw_major = FW_VERSION_MAJOR;
     id.fw_minor = FW_VERSION_MINOR;
     id.fw_patch = FW_VERSION_PATCH;
-    id.reset_cause = fw_reset_cause;
-    id.flags = settings_from_eeprom ? PROTO_ID_FROM_EEPROM : 0u;
-    uint8_t buf[PROTO_FRAME_SIZE(PROTO_LEN_IDENTITY)];
-    uart_write(buf, (uint8_t)proto_encode_identity(&id, buf));
+    id.reset_cause = reset_cause;
+    id.flags = settings_flags;
+    SEND_FRAME(PROTO_FRAME_SIZE(PROTO_LEN_IDENTITY), proto_encode_identity, &id);
 }
 
 static void send_config_report(void)
 {
-    uint8_t buf[PROTO_FRAME_SIZE(PROTO_LEN_CONFIG_REPORT)];
-    uart_write(buf, (uint8_t)proto_encode_config_report(&settings, buf));
+    SEND_FRAME(PROTO_FRAME_SIZE(PROTO_LEN_CONFIG_REPORT), proto_encode_config_report, &settings);
+}
+
+static void update_duty_cap(void)
+{
+    cap_voltage_mv = power.voltage_mv;
+    duty_cap_x10000 = pid_duty_cap_x10000(settings.motor_rated_mv, cap_voltage_mv);
 }
 
 static void apply_settings(void)
 {
+    update_duty_cap();
     safety_configure(&safety, &settings);
     pid_set_gains(&pid, settings.kp, settings.ki, settings.kd, (float)(PID_T));
+    foldback_configure(&foldback, settings.foldback_ma, settings.overcurrent_ma);
     vel_init(&vel, settings.counts_per_rev_x100, CONTROL_PERIOD_MS);
+    telemetry_steps = (uint8_t)(settings.telemetry_period_ms / CONTROL_PERIOD_MS);
+    telemetry_count = 0;
 }
 
 static void motor_stop(void)
@@ -80,11 +125,45 @@ static void motor_stop(void)
     board_motor_set(0);
     duty_x10000 = 0;
     pid_reset(&pid);
+    foldback_reset(&foldback);
 }
 
-static void stop_if_disabled(void)
+static uint16_t status_word(void)
 {
-    if (duty_x10000 != 0 && !safety_motor_enabled(&safety)) motor_stop();
+    return (uint16_t)(safety_status(&safety) | (settings_flags & PROTO_ID_FROM_EEPROM ? 0u : PROTO_ST_DEFAULTS) |
+                      (duty_limited ? PROTO_ST_DUTY_LIMITED : 0u) | (eeprom_busy ? PROTO_ST_EEPROM_BUSY : 0u) |
+                      (foldback_active(&foldback) ? PROTO_ST_CURRENT_LIMITED : 0u));
+}
+
+/* After anything that can latch a fault: stop the motor, and report new faults once with
+ * what the module measured at that moment (the FAULT frame). The duty is the one applied
+ * until now, so it is taken before the stop. */
+static void after_safety_slow(void)
+{
+    uint16_t fresh = safety_take_new(&safety);
+    if (fresh) {
+        proto_fault_t ft;
+        ft.time_ms = t_ms;
+        ft.faults = fresh;
+        ft.current_ma = power.current_ma;
+        ft.voltage_mv = power.voltage_mv;
+        ft.omega_crpm = omega_crpm;
+        ft.omega_cmd_crpm = omega_sp_crpm;
+        ft.duty_x10000 = duty_x10000;
+        if (duty_x10000 != 0 && !safety_motor_enabled(&safety)) motor_stop();
+        ft.status = status_word();
+        SEND_FRAME(PROTO_FRAME_SIZE(PROTO_LEN_FAULT), proto_encode_fault, &ft);
+    } else if (duty_x10000 != 0 && !safety_motor_enabled(&safety)) {
+        motor_stop();
+    }
+}
+
+/* Called after every safety event on every pass: the common case (nothing new, the motor
+ * as it should be) in a few cycles. */
+__attribute__((always_inline)) static inline void after_safety(void)
+{
+    if (safety.faults != safety.reported || (duty_x10000 != 0 && !safety_motor_enabled(&safety)))
+        after_safety_slow();
 }
 
 static void handle_frame(const proto_frame_t *f)
@@ -99,7 +178,7 @@ static void handle_frame(const proto_frame_t *f)
         if (w > lim) w = lim;
         if (w < -lim) w = (int16_t)-lim;
         omega_sp_crpm = safety_on_setpoint(&safety, sp.flags, t_ms) ? w : 0;
-        stop_if_disabled();
+        after_safety();
         break;
     }
     case PROTO_T_CONFIG: {
@@ -112,7 +191,7 @@ static void handle_frame(const proto_frame_t *f)
             settings_to_image(&settings, image);
             eeprom_write_start(SETTINGS_EEPROM_ADDR, image, SETTINGS_IMAGE_SIZE);
             eeprom_busy = true;
-            settings_from_eeprom = true;
+            settings_flags = PROTO_ID_FROM_EEPROM;
             config_report_pending = true; /* sent when the write has ended */
         } else {
             send_config_report(); /* rejected: the host sees the settings still in use */
@@ -152,13 +231,10 @@ static void send_telemetry(void)
     tm.current_ma = power.current_ma;
     tm.voltage_mv = power.voltage_mv;
     tm.duty_x10000 = duty_x10000;
-    tm.status = (uint16_t)(safety_status(&safety) | (settings_from_eeprom ? 0u : PROTO_ST_DEFAULTS) |
-                           (duty_limited ? PROTO_ST_DUTY_LIMITED : 0u) |
-                           (eeprom_busy ? PROTO_ST_EEPROM_BUSY : 0u));
+    tm.status = status_word();
     tm.rx_errors = (uint16_t)(proto_parser_dropped(&parser) + uart_rx_overflows());
     tm.encoder_errors = encoder_errors;
-    uint8_t buf[PROTO_FRAME_SIZE(PROTO_LEN_TELEMETRY)];
-    uart_write(buf, (uint8_t)proto_encode_telemetry(&tm, buf));
+    SEND_FRAME(PROTO_FRAME_SIZE(PROTO_LEN_TELEMETRY), proto_encode_telemetry, &tm);
 }
 
 /* noinline: a symbol of its own, so the simulator benchmark (bench/fw_bench) can time it
@@ -174,16 +250,26 @@ __attribute__((noinline)) static void control_step(void)
     bool enabled = safety_motor_enabled(&safety);
     duty_limited = false;
     if (enabled) {
-        int16_t cap = pid_duty_cap_x10000(settings.motor_rated_mv, power.voltage_mv);
-        duty_x10000 = pid_step_duty(&pid, (int32_t)omega_sp_crpm - omega_crpm, cap, &duty_limited);
-        board_motor_set(settings.dir_sign < 0 ? (int16_t)-duty_x10000 : duty_x10000);
+        int32_t limit = foldback_update(&foldback, power.current_ma);
+        int32_t u;
+        duty_x10000 = pid_step_duty(&pid, (int32_t)omega_sp_crpm - omega_crpm, duty_cap_x10000, limit,
+                                    &duty_limited, &u);
+        /* the clamp at the foldback limit is the current limit's, not the duty cap's */
+        if (limit < PID_U_ONE && (u == limit || u == -limit)) duty_limited = false;
+        safety_on_step(&safety, u, duty_x10000, omega_crpm, power.current_ma);
+        after_safety();
+        if (duty_x10000 != 0 || safety_motor_enabled(&safety))
+            board_motor_set(settings.dir_sign < 0 ? (int16_t)-duty_x10000 : duty_x10000);
     } else {
         motor_stop();
     }
     board_led(enabled);
-    send_telemetry();
+    if (++telemetry_count >= telemetry_steps) {
+        telemetry_count = 0;
+        send_telemetry();
+    }
 
-    if (++stack_check_steps >= 100u) { /* once a second: the scan costs ~5000 cycles */
+    if (++stack_check_steps >= STACK_SCAN_STEPS) {
         stack_check_steps = 0;
         fw_stack_unused_bytes = board_stack_unused();
     }
@@ -194,12 +280,15 @@ int main(void)
     board_init();
     uart_init();
     ina_init();
+    reset_cause = decode_reset_cause();
 
     uint8_t image[SETTINGS_IMAGE_SIZE];
     eeprom_read_image(SETTINGS_EEPROM_ADDR, image, SETTINGS_IMAGE_SIZE);
-    settings_from_eeprom = settings_from_image(image, &settings);
-    if (!settings_from_eeprom) settings_defaults(&settings);
-    safety_init(&safety, &settings, (fw_reset_cause & (1u << WDRF_BIT)) != 0);
+    enum settings_origin origin = settings_from_image(image, &settings);
+    if (origin != SETTINGS_FROM_IMAGE) settings_defaults(&settings);
+    settings_flags = settings_identity_flags(origin);
+    safety_init(&safety, &settings, (reset_cause & PROTO_RC_WATCHDOG) != 0);
+    safety_take_new(&safety); /* a watchdog fault at boot: the identity says it */
     apply_settings();
     proto_parser_init(&parser);
     uint16_t count, illegal;
@@ -226,44 +315,53 @@ int main(void)
             uint8_t byte;
             while (uart_read(&byte)) {
                 proto_parser_push(&parser, byte);
+                if (parser.need) continue; /* inside a frame's body: nothing to check yet */
                 proto_frame_t frame;
                 while (proto_parser_pop(&parser, &frame)) handle_frame(&frame);
             }
 
-            /* Every millisecond since the last pass, in order (the loop sleeps through the
-             * ticks where none of this can change anything: see due_ms below). */
+            /* The milliseconds since the last pass at once: the loop sleeps through ticks
+             * where nothing can change (due_ms below), so the command timeout and the phase
+             * events fall on the pass that woke for them. */
             uint8_t elapsed = (uint8_t)(now - last_tick);
             last_tick = now;
-            while (elapsed--) {
-                t_ms++;
-                safety_tick(&safety, t_ms);
-                stop_if_disabled();
-                if (++phase_ms == INA_PHASE_MS) ina_start_cycle(t_ms);
-                if (phase_ms >= CONTROL_PERIOD_MS) {
-                    phase_ms = 0;
-                    control_due = true;
-                }
+            t_ms += elapsed;
+            safety_tick(&safety, t_ms);
+            after_safety();
+            uint8_t before = phase_ms;
+            phase_ms = (uint8_t)(phase_ms + elapsed);
+            if (before < INA_PHASE_MS && phase_ms >= INA_PHASE_MS) ina_start_cycle(t_ms, duty_x10000 != 0);
+            if (phase_ms >= CONTROL_PERIOD_MS) {
+                /* (more than a period late only if the loop was held up that long) */
+                while (phase_ms >= CONTROL_PERIOD_MS) phase_ms = (uint8_t)(phase_ms - CONTROL_PERIOD_MS);
+                if (phase_ms >= INA_PHASE_MS) ina_start_cycle(t_ms, duty_x10000 != 0);
+                control_due = true;
             }
 
-            bool busy = eeprom_poll(); /* one byte per tick: a byte takes 3.3 ms anyway */
-            if (eeprom_busy && !busy && config_report_pending) {
-                config_report_pending = false;
-                send_config_report();
+            if (eeprom_busy || config_report_pending) {
+                bool busy = eeprom_poll(); /* one byte per tick: a byte takes 3.3 ms anyway */
+                if (eeprom_busy && !busy && config_report_pending) {
+                    config_report_pending = false;
+                    send_config_report();
+                }
+                eeprom_busy = busy;
             }
-            eeprom_busy = busy;
         }
 
         /* Every pass: a tick, or the end of a TWI transaction (the next one starts now). */
-        ina_poll(t_ms);
-        ina_reading_t r;
-        if (ina_take(&r)) {
-            power = r;
-            safety_on_power(&safety, r.current_ma, r.voltage_mv);
-            stop_if_disabled();
-        }
-        if (ina_take_failure()) {
-            safety_on_sensor_fault(&safety);
-            stop_if_disabled();
+        if (ina_busy()) {
+            ina_poll(t_ms);
+            ina_reading_t r;
+            if (ina_take(&r)) {
+                power = r;
+                if (power.voltage_mv != cap_voltage_mv) update_duty_cap();
+                safety_on_power(&safety, r.current_ma, r.voltage_mv);
+                after_safety();
+            }
+            if (ina_take_failure()) {
+                safety_on_sensor_fault(&safety);
+                after_safety();
+            }
         }
 
         if (control_due) {

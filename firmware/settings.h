@@ -15,7 +15,10 @@
 extern "C" {
 #endif
 
-#define SETTINGS_LAYOUT_VERSION 1u
+/* 1: protocol 1's 32-byte CONFIG payload; 2: protocol 2's 39 bytes (foldback, stall,
+ * telemetry period). An image of another version is not converted: defaults, and the
+ * identity says so (PROTO_ID_SETTINGS_OLD_LAYOUT). */
+#define SETTINGS_LAYOUT_VERSION 2u
 /* version | PROTO_LEN_CONFIG payload bytes | CRC-16 little-endian */
 #define SETTINGS_IMAGE_SIZE (1u + PROTO_LEN_CONFIG + 2u)
 /* EEPROM address of the image: byte 0 is the one most often corrupted by brown-outs. */
@@ -32,14 +35,28 @@ enum settings_error {
     SETTINGS_E_OVERCURRENT,
     SETTINGS_E_UNDERVOLTAGE,
     SETTINGS_E_MOTOR_RATED,
-    SETTINGS_E_TIMEOUT
+    SETTINGS_E_TIMEOUT,
+    SETTINGS_E_FOLDBACK,
+    SETTINGS_E_STALL,
+    SETTINGS_E_TELEMETRY_PERIOD
+};
+
+/* What the EEPROM held at boot. */
+enum settings_origin {
+    SETTINGS_FROM_IMAGE = 0, /* a valid image of this layout: loaded */
+    SETTINGS_EMPTY,          /* erased (every byte 0xFF) */
+    SETTINGS_OLD_LAYOUT,     /* an image of another layout version */
+    SETTINGS_CORRUPT         /* this layout, but a wrong CRC or invalid values */
 };
 
 void settings_defaults(proto_config_t *cfg);
 enum settings_error settings_validate(const proto_config_t *cfg);
 void settings_to_image(const proto_config_t *cfg, uint8_t image[SETTINGS_IMAGE_SIZE]);
-/* True and *cfg filled if the image has the right version and CRC and holds valid settings. */
-bool settings_from_image(const uint8_t image[SETTINGS_IMAGE_SIZE], proto_config_t *cfg);
+/* SETTINGS_FROM_IMAGE and *cfg filled if the image has the right version and CRC and holds
+ * valid settings; otherwise why not (*cfg untouched). */
+enum settings_origin settings_from_image(const uint8_t image[SETTINGS_IMAGE_SIZE], proto_config_t *cfg);
+/* The identity's PROTO_ID_* flags for an origin. */
+uint8_t settings_identity_flags(enum settings_origin origin);
 
 #ifdef __cplusplus
 }

@@ -23,7 +23,12 @@
 extern "C" {
 #endif
 
-#define PROTO_VERSION 1u
+/* Version 2 (issue 16): CONFIG grew (current foldback, stall detection, telemetry period),
+ * the FAULT frame, status bits CURRENT_LIMITED and F_STALL, identity flags for the settings'
+ * origin and the reset cause decoded. A host refuses a module of another version. IDENTITY's
+ * layout is frozen across versions (7 bytes, protocol_version at offset 1), so any host can
+ * read any module's version and say what is wrong. */
+#define PROTO_VERSION 2u
 
 #define PROTO_START0 0xA5u
 #define PROTO_START1 0x5Au
@@ -38,18 +43,20 @@ enum proto_type {
     PROTO_T_REQUEST = 0x03,   /* host -> module: ask for an identity or config report */
     PROTO_T_TELEMETRY = 0x81, /* module -> host, every control period (10 ms) */
     PROTO_T_IDENTITY = 0x82,  /* module -> host, at boot and on request */
-    PROTO_T_CONFIG_REPORT = 0x83 /* module -> host: settings in use, after a config write or on request */
+    PROTO_T_CONFIG_REPORT = 0x83, /* module -> host: settings in use, after a config write or on request */
+    PROTO_T_FAULT = 0x84          /* module -> host: the values at the moment a fault latched */
 };
 
 /* Fixed payload length of each type. */
 #define PROTO_LEN_SETPOINT 5u
-#define PROTO_LEN_CONFIG 32u
+#define PROTO_LEN_CONFIG 39u
 #define PROTO_LEN_REQUEST 1u
 #define PROTO_LEN_TELEMETRY 26u
-#define PROTO_LEN_IDENTITY 7u
+#define PROTO_LEN_IDENTITY 7u /* frozen: every protocol version */
 #define PROTO_LEN_CONFIG_REPORT PROTO_LEN_CONFIG
+#define PROTO_LEN_FAULT 18u
 
-#define PROTO_MAX_PAYLOAD 32u
+#define PROTO_MAX_PAYLOAD 39u
 #define PROTO_MAX_FRAME (PROTO_OVERHEAD + PROTO_MAX_PAYLOAD)
 #define PROTO_FRAME_SIZE(payload_len) (PROTO_OVERHEAD + (payload_len))
 
@@ -80,6 +87,11 @@ typedef struct {
     uint16_t undervoltage_hyst_mv; /* ... and allow enable again only above this much more */
     uint16_t motor_rated_mv;       /* duty cap = motor_rated_mv / battery voltage */
     uint16_t cmd_timeout_ms;       /* stop when no valid setpoint for this long */
+    uint16_t foldback_ma;          /* from this current up to overcurrent_ma the duty is derated
+                                      linearly to 0 (0: no foldback) */
+    uint16_t stall_current_ma;     /* STALL: motor current at least this (0: no detection) ... */
+    uint16_t stall_time_ms;        /* ... with voltage on the motor and no rotation, this long */
+    uint8_t telemetry_period_ms;   /* 10, 20, 50 or 100 */
 } proto_config_t;
 
 typedef struct {
@@ -95,11 +107,13 @@ typedef struct {
 #define PROTO_ST_DEFAULTS 0x0004u     /* EEPROM empty or invalid: build defaults in use */
 #define PROTO_ST_DUTY_LIMITED 0x0008u /* PID output at the duty cap (saturated) */
 #define PROTO_ST_EEPROM_BUSY 0x0010u  /* a config write is in progress */
+#define PROTO_ST_CURRENT_LIMITED 0x0020u /* current foldback derates the duty */
 #define PROTO_F_CMD_TIMEOUT 0x0100u   /* no valid setpoint for cmd_timeout_ms while enabled */
 #define PROTO_F_OVERCURRENT 0x0200u   /* overcurrent_samples readings >= overcurrent_ma */
 #define PROTO_F_UNDERVOLTAGE 0x0400u  /* battery below undervoltage_mv */
 #define PROTO_F_SENSOR 0x0800u        /* INA219 did not answer in time */
 #define PROTO_F_WATCHDOG 0x1000u      /* the module was reset by its watchdog */
+#define PROTO_F_STALL 0x2000u         /* voltage on the motor, current drawn, no rotation */
 #define PROTO_F_MASK 0xFF00u
 
 typedef struct {
@@ -120,11 +134,38 @@ typedef struct {
     uint8_t module_id;
     uint8_t protocol_version; /* PROTO_VERSION of the firmware */
     uint8_t fw_major, fw_minor, fw_patch;
-    uint8_t reset_cause; /* MCUSR at boot: bit0 power-on, 1 external, 2 brown-out, 3 watchdog */
-    uint8_t flags;       /* bit0: settings came from EEPROM (else build defaults) */
+    uint8_t reset_cause; /* PROTO_RC_*: why the module last started */
+    uint8_t flags;       /* PROTO_ID_*: where its settings came from */
 } proto_identity_t;
 
+/* Identity flags. Without FROM_EEPROM the build defaults are in use: the EEPROM was empty,
+ * or held an image of another layout (OLD_LAYOUT) or a corrupt one (CORRUPT). */
 #define PROTO_ID_FROM_EEPROM 0x01u
+#define PROTO_ID_SETTINGS_OLD_LAYOUT 0x02u
+#define PROTO_ID_SETTINGS_CORRUPT 0x04u
+
+/* Reset cause: bits 0..3 are the ATmega328P's MCUSR flags at boot; a bootloader (Optiboot
+ * 4.4) clears MCUSR before the firmware runs, so the firmware adds what RAM still tells:
+ * WATCHDOG from a marker its watchdog interrupt leaves, POWER_ON when RAM held no marker of a
+ * previous run, WARM when it did but MCUSR was cleared (an external reset or a brown-out
+ * through the bootloader; docs/firmware.md). */
+#define PROTO_RC_POWER_ON 0x01u
+#define PROTO_RC_EXTERNAL 0x02u
+#define PROTO_RC_BROWN_OUT 0x04u
+#define PROTO_RC_WATCHDOG 0x08u
+#define PROTO_RC_WARM 0x10u
+
+/* Sent once when faults latch: what the module measured at that moment. */
+typedef struct {
+    uint32_t time_ms;       /* module clock at the trip */
+    uint16_t faults;        /* the PROTO_F_* bits that latched now */
+    uint16_t status;        /* the whole status word after the trip */
+    int16_t current_ma;     /* the INA219 reading of the trip (or the latest one) */
+    uint16_t voltage_mv;
+    int16_t omega_crpm;     /* measured speed, 0.01 rpm */
+    int16_t omega_cmd_crpm; /* setpoint in use, 0.01 rpm */
+    int16_t duty_x10000;    /* duty applied until the trip */
+} proto_fault_t;
 
 /* ---- CRC ----------------------------------------------------------------------------- */
 
@@ -141,6 +182,7 @@ size_t proto_encode_config_report(const proto_config_t *cfg, uint8_t *out);
 size_t proto_encode_request(const proto_request_t *rq, uint8_t *out);
 size_t proto_encode_telemetry(const proto_telemetry_t *tm, uint8_t *out);
 size_t proto_encode_identity(const proto_identity_t *id, uint8_t *out);
+size_t proto_encode_fault(const proto_fault_t *ft, uint8_t *out);
 
 /* Payload length a type must have, or 0 for an unknown type. */
 uint8_t proto_payload_len(uint8_t type);
@@ -161,6 +203,7 @@ bool proto_decode_config_report(const proto_frame_t *f, proto_config_t *out);
 bool proto_decode_request(const proto_frame_t *f, proto_request_t *out);
 bool proto_decode_telemetry(const proto_frame_t *f, proto_telemetry_t *out);
 bool proto_decode_identity(const proto_frame_t *f, proto_identity_t *out);
+bool proto_decode_fault(const proto_frame_t *f, proto_fault_t *out);
 
 /* Byte-at-a-time parser; no allocation, PROTO_MAX_FRAME bytes of state.
  * After a frame fails its header or CRC check, the bytes after its first start byte are
@@ -169,6 +212,7 @@ bool proto_decode_identity(const proto_frame_t *f, proto_identity_t *out);
 typedef struct {
     uint8_t buf[PROTO_MAX_FRAME];
     uint8_t n; /* bytes in buf */
+    uint8_t need; /* bytes still to come before pop has anything to check (0: check now) */
     uint16_t frames_ok;
     uint16_t crc_errors;      /* candidate frames with a good header and a bad CRC */
     uint16_t header_errors;   /* start bytes followed by an unknown type or wrong length */

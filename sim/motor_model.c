@@ -44,6 +44,8 @@ void motor_model_init(motor_model_t *m, const motor_params_t *p)
 	m->omega_rad_s = 0;
 	m->current_a = 0;
 	m->load_nm = 0;
+	m->load_viscous_nm_per_rpm = 0;
+	m->locked = 0;
 }
 
 static double sgn(double x)
@@ -58,6 +60,9 @@ void motor_model_step(motor_model_t *m, double v_motor, double dt_s)
 	const double r = p->resistance_ohm;
 	const double j = p->inertia_kg_m2;
 	const double load_m = m->load_nm / (p->gear_ratio * p->gear_efficiency);
+	/* the passive load as a viscous term at the motor shaft: T_out = b omega_out_rpm */
+	const double viscous = p->viscous_nm_s_per_rad + m->load_viscous_nm_per_rpm * RPM_PER_RAD_S /
+			(p->gear_ratio * p->gear_ratio * p->gear_efficiency);
 	const double w = m->omega_rad_s;
 	double w_new;
 
@@ -71,7 +76,7 @@ void motor_model_step(motor_model_t *m, double v_motor, double dt_s)
 			w_new = 0; /* static friction holds */
 		} else {
 			double dir = w != 0 ? sgn(w) : sgn(drive);
-			w_new = w + dt_s / j * (drive - p->viscous_nm_s_per_rad * w - p->coulomb_nm * dir);
+			w_new = w + dt_s / j * (drive - viscous * w - p->coulomb_nm * dir);
 			if (w != 0 && sgn(w_new) != sgn(w))
 				w_new = 0;
 		}
@@ -83,13 +88,17 @@ void motor_model_step(motor_model_t *m, double v_motor, double dt_s)
 			w_new = 0;
 		} else {
 			double dir = w != 0 ? sgn(w) : sgn(drive0);
-			double damp = p->viscous_nm_s_per_rad + k * k / r;
+			double damp = viscous + k * k / r;
 			w_new = (w + dt_s / j * (drive0 - p->coulomb_nm * dir)) / (1.0 + dt_s / j * damp);
 			if (w != 0 && sgn(w_new) != sgn(w))
 				w_new = 0;
 		}
+		if (m->locked)
+			w_new = 0;
 		m->current_a = (v_motor - k * w_new) / r;
 	}
+	if (m->locked)
+		w_new = 0;
 	m->angle_rad += 0.5 * (w + w_new) * dt_s;
 	m->omega_rad_s = w_new;
 }

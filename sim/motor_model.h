@@ -38,6 +38,8 @@ typedef struct motor_model_t {
 	double omega_rad_s;    /* motor shaft speed */
 	double current_a;      /* armature current, sign of the motor's positive direction */
 	double load_nm;        /* load torque on the screw (output), opposes positive rotation */
+	double load_viscous_nm_per_rpm; /* passive load on the screw: opposes its speed (tests) */
+	int locked;            /* the screw cannot turn (a rotor held in rock; tests) */
 } motor_model_t;
 
 /* The defaults of docs/simulator.md, derived. */

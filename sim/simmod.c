@@ -20,6 +20,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "avr_eeprom.h"
 #include "avr_extint.h"
 #include "avr_ioport.h"
 #include "avr_uart.h"
@@ -878,6 +879,25 @@ void simmod_ina219_glitch(simmod_t *sim, int module)
 	ina219_power_on_reset(&sim->mod[module]->ina);
 }
 
+uint16_t simmod_ina219_register(const simmod_t *sim, int module, uint8_t reg)
+{
+	ina219_regs_t r = sim->mod[module]->ina.regs; /* a copy: reading power clears CNVR */
+	return ina219_regs_read(&r, reg);
+}
+
+void simmod_lock_shaft(simmod_t *sim, int module, int locked)
+{
+	motor_model_t *mm = &sim->mod[module]->motor.model;
+	mm->locked = locked != 0;
+	if (mm->locked)
+		mm->omega_rad_s = 0;
+}
+
+void simmod_set_load_viscous(simmod_t *sim, int module, double nm_per_rpm)
+{
+	sim->mod[module]->motor.model.load_viscous_nm_per_rpm = nm_per_rpm;
+}
+
 void simmod_set_uart_callback(simmod_t *sim, simmod_uart_cb_t cb, void *ctx)
 {
 	sim->cb = cb;
@@ -905,6 +925,42 @@ const char *simmod_pty_link(const simmod_t *sim, int module)
 void simmod_reset(simmod_t *sim, int module)
 {
 	module_reset(sim->mod[module], MCUSR_EXTRF);
+}
+
+void simmod_reset_as(simmod_t *sim, int module, uint8_t mcusr, int power_lost)
+{
+	module_t *m = sim->mod[module];
+	if (power_lost && m->alive) {
+		/* SRAM after a power loss holds no trace of the previous run */
+		uint32_t x = 0x9E3779B9u;
+		for (uint32_t a = m->avr->ioend + 1; a <= m->avr->ramend; a++) {
+			x ^= x << 13;
+			x ^= x >> 17;
+			x ^= x << 5;
+			m->avr->data[a] = (uint8_t)x;
+		}
+	}
+	module_reset(m, mcusr);
+}
+
+static int eeprom_access(simmod_t *sim, int module, uint16_t addr, uint8_t *data, size_t len, uint32_t ioctl)
+{
+	avr_t *avr = sim->mod[module]->avr;
+	if (len == 0 || (uint32_t)addr + len > (uint32_t)avr->e2end + 1)
+		return -1;
+	avr_eeprom_desc_t d = { data, addr, (uint32_t)len };
+	avr_ioctl(avr, ioctl, &d); /* simavr 1.6 returns -1 for a successful GET */
+	return 0;
+}
+
+int simmod_eeprom_write(simmod_t *sim, int module, uint16_t addr, const uint8_t *data, size_t len)
+{
+	return eeprom_access(sim, module, addr, (uint8_t *)(uintptr_t)data, len, AVR_IOCTL_EEPROM_SET);
+}
+
+int simmod_eeprom_read(simmod_t *sim, int module, uint16_t addr, uint8_t *data, size_t len)
+{
+	return eeprom_access(sim, module, addr, data, len, AVR_IOCTL_EEPROM_GET);
 }
 
 int simmod_stack_headroom(const simmod_t *sim, int module, uint8_t paint_byte)

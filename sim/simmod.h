@@ -85,6 +85,13 @@ void simmod_set_battery_soc(simmod_t *sim, int module, double soc);
 int64_t simmod_encoder_count(const simmod_t *sim, int module);
 /* Reset the INA219 as a supply glitch would (config and calibration lost). */
 void simmod_ina219_glitch(simmod_t *sim, int module);
+/* A register of the simulated INA219 as the chip holds it (INA219_REG_*). */
+uint16_t simmod_ina219_register(const simmod_t *sim, int module, uint8_t reg);
+/* Hold the screw still (a rotor locked in rock) or let it go. */
+void simmod_lock_shaft(simmod_t *sim, int module, int locked);
+/* A passive load on the screw, N m per rpm, opposing its rotation (added to the load torque):
+ * unlike a load torque it never drives the screw backwards. */
+void simmod_set_load_viscous(simmod_t *sim, int module, double nm_per_rpm);
 
 /* ---- UART ---- */
 void simmod_set_uart_callback(simmod_t *sim, simmod_uart_cb_t cb, void *ctx);
@@ -98,6 +105,14 @@ const char *simmod_pty_link(const simmod_t *sim, int module);
 /* ---- AVR ---- */
 /* External reset (as the reset pin or DTR): MCUSR.EXTRF set. */
 void simmod_reset(simmod_t *sim, int module);
+/* A reset that leaves MCUSR as given (0x01 power-on, 0x02 external, 0x04 brown-out, 0x08
+ * watchdog; 0: as a bootloader that cleared it leaves it). power_lost: the supply went away,
+ * so RAM comes back as noise (a fixed pattern), else RAM keeps its contents. */
+void simmod_reset_as(simmod_t *sim, int module, uint8_t mcusr, int power_lost);
+/* The module's EEPROM (1 KiB on the ATmega328P): bytes written or read directly, as a
+ * programmer would (e.g. a settings image of an older layout). 0, or -1 out of range. */
+int simmod_eeprom_write(simmod_t *sim, int module, uint16_t addr, const uint8_t *data, size_t len);
+int simmod_eeprom_read(simmod_t *sim, int module, uint16_t addr, uint8_t *data, size_t len);
 /* Stack headroom: longest run of the paint byte between the end of .bss and the stack
  * pointer, in bytes; -1 if the ELF has no __bss_end/_end symbol. */
 int simmod_stack_headroom(const simmod_t *sim, int module, uint8_t paint_byte);

@@ -65,6 +65,7 @@ struct Module {
   double reopen_at_s = 0;    // next reopen attempt after a port failure
   double request_at_s = 0;   // next identity request after a reopen
   uint16_t seq = 0;          // next setpoint sequence number
+  uint8_t telemetry_period_ms = 10;  // the module's setting (CONFIG_REPORT): augerd follows it
   bool clearing = false;     // CLEAR_FAULTS is sent until the module acknowledges clear_seq
   uint16_t clear_seq = 0;
 };
@@ -160,13 +161,15 @@ class Daemon {
   std::array<double, 4> last_cmd_rpm_{};
 };
 
-void Daemon::open_modules() {
-  std::array<std::unique_ptr<auger::io::ModuleLink>, 4> links;
-  // Open every port first: each open resets its module (DTR), so they boot in parallel.
-  for (std::size_t i = 0; i < 4; ++i) links[i] = std::make_unique<auger::io::ModuleLink>(cfg_.ports[i], cfg_.baud);
-  std::array<std::optional<proto_identity_t>, 4> ids;
+using Links = std::array<std::unique_ptr<auger::io::ModuleLink>, 4>;
+
+// Pumps the four links until each has sent a frame `decode` accepts (into T), or throws after
+// timeout_s naming the ports and `what`; `between(waited_s, got)` runs between rounds.
+template <typename T, typename Decode, typename Between>
+std::array<T, 4> collect_frames(Links& links, const std::array<std::string, 4>& ports, double timeout_s,
+                                const std::string& what, Decode decode, Between between) {
+  std::array<std::optional<T>, 4> got;
   const double start = clock_s(CLOCK_MONOTONIC);
-  bool asked = false;
   std::vector<proto_frame_t> frames;
   for (;;) {
     bool all = true;
@@ -174,39 +177,54 @@ void Daemon::open_modules() {
       frames.clear();
       links[i]->pump(frames);
       for (const auto& f : frames) {
-        proto_identity_t id;
-        if (!ids[i] && proto_decode_identity(&f, &id)) ids[i] = id;
+        T v;
+        if (!got[i] && decode(&f, &v)) got[i] = v;
       }
-      all = all && ids[i];
+      all = all && got[i];
     }
     if (all) break;
     const double waited = clock_s(CLOCK_MONOTONIC) - start;
-    // A module that was not reset by the open (no DTR) never sends one by itself: ask late,
-    // after the bootloader's time, so the request does not go to the bootloader.
-    if (!asked && waited > 0.75 * cfg_.identity_timeout_s) {
-      for (std::size_t i = 0; i < 4; ++i)
-        if (!ids[i]) {
-          uint8_t buf[PROTO_MAX_FRAME];
-          proto_request_t rq{PROTO_T_IDENTITY};
-          links[i]->send_frame(buf, proto_encode_request(&rq, buf));
-        }
-      asked = true;
-    }
-    if (waited > cfg_.identity_timeout_s) {
+    between(waited, got);
+    if (waited > timeout_s) {
       std::string missing;
       for (std::size_t i = 0; i < 4; ++i)
-        if (!ids[i]) missing += " " + cfg_.ports[i];
-      throw std::runtime_error("no identity frame within " + std::to_string(cfg_.identity_timeout_s) +
-                               " s from the module(s) on" + missing + " (powered? right port and baud?)");
+        if (!got[i]) missing += " " + ports[i];
+      throw std::runtime_error("no " + what + " within " + std::to_string(timeout_s) + " s from the module(s) on" +
+                               missing + " (powered? right port and baud?)");
     }
     usleep(2000);
   }
+  std::array<T, 4> out;
+  for (std::size_t i = 0; i < 4; ++i) out[i] = *got[i];
+  return out;
+}
+
+// REQUEST frame; timeout_s 0 in the loop: never wait for room in the port.
+void request(auger::io::ModuleLink& link, uint8_t what, double timeout_s = 1.0) {
+  uint8_t buf[PROTO_MAX_FRAME];
+  proto_request_t rq{what};
+  link.send_frame(buf, proto_encode_request(&rq, buf), timeout_s);
+}
+
+void Daemon::open_modules() {
+  Links links;
+  // Open every port first: each open resets its module (DTR), so they boot in parallel.
+  for (std::size_t i = 0; i < 4; ++i) links[i] = std::make_unique<auger::io::ModuleLink>(cfg_.ports[i], cfg_.baud);
+  bool asked = false;
+  const auto ids = collect_frames<proto_identity_t>(
+      links, cfg_.ports, cfg_.identity_timeout_s, "identity frame", proto_decode_identity,
+      [&](double waited, const std::array<std::optional<proto_identity_t>, 4>& got) {
+        // A module that was not reset by the open (no DTR) never sends one by itself: ask
+        // late, after the bootloader's time, so the request does not go to the bootloader.
+        if (asked || waited <= 0.75 * cfg_.identity_timeout_s) return;
+        for (std::size_t i = 0; i < 4; ++i)
+          if (!got[i]) request(*links[i], PROTO_T_IDENTITY);
+        asked = true;
+      });
   std::array<int, 4> port_of_id{-1, -1, -1, -1};
   for (std::size_t i = 0; i < 4; ++i) {
-    const proto_identity_t& id = *ids[i];
-    if (id.protocol_version != PROTO_VERSION)
-      throw std::runtime_error(cfg_.ports[i] + ": module speaks protocol " + std::to_string(id.protocol_version) +
-                               ", augerd " + std::to_string(PROTO_VERSION));
+    const proto_identity_t& id = ids[i];
+    auger::io::require_protocol(id, cfg_.ports[i], "augerd");
     if (id.module_id > 3)
       throw std::runtime_error(cfg_.ports[i] + ": module id " + std::to_string(id.module_id) +
                                " is not a screw index 0..3 (set it with auger-module PORT set id=N)");
@@ -215,6 +233,10 @@ void Daemon::open_modules() {
                                cfg_.ports[std::size_t(port_of_id[id.module_id])] + " and " + cfg_.ports[i]);
     port_of_id[id.module_id] = int(i);
   }
+  // Each module's telemetry period (its settings): the no-telemetry timeout follows it.
+  for (auto& link : links) request(*link, PROTO_T_CONFIG_REPORT);
+  const auto cfgs = collect_frames<proto_config_t>(links, cfg_.ports, cfg_.identity_timeout_s, "settings report",
+                                                   proto_decode_config_report, [](double, const auto&) {});
   // Four ports with four distinct ids in 0..3: every id is present.
   const double now = clock_s(CLOCK_MONOTONIC);
   for (std::size_t k = 0; k < 4; ++k) {
@@ -222,12 +244,24 @@ void Daemon::open_modules() {
     Module& m = modules_[k];
     m.port = cfg_.ports[i];
     m.link = std::move(links[i]);
-    m.identity = *ids[i];
+    m.identity = ids[i];
     m.identified = true;
+    m.telemetry_period_ms = cfgs[i].telemetry_period_ms;
     m.last_valid_s = now;  // converted to loop time in run()
-    std::fprintf(stderr, "augerd: module %zu on %s (firmware %u.%u.%u, reset cause 0x%02x)\n", k, m.port.c_str(),
-                 m.identity.fw_major, m.identity.fw_minor, m.identity.fw_patch, m.identity.reset_cause);
+    std::fprintf(stderr,
+                 "augerd: module %zu on %s (firmware %u.%u.%u, protocol %u, telemetry every %u ms, settings from %s, "
+                 "last reset: %s)\n",
+                 k, m.port.c_str(), m.identity.fw_major, m.identity.fw_minor, m.identity.fw_patch,
+                 m.identity.protocol_version, m.telemetry_period_ms,
+                 auger::io::settings_origin_text(m.identity.flags).c_str(),
+                 auger::io::reset_cause_text(m.identity.reset_cause).c_str());
   }
+}
+
+// No valid telemetry this long: the module is lost. The configured timeout, or two of the
+// module's telemetry periods and a control period, whichever is longer.
+double telemetry_timeout_s(const DaemonConfig& cfg, const Module& m) {
+  return std::max(cfg.telemetry_timeout_s, (2.0 * m.telemetry_period_ms + 10.0) / 1000.0);
 }
 
 // ---- log ----
@@ -447,7 +481,20 @@ void Daemon::pump(Module& m, int index) {
   for (const auto& f : frames) {
     proto_identity_t id;
     proto_telemetry_t tm;
-    if (proto_decode_identity(&f, &id)) {
+    proto_config_t cfg;
+    proto_fault_t ft;
+    if (proto_decode_fault(&f, &ft)) {
+      // The module's own record of a trip: what it measured at that moment (the telemetry
+      // that reports the fault bit follows, and check_safety stops the robot on it).
+      const std::string text = auger::io::fault_snapshot_text(ft);
+      std::fprintf(stderr, "augerd: t=%.3f s: module %d (%s): %s\n", t_s_, index, m.port.c_str(), text.c_str());
+      event(index, "fault-snapshot", text);
+    } else if (proto_decode_config_report(&f, &cfg)) {
+      if (cfg.telemetry_period_ms != m.telemetry_period_ms)
+        event(index, "telemetry-period", "the module sends telemetry every " + std::to_string(cfg.telemetry_period_ms) +
+                                             " ms; augerd follows it");
+      m.telemetry_period_ms = cfg.telemetry_period_ms;
+    } else if (proto_decode_identity(&f, &id)) {
       if (id.module_id != index) {
         m.link.reset();
         m.lost = true;
@@ -457,11 +504,17 @@ void Daemon::pump(Module& m, int index) {
       }
       if (m.identified) {
         // An identity frame nobody asked for: the module has rebooted (power, watchdog).
-        fault(index, "reset", "the module reset (reset cause 0x" + std::to_string(id.reset_cause) + ")");
+        fault(index, "reset", "the module reset; last reset: " + auger::io::reset_cause_text(id.reset_cause) +
+                                  ", settings from " + auger::io::settings_origin_text(id.flags));
       }
       m.identified = true;
       m.identity = id;
       m.have_tm = false;  // its clock restarted: the next telemetry is not "older"
+      // Its settings may be others now (defaults after a corrupt EEPROM): the telemetry period.
+      try {
+        request(*m.link, PROTO_T_CONFIG_REPORT, 0.0);
+      } catch (const std::exception&) {
+      }
     } else if (proto_decode_telemetry(&f, &tm) && m.identified) {
       // Key on the module's clock: a frame not newer than the last one is stale or repeated.
       if (m.have_tm) {
@@ -478,10 +531,8 @@ void Daemon::pump(Module& m, int index) {
     }
   }
   if (m.link && !m.identified && t_s_ >= m.request_at_s) {
-    uint8_t buf[PROTO_MAX_FRAME];
-    proto_request_t rq{PROTO_T_IDENTITY};
     try {
-      m.link->send_frame(buf, proto_encode_request(&rq, buf), 0.0);
+      request(*m.link, PROTO_T_IDENTITY, 0.0);
     } catch (const std::exception&) {
     }
     m.request_at_s = t_s_ + 0.5;
@@ -496,7 +547,7 @@ void Daemon::check_safety() {
       std::fprintf(stderr, "augerd: t=%.3f s: module %d answers again; stays stopped until `enable`\n", t_s_, i);
       event(i, "answers-again", "stays stopped until enable");
     }
-    if (!m.lost && m.link && t_s_ - m.last_valid_s > cfg_.telemetry_timeout_s) {
+    if (!m.lost && m.link && t_s_ - m.last_valid_s > telemetry_timeout_s(cfg_, m)) {
       m.lost = true;
       const int ms = int(std::lround(1000 * (t_s_ - m.last_valid_s)));
       const uint64_t garbage = m.link->bytes_received() - m.bytes_at_valid;

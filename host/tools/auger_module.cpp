@@ -7,6 +7,7 @@
 //   auger-module PORT set KEY=VALUE...     keys: see usage()
 //   options: --baud N (default 250000), --timeout S (identity wait, default 4)
 #include "module_link.hpp"
+#include "status_text.hpp"
 
 #include <cerrno>
 #include <cmath>
@@ -31,7 +32,9 @@ void usage(FILE* out)
                  "  id=0..255  dir=+1|-1  counts_per_rev=COUNTS (X4 counts per screw turn)\n"
                  "  kp=X ki=X kd=X (velocity PID, docs/firmware.md units)\n"
                  "  omega_max_rpm=X  overcurrent_a=X  overcurrent_samples=N\n"
-                 "  undervoltage_v=X  undervoltage_hyst_v=X  motor_rated_v=X  cmd_timeout_ms=N\n");
+                 "  undervoltage_v=X  undervoltage_hyst_v=X  motor_rated_v=X  cmd_timeout_ms=N\n"
+                 "  foldback_a=X (0: off)  stall_current_a=X (0: off)  stall_time_ms=N\n"
+                 "  telemetry_period_ms=10|20|50|100\n");
 }
 
 [[noreturn]] void bad_arg(const std::string& arg, const std::string& why)
@@ -82,6 +85,13 @@ void apply(proto_config_t& c, const std::string& arg)
         {"undervoltage_hyst_v", [&] { c.undervoltage_hyst_mv = in_range<uint16_t>(arg, x * 1000, 0, 65535); }},
         {"motor_rated_v", [&] { c.motor_rated_mv = in_range<uint16_t>(arg, x * 1000, 1, 65535); }},
         {"cmd_timeout_ms", [&] { c.cmd_timeout_ms = in_range<uint16_t>(arg, x, 1, 65535); }},
+        {"foldback_a", [&] { c.foldback_ma = in_range<uint16_t>(arg, x * 1000, 0, 65535); }},
+        {"stall_current_a", [&] { c.stall_current_ma = in_range<uint16_t>(arg, x * 1000, 0, 32767); }},
+        {"stall_time_ms", [&] { c.stall_time_ms = in_range<uint16_t>(arg, x, 10, 2550); }},
+        {"telemetry_period_ms", [&] {
+             if (x != 10 && x != 20 && x != 50 && x != 100) bad_arg(arg, "must be 10, 20, 50 or 100");
+             c.telemetry_period_ms = uint8_t(x);
+         }},
     };
     auto it = keys.find(key);
     if (it == keys.end()) bad_arg(arg, "unknown key '" + key + "'");
@@ -90,21 +100,22 @@ void apply(proto_config_t& c, const std::string& arg)
 
 void print_identity(const std::string& port, const proto_identity_t& id)
 {
-    std::printf("%s: module %u, firmware %u.%u.%u, protocol %u, settings from %s, reset cause 0x%02x\n",
-                port.c_str(), id.module_id, id.fw_major, id.fw_minor, id.fw_patch,
-                id.protocol_version, (id.flags & PROTO_ID_FROM_EEPROM) ? "EEPROM" : "build defaults",
-                id.reset_cause);
+    std::printf("%s: module %u, firmware %u.%u.%u, protocol %u, settings from %s, last reset: %s\n",
+                port.c_str(), id.module_id, id.fw_major, id.fw_minor, id.fw_patch, id.protocol_version,
+                auger::io::settings_origin_text(id.flags).c_str(), auger::io::reset_cause_text(id.reset_cause).c_str());
 }
 
 void print_config(const proto_config_t& c)
 {
     std::printf("id=%u dir=%+d counts_per_rev=%.2f kp=%g ki=%g kd=%g omega_max_rpm=%.2f "
                 "overcurrent_a=%.3f overcurrent_samples=%u undervoltage_v=%.3f "
-                "undervoltage_hyst_v=%.3f motor_rated_v=%.3f cmd_timeout_ms=%u\n",
+                "undervoltage_hyst_v=%.3f motor_rated_v=%.3f cmd_timeout_ms=%u foldback_a=%.3f "
+                "stall_current_a=%.3f stall_time_ms=%u telemetry_period_ms=%u\n",
                 c.module_id, c.dir_sign, c.counts_per_rev_x100 / 100.0, double(c.kp), double(c.ki),
                 double(c.kd), c.omega_max_crpm / 100.0, c.overcurrent_ma / 1000.0,
                 c.overcurrent_samples, c.undervoltage_mv / 1000.0, c.undervoltage_hyst_mv / 1000.0,
-                c.motor_rated_mv / 1000.0, c.cmd_timeout_ms);
+                c.motor_rated_mv / 1000.0, c.cmd_timeout_ms, c.foldback_ma / 1000.0, c.stall_current_ma / 1000.0,
+                c.stall_time_ms, c.telemetry_period_ms);
 }
 
 }  // namespace
@@ -144,11 +155,7 @@ int main(int argc, char** argv)
         ModuleLink link(port, baud);
         proto_identity_t id = link.identify(timeout_s);
         print_identity(port, id);
-        if (id.protocol_version != PROTO_VERSION) {
-            std::fprintf(stderr, "%s: module speaks protocol %u, this tool %u\n", port.c_str(),
-                         id.protocol_version, PROTO_VERSION);
-            return 1;
-        }
+        auger::io::require_protocol(id, port, "auger-module");
         if (cmd == "identify") return 0;
         proto_config_t cfg = link.read_config();
         if (cmd == "set") {

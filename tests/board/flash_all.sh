@@ -47,12 +47,12 @@ start=$(date +%s.%N)
 bash "$flash_all" "$work/pty/module2" "$work/pty/module0" "$work/pty/module3" "$work/pty/module1" \
   > "$work/flash-all.out" 2>&1 || fail "flash-all.sh failed"
 end=$(date +%s.%N)
-grep -q "flash-all: modules 0-3 answer with their ids, firmware 0.1.0" "$work/flash-all.out" ||
+grep -q "flash-all: modules 0-3 answer with their ids, firmware 0.2.0" "$work/flash-all.out" ||
   fail "no final check line"
 # Independently of the script: a fresh open of each simulated module finds its new id.
 for n in 0 1 2 3; do
   out=$("$AUGER_MODULE" "$work/pty/module${order[$n]}" identify 2>&1) || fail "module ${order[$n]}: $out"
-  [[ $out == *": module $n, firmware 0.1.0, protocol 1, settings from EEPROM"* ]] ||
+  [[ $out == *": module $n, firmware 0.2.0, protocol 2, settings from EEPROM"* ]] ||
     fail "simulated module ${order[$n]} (PORT$n): $out"
 done
 grep -c "flashed" "$work/flash-all.out" | grep -qx 4 || fail "expected 4 'flashed' lines"

@@ -70,7 +70,7 @@ pids+=($augerd_pid)
 # Identified: each id on the port of the simulated module that got it, whatever the port order
 # of the configuration (module2, module0, module3, module1).
 for i in 0 1 2 3; do
-  grep -q "^augerd: module $i on $work/pty/module$i (firmware 0.1.0" "$work/augerd.out" ||
+  grep -q "^augerd: module $i on $work/pty/module$i (firmware 0.2.0" "$work/augerd.out" ||
     fail "augerd did not identify module $i on $work/pty/module$i"
 done
 

@@ -41,9 +41,11 @@ void Rig::on_byte(void* ctx, int module, uint8_t byte, double t_s)
         Telemetry t{t_s, {}};
         proto_identity_t id;
         proto_config_t cfg;
+        proto_fault_t ft;
         if (proto_decode_telemetry(&f, &t.tm)) m.telemetry.push_back(t);
         else if (proto_decode_identity(&f, &id)) m.identities.push_back(id);
         else if (proto_decode_config_report(&f, &cfg)) m.configs.push_back(cfg);
+        else if (proto_decode_fault(&f, &ft)) m.faults.push_back(ft);
     }
 }
 

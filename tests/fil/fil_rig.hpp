@@ -64,6 +64,7 @@ public:
     const std::vector<Telemetry>& telemetry(int m) const { return mods_[m].telemetry; }
     const std::vector<proto_identity_t>& identities(int m) const { return mods_[m].identities; }
     const std::vector<proto_config_t>& config_reports(int m) const { return mods_[m].configs; }
+    const std::vector<proto_fault_t>& fault_frames(int m) const { return mods_[m].faults; }
     const Telemetry& last(int m) const;
     uint16_t last_seq_sent(int m) const { return mods_[m].seq; }
     // Frames the host's parser dropped from module m (should stay 0 on a clean link).
@@ -79,6 +80,7 @@ private:
         std::vector<Telemetry> telemetry;
         std::vector<proto_identity_t> identities;
         std::vector<proto_config_t> configs;
+        std::vector<proto_fault_t> faults;
     };
     static void on_byte(void* ctx, int module, uint8_t byte, double t_s);
     void send_setpoints();

@@ -93,7 +93,9 @@ TEST_CASE("make flash: avrdude through Optiboot, then the id through a CONFIG fr
     out = slurp(log);
     INFO(out);
     CHECK(rc == 0);
-    CHECK(out.find("module 3, firmware 0.1.0, protocol 1, settings from EEPROM") != std::string::npos);
+    CHECK(out.find("module 3, firmware 0.2.0, protocol 2, settings from EEPROM") != std::string::npos);
+    // Optiboot cleared MCUSR; RAM kept the previous run's marker: the identity says warm.
+    CHECK(out.find("last reset: warm reset") != std::string::npos);
 
     simmod_destroy(sim);
     std::remove(log.c_str());

@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 
 #include "config.h"
+#include "pid.h"
 #include "safety.h"
 #include "settings.h"
 
@@ -183,4 +184,72 @@ TEST_CASE("safety: a watchdog reset is reported and must be cleared")
     CHECK_FALSE(safety_on_setpoint(&s, EN, 0));
     CHECK(safety_on_setpoint(&s, EN | CLR, 10));
     CHECK(safety_status(&s) == (PROTO_ST_ENABLED | PROTO_ST_SETPOINT_OK));
+}
+
+TEST_CASE("safety: a stall latches after stall_time_ms of voltage, current and no rotation")
+{
+    safety_t s = booted();  // defaults: 2000 mA motor current, 100 ms, 25 % of 12 V, 50 crpm
+    REQUIRE(STALL_CURRENT_MA == 2000);
+    REQUIRE(STALL_TIME_MS == 100);
+    safety_on_setpoint(&s, EN, 0);
+    const int32_t u_half = PID_U_ONE / 2;
+    // Half of 12 V at 18 V: duty 3333; a locked rotor draws 10 A in the motor, 3.3 A from the
+    // pack (the INA219's side).
+    for (int i = 0; i < 9; ++i) safety_on_step(&s, u_half, 3333, 0, 3333);
+    CHECK(safety_motor_enabled(&s));
+    // One step that turned (2 counts per period) restarts the count.
+    safety_on_step(&s, u_half, 3333, 68, 3333);
+    for (int i = 0; i < 9; ++i) safety_on_step(&s, u_half, 3333, -34, 3333);
+    CHECK(safety_motor_enabled(&s));
+    safety_on_step(&s, u_half, 3333, 34, 3333);  // the tenth in a row: 100 ms
+    CHECK_FALSE(safety_motor_enabled(&s));
+    CHECK((safety_status(&s) & PROTO_F_MASK) == PROTO_F_STALL);
+    CHECK(safety_take_new(&s) == PROTO_F_STALL);
+    CHECK(safety_take_new(&s) == 0);  // handed out once
+    // Cleared by CLEAR_FAULTS, and the count starts over.
+    CHECK(safety_on_setpoint(&s, EN | CLR, 10));
+    for (int i = 0; i < 9; ++i) safety_on_step(&s, -u_half, -3333, 0, 3333);  // either sign
+    CHECK(safety_motor_enabled(&s));
+    safety_on_step(&s, -u_half, -3333, 0, 3333);
+    CHECK_FALSE(safety_motor_enabled(&s));
+    CHECK(safety_take_new(&s) == PROTO_F_STALL);  // a new latch is handed out again
+}
+
+TEST_CASE("safety: no stall without voltage, without current, or while turning")
+{
+    safety_t s = booted();
+    safety_on_setpoint(&s, EN, 0);
+    const int32_t u_quarter = PID_U_ONE / 4;
+    for (int i = 0; i < 50; ++i) {
+        // Below a quarter of the rated voltage: holding against a load at rest is no stall.
+        safety_on_step(&s, u_quarter - 1, 1428, 0, 2000);
+        // An encoder that stopped counting: the free motor draws 0.5 A, below 2 A (pack
+        // current 0.5 A x duty 0.5 = 0.25 A).
+        safety_on_step(&s, u_quarter * 2, 5000, 0, 250);
+        // Turning slowly under a heavy load: 1.7 rpm.
+        safety_on_step(&s, u_quarter * 3, 7500, 170, 7000);
+    }
+    CHECK(safety_motor_enabled(&s));
+    // Detection off (stall_current_ma 0).
+    proto_config_t cfg;
+    settings_defaults(&cfg);
+    cfg.stall_current_ma = 0;
+    safety_configure(&s, &cfg);
+    for (int i = 0; i < 50; ++i) safety_on_step(&s, PID_U_ONE, 5714, 0, 9000);
+    CHECK(safety_motor_enabled(&s));
+}
+
+TEST_CASE("safety: every latched fault is handed out once, as it latches")
+{
+    safety_t s = booted();
+    safety_on_setpoint(&s, EN, 0);
+    CHECK(safety_take_new(&s) == 0);
+    for (int i = 0; i < 5; ++i) safety_on_power(&s, 6000, 18000);
+    CHECK(safety_take_new(&s) == PROTO_F_OVERCURRENT);
+    safety_on_sensor_fault(&s);
+    CHECK(safety_take_new(&s) == PROTO_F_SENSOR);  // only the new bit
+    CHECK(safety_take_new(&s) == 0);
+    // A watchdog reset at boot is latched too; main.c takes it so no FAULT frame is sent.
+    safety_t w = booted(true);
+    CHECK(safety_take_new(&w) == PROTO_F_WATCHDOG);
 }

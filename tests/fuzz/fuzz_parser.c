@@ -21,12 +21,14 @@ static size_t reencode(const proto_frame_t *f, uint8_t *out)
     proto_request_t rq;
     proto_telemetry_t tm;
     proto_identity_t id;
+    proto_fault_t ft;
     if (proto_decode_setpoint(f, &sp)) return proto_encode_setpoint(&sp, out);
     if (proto_decode_config(f, &cfg)) return proto_encode_config(&cfg, out);
     if (proto_decode_config_report(f, &cfg)) return proto_encode_config_report(&cfg, out);
     if (proto_decode_request(f, &rq)) return proto_encode_request(&rq, out);
     if (proto_decode_telemetry(f, &tm)) return proto_encode_telemetry(&tm, out);
     if (proto_decode_identity(f, &id)) return proto_encode_identity(&id, out);
+    if (proto_decode_fault(f, &ft)) return proto_encode_fault(&ft, out);
     return 0;
 }
 

@@ -87,21 +87,28 @@ TEST_CASE("golden vectors: C packing equals the independent generator", "[protoc
             proto_identity_t i{};
             REQUIRE(proto_decode_identity(&f, &i));
             CHECK(fields(i) == fields(to_identity(v)));
+        } else if (v.kind == "fault") {
+            proto_fault_t ft{};
+            REQUIRE(proto_decode_fault(&f, &ft));
+            CHECK(fields(ft) == fields(to_fault(v)));
         } else {
             FAIL("unknown kind " << v.kind);
         }
     }
     // Every frame type has vectors.
     CHECK(kinds == std::set<std::string>{"setpoint", "config", "config_report", "request",
-                                         "telemetry", "identity"});
+                                         "telemetry", "identity", "fault"});
 }
 
 TEST_CASE("frame sizes and the byte budget of docs/protocol.md", "[protocol]")
 {
     CHECK(PROTO_FRAME_SIZE(PROTO_LEN_SETPOINT) == 11);
     CHECK(PROTO_FRAME_SIZE(PROTO_LEN_TELEMETRY) == 32);
-    CHECK(PROTO_FRAME_SIZE(PROTO_LEN_CONFIG) == 38);
-    CHECK(PROTO_MAX_FRAME == 38);
+    CHECK(PROTO_FRAME_SIZE(PROTO_LEN_CONFIG) == 45);
+    CHECK(PROTO_FRAME_SIZE(PROTO_LEN_FAULT) == 24);
+    CHECK(PROTO_MAX_FRAME == 45);
+    // IDENTITY is frozen across protocol versions: any host reads any module's version.
+    CHECK(PROTO_FRAME_SIZE(PROTO_LEN_IDENTITY) == 13);
     // 250000 baud at 10 bits a byte carries 2500 bytes per 10 ms period each way: the
     // telemetry frame must leave room for an identity or config report in the same period.
     CHECK(PROTO_FRAME_SIZE(PROTO_LEN_TELEMETRY) + PROTO_FRAME_SIZE(PROTO_LEN_CONFIG_REPORT) <= 2500 / 4);
@@ -115,13 +122,14 @@ TEST_CASE("payload length per type; unknown types have none", "[protocol]")
     CHECK(proto_payload_len(PROTO_T_TELEMETRY) == PROTO_LEN_TELEMETRY);
     CHECK(proto_payload_len(PROTO_T_IDENTITY) == PROTO_LEN_IDENTITY);
     CHECK(proto_payload_len(PROTO_T_CONFIG_REPORT) == PROTO_LEN_CONFIG_REPORT);
+    CHECK(proto_payload_len(PROTO_T_FAULT) == PROTO_LEN_FAULT);
     int known = 0;
     for (int t = 0; t < 256; ++t) {
         uint8_t len = proto_payload_len(uint8_t(t));
         CHECK(len <= PROTO_MAX_PAYLOAD);
         if (len) ++known;
     }
-    CHECK(known == 6);
+    CHECK(known == 7);
 }
 
 TEST_CASE("decoders refuse frames of another type", "[protocol]")
@@ -135,6 +143,8 @@ TEST_CASE("decoders refuse frames of another type", "[protocol]")
     proto_config_t c{};
     proto_identity_t i{};
     proto_request_t r{};
+    proto_fault_t ft{};
+    CHECK_FALSE(proto_decode_fault(&frames[0], &ft));
     CHECK_FALSE(proto_decode_telemetry(&frames[0], &t));
     CHECK_FALSE(proto_decode_config(&frames[0], &c));
     CHECK_FALSE(proto_decode_config_report(&frames[0], &c));
@@ -180,6 +190,10 @@ TEST_CASE("round trip of every frame type with random and limit values", "[proto
         c.undervoltage_hyst_mv = u(uint16_t(0xFFFF));
         c.motor_rated_mv = u(uint16_t(0xFFFF));
         c.cmd_timeout_ms = u(uint16_t(0xFFFF));
+        c.foldback_ma = u(uint16_t(0xFFFF));
+        c.stall_current_ma = u(uint16_t(0xFFFF));
+        c.stall_time_ms = u(uint16_t(0xFFFF));
+        c.telemetry_period_ms = u(uint8_t(0xFF));
         n = proto_encode_config(&c, buf);
         auto c2 = decode_one<proto_config_t>({buf, buf + n}, proto_decode_config);
         REQUIRE(fields(c2) == fields(c));
@@ -208,6 +222,20 @@ TEST_CASE("round trip of every frame type with random and limit values", "[proto
         n = proto_encode_identity(&id, buf);
         auto id2 = decode_one<proto_identity_t>({buf, buf + n}, proto_decode_identity);
         REQUIRE(fields(id2) == fields(id));
+
+        proto_fault_t ft{};
+        ft.time_ms = u(uint32_t(0xFFFFFFFF));
+        ft.faults = u(uint16_t(0xFFFF));
+        ft.status = u(uint16_t(0xFFFF));
+        ft.current_ma = int16_t(u(uint16_t(0xFFFF)));
+        ft.voltage_mv = u(uint16_t(0xFFFF));
+        ft.omega_crpm = int16_t(u(uint16_t(0xFFFF)));
+        ft.omega_cmd_crpm = int16_t(u(uint16_t(0xFFFF)));
+        ft.duty_x10000 = int16_t(u(uint16_t(0xFFFF)));
+        n = proto_encode_fault(&ft, buf);
+        REQUIRE(n == PROTO_FRAME_SIZE(PROTO_LEN_FAULT));
+        auto ft2 = decode_one<proto_fault_t>({buf, buf + n}, proto_decode_fault);
+        REQUIRE(fields(ft2) == fields(ft));
 
         proto_request_t r{u(uint8_t(0xFF))};
         n = proto_encode_request(&r, buf);

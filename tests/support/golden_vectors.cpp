@@ -117,6 +117,10 @@ proto_config_t to_config(const GoldenVector& v)
     c.undervoltage_hyst_mv = int_field<uint16_t>(v, "undervoltage_hyst_mv");
     c.motor_rated_mv = int_field<uint16_t>(v, "motor_rated_mv");
     c.cmd_timeout_ms = int_field<uint16_t>(v, "cmd_timeout_ms");
+    c.foldback_ma = int_field<uint16_t>(v, "foldback_ma");
+    c.stall_current_ma = int_field<uint16_t>(v, "stall_current_ma");
+    c.stall_time_ms = int_field<uint16_t>(v, "stall_time_ms");
+    c.telemetry_period_ms = int_field<uint8_t>(v, "telemetry_period_ms");
     return c;
 }
 
@@ -157,6 +161,20 @@ proto_identity_t to_identity(const GoldenVector& v)
     return i;
 }
 
+proto_fault_t to_fault(const GoldenVector& v)
+{
+    proto_fault_t f{};
+    f.time_ms = int_field<uint32_t>(v, "time_ms");
+    f.faults = int_field<uint16_t>(v, "faults");
+    f.status = int_field<uint16_t>(v, "status");
+    f.current_ma = int_field<int16_t>(v, "current_ma");
+    f.voltage_mv = int_field<uint16_t>(v, "voltage_mv");
+    f.omega_crpm = int_field<int16_t>(v, "omega_crpm");
+    f.omega_cmd_crpm = int_field<int16_t>(v, "omega_cmd_crpm");
+    f.duty_x10000 = int_field<int16_t>(v, "duty_x10000");
+    return f;
+}
+
 std::vector<uint8_t> encode_fields(const GoldenVector& v)
 {
     std::vector<uint8_t> buf(PROTO_MAX_FRAME);
@@ -179,6 +197,9 @@ std::vector<uint8_t> encode_fields(const GoldenVector& v)
     } else if (v.kind == "identity") {
         auto i = to_identity(v);
         n = proto_encode_identity(&i, buf.data());
+    } else if (v.kind == "fault") {
+        auto f = to_fault(v);
+        n = proto_encode_fault(&f, buf.data());
     } else {
         fail(where_of(v), "unknown frame kind '" + v.kind + "'");
     }

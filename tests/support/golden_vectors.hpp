@@ -13,7 +13,7 @@ namespace auger::test {
 
 struct GoldenVector {
     std::string name;
-    std::string kind;  // setpoint, config, config_report, request, telemetry, identity
+    std::string kind;  // setpoint, config, config_report, request, telemetry, identity, fault
     std::map<std::string, std::string> fields;
     std::vector<uint8_t> bytes;  // the whole frame
     int line = 0;
@@ -31,6 +31,7 @@ proto_config_t to_config(const GoldenVector& v);
 proto_request_t to_request(const GoldenVector& v);
 proto_telemetry_t to_telemetry(const GoldenVector& v);
 proto_identity_t to_identity(const GoldenVector& v);
+proto_fault_t to_fault(const GoldenVector& v);
 
 // Encodes the vector's fields with the C packing functions.
 std::vector<uint8_t> encode_fields(const GoldenVector& v);
