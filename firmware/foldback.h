@@ -25,14 +25,16 @@ typedef struct {
     uint16_t trip_ma;      /* the overcurrent limit */
     uint32_t inv_band_q24; /* 2^24 / (trip_ma - start_ma) */
     int32_t limit_q27;     /* output limit, Q27 of the rated voltage (PID_U_ONE = none) */
+    bool halved;           /* the previous period halved the limit */
 } foldback_t;
 
 /* start_ma 0 or below trip_ma (settings_validate); resets the limit. */
 void foldback_configure(foldback_t *f, uint16_t start_ma, uint16_t trip_ma);
 /* Full output again (the motor was stopped). */
 void foldback_reset(foldback_t *f);
-/* One control period with the latest current reading; returns the output limit (Q27). */
-int32_t foldback_update(foldback_t *f, int16_t current_ma);
+/* One control period with the latest current reading and the output of the previous period
+ * (Q27); returns the output limit (Q27). */
+int32_t foldback_update(foldback_t *f, int16_t current_ma, int32_t u_q27);
 /* The limit is below full output. */
 bool foldback_active(const foldback_t *f);
 

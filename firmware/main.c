@@ -250,7 +250,7 @@ __attribute__((noinline)) static void control_step(void)
     bool enabled = safety_motor_enabled(&safety);
     duty_limited = false;
     if (enabled) {
-        int32_t limit = foldback_update(&foldback, power.current_ma);
+        int32_t limit = foldback_update(&foldback, power.current_ma, pid.u);
         int32_t u;
         duty_x10000 = pid_step_duty(&pid, (int32_t)omega_sp_crpm - omega_crpm, duty_cap_x10000, limit,
                                     &duty_limited, &u);
