@@ -53,7 +53,9 @@ void wait_reports(simmod_t* sim, Setup& s, const char* what) {
 
 }  // namespace
 
-SimRig::SimRig(const std::string& dir, std::array<int, 4> ids, std::array<int, 4> perm) : dir_(dir), perm_(perm) {
+SimRig::SimRig(const std::string& dir, std::array<int, 4> ids, std::array<int, 4> perm,
+               std::array<int, 4> telemetry_ms)
+    : dir_(dir), perm_(perm) {
   simmod_config_t cfg;
   simmod_config_default(&cfg);
   cfg.elf_path = AUGER_FIRMWARE_ELF;
@@ -76,12 +78,15 @@ SimRig::SimRig(const std::string& dir, std::array<int, 4> ids, std::array<int, 4
   for (int m = 0; m < 4; ++m) {
     proto_config_t c = s.report[std::size_t(m)];
     c.module_id = uint8_t(ids[std::size_t(m)]);
+    c.telemetry_period_ms = uint8_t(telemetry_ms[std::size_t(m)]);
     s.got[std::size_t(m)] = false;
     simmod_uart_send(sim_, m, buf, proto_encode_config(&c, buf));
   }
   wait_reports(sim_, s, "after writing the id");
   for (int m = 0; m < 4; ++m)
-    if (s.report[std::size_t(m)].module_id != ids[std::size_t(m)]) throw std::runtime_error("sim rig: id refused");
+    if (s.report[std::size_t(m)].module_id != ids[std::size_t(m)] ||
+        s.report[std::size_t(m)].telemetry_period_ms != telemetry_ms[std::size_t(m)])
+      throw std::runtime_error("sim rig: id or telemetry period refused");
   simmod_set_uart_callback(sim_, nullptr, nullptr);
 
   for (auto& p : from_module_) proto_parser_init(&p);
@@ -105,6 +110,11 @@ SimRig::~SimRig() {
     delete b;
   }
   simmod_destroy(sim_);
+}
+
+void SimRig::in_sim(std::function<void(simmod_t*)> f) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  actions_.push_back(std::move(f));
 }
 
 SimRig::ModuleView SimRig::module(int m) const {
@@ -178,6 +188,14 @@ void SimRig::loop() {
     for (int m = 0; m < 4; ++m) {
       const double v = battery_req_[std::size_t(m)].exchange(-1.0);
       if (v >= 0) simmod_set_battery_voltage(sim_, m, v);
+    }
+    {
+      std::vector<std::function<void(simmod_t*)>> todo;
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        todo.swap(actions_);
+      }
+      for (auto& f : todo) f(sim_);
     }
     simmod_step_to(sim_, wall_s() - t0_wall_s_);
     {

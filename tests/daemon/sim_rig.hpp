@@ -6,9 +6,11 @@
 
 #include <array>
 #include <atomic>
+#include <functional>
 #include <mutex>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "protocol.h"
 
@@ -28,9 +30,10 @@ class SimRig {
     double pwm_off_wall_s = 0;
   };
 
-  // ids[m]: the id module m is given (EEPROM) before any host connects. Port k of the rig
-  // (dir/portK) is wired to module perm[k].
-  SimRig(const std::string& dir, std::array<int, 4> ids, std::array<int, 4> perm);
+  // ids[m]: the id module m is given (EEPROM) before any host connects, and its telemetry
+  // period. Port k of the rig (dir/portK) is wired to module perm[k].
+  SimRig(const std::string& dir, std::array<int, 4> ids, std::array<int, 4> perm,
+         std::array<int, 4> telemetry_ms = {10, 10, 10, 10});
   ~SimRig();
 
   std::string port(int k) const { return dir_ + "/port" + std::to_string(k); }
@@ -45,6 +48,8 @@ class SimRig {
 
   // Forces module m's battery voltage (0: back to the pack model), e.g. an under-voltage fault.
   void set_battery_v(int m, double v) { battery_req_[std::size_t(m)] = v; }
+  // Runs f on the simulation between two of its steps (e.g. simmod_lock_shaft, simmod_reset_as).
+  void in_sim(std::function<void(simmod_t*)> f);
 
   static double wall_s();
 
@@ -62,6 +67,7 @@ class SimRig {
   mutable std::mutex mutex_;
   std::array<std::atomic<bool>, 4> mute_{}, corrupt_{}, close_req_{}, reopen_req_{};
   std::array<std::atomic<double>, 4> battery_req_{};  // negative: no request
+  std::vector<std::function<void(simmod_t*)>> actions_;  // guarded by mutex_
   std::atomic<bool> stop_{false};
   double t0_wall_s_ = 0;
   std::thread thread_;

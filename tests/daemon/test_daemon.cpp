@@ -5,6 +5,7 @@
 // through the modules' own timeout, and malformed commands, sensor lines and configuration
 // files get clear errors.
 #include "sim_rig.hpp"
+#include "simmod.h"
 
 #include <catch2/catch.hpp>
 
@@ -14,6 +15,7 @@
 #include <sys/file.h>
 #include <sys/socket.h>
 #include <sys/un.h>
+#include <stdlib.h>
 #include <sys/wait.h>
 #include <poll.h>
 #include <unistd.h>
@@ -494,6 +496,35 @@ TEST_CASE("augerd start-up errors", "[daemon]") {
   CHECK(r.first == 1);
   CHECK(r.second.find(live[2]) != std::string::npos);
   CHECK(r.second.find("in use") != std::string::npos);
+
+  // A module of another protocol version (a pty this test answers on, as a module with the
+  // previous firmware would: IDENTITY's layout is the same in every version) is refused with
+  // what to do.
+  {
+    int master = posix_openpt(O_RDWR | O_NOCTTY);
+    REQUIRE(master >= 0);
+    REQUIRE(grantpt(master) == 0);
+    REQUIRE(unlockpt(master) == 0);
+    const std::string old_module = ptsname(master);
+    std::atomic<bool> answering{true};
+    std::thread answer([&] {
+      proto_identity_t id{3, 1, 0, 1, 0, PROTO_RC_EXTERNAL, PROTO_ID_FROM_EEPROM};
+      uint8_t frame[PROTO_MAX_FRAME];
+      const size_t n = proto_encode_identity(&id, frame);
+      while (answering) {
+        [[maybe_unused]] ssize_t w = write(master, frame, n);
+        sleep_s(0.05);
+      }
+    });
+    r = run(config_text(dir, {live[0], live[1], old_module, live[3]}));
+    answering = false;
+    answer.join();
+    close(master);
+    CHECK(r.first == 1);
+    INFO(r.second);
+    CHECK(r.second.find(old_module + ": the module (firmware 0.1.0) speaks protocol 1, augerd protocol 2: refusing "
+                        "it. Flash the firmware of this version") != std::string::npos);
+  }
 }
 
 TEST_CASE("augerd keeps control when the log cannot be written", "[daemon]") {
@@ -521,6 +552,79 @@ TEST_CASE("augerd keeps control when the log cannot be written", "[daemon]") {
   for (auto p = err.find("failed"); p != std::string::npos; p = err.find("failed", p + 1)) ++reports;
   CHECK(reports == 1);
   CHECK(talk(cmd, "status\n", 1).find("enabled=1") != std::string::npos);
+  kill(d.pid, SIGTERM);
+  CHECK(d.wait_exit(2.0) == 0);
+}
+
+TEST_CASE("augerd logs a module's trip with its snapshot and a reset with its cause; follows its telemetry period",
+          "[daemon]") {
+  const std::string dir = make_dir("protect");
+  RemoveDir cleanup{dir};
+  // Module 2 sends telemetry every 50 ms: augerd must not take the gaps for a lost module.
+  SimRig rig(dir, {0, 1, 2, 3}, {0, 1, 2, 3}, {10, 10, 50, 10});
+  const std::string cfg = dir + "/augerd.toml";
+  std::ofstream(cfg) << config_text(dir, {rig.port(0), rig.port(1), rig.port(2), rig.port(3)});
+  Daemon d(cfg, dir + "/augerd.err");
+  const std::string cmd = dir + "/cmd.sock";
+  REQUIRE(wait_until([&] { return access(cmd.c_str(), F_OK) == 0; }, 5.0));
+  INFO(d.stderr_text());
+  CHECK(d.stderr_text().find("module 2 on " + rig.port(2) + " (firmware") != std::string::npos);
+  CHECK(d.stderr_text().find("telemetry every 50 ms") != std::string::npos);
+  CHECK(d.stderr_text().find("last reset: external") != std::string::npos);  // its port's open
+  auto events = [&] {
+    FILE* p = popen(("cat " + dir + "/log/*-events.log").c_str(), "r");
+    std::string text;
+    char buf[4096];
+    for (size_t n; p && (n = fread(buf, 1, sizeof buf, p)) > 0;) text.append(buf, n);
+    if (p) pclose(p);
+    return text;
+  };
+
+  REQUIRE(talk(cmd, "enable\n", 1) == "ok");
+  {
+    VelFeeder feed(cmd, "vel 0.03 0 0.05");
+    REQUIRE(wait_until([&] { return all_driven(rig); }, 1.0));
+    sleep_s(0.5);  // ten of module 2's 50 ms periods: no no-telemetry fault
+    CHECK(talk(cmd, "status\n", 1).find("fault=none") != std::string::npos);
+
+    // A locked rotor on module 1: the module latches STALL and sends its snapshot; augerd
+    // stops every screw and logs both.
+    rig.in_sim([](simmod_t* s) { simmod_lock_shaft(s, 1, 1); });
+    REQUIRE(wait_until([&] { return all_stopped(rig); }, 1.0));
+    CHECK(talk(cmd, "status\n", 1).find("fault=1:F_STALL") != std::string::npos);
+    CHECK(wait_until([&] { return events().find("module=1") != std::string::npos &&
+                                  events().find("event=fault-snapshot action=\"F_STALL at module time") !=
+                                      std::string::npos; },
+                     1.0));
+  }
+  const std::string ev = events();
+  INFO(ev);
+  CHECK(ev.find(" rpm (command ") != std::string::npos);
+  CHECK(ev.find("event=F_STALL action=\"reports F_STALL; stopped all screws") != std::string::npos);
+
+  rig.in_sim([](simmod_t* s) { simmod_lock_shaft(s, 1, 0); });
+  REQUIRE(talk(cmd, "enable\n", 1) == "ok");
+  {
+    VelFeeder feed(cmd, "vel 0.03 0 0.05");
+    REQUIRE(wait_until([&] { return all_driven(rig); }, 1.0));
+    // Module 3 loses its supply and comes back (power-on, RAM gone): an unexpected reset of a
+    // running module, logged with its cause; every screw stops and module 3 stays stopped
+    // while the velocity commands go on, until `enable`.
+    rig.in_sim([](simmod_t* s) { simmod_reset_as(s, 3, PROTO_RC_POWER_ON, 1); });
+    REQUIRE(wait_until([&] { return all_stopped(rig); }, 1.0));
+    CHECK(talk(cmd, "status\n", 1).find("fault=3:reset") != std::string::npos);
+    sleep_s(0.5);
+    CHECK_FALSE(enabled(rig.module(3).tm));
+    CHECK(rig.module(3).tm.duty_x10000 == 0);
+  }
+  CHECK(wait_until([&] { return events().find("event=reset action=\"the module reset; last reset: power-on") !=
+                                std::string::npos; },
+                   1.0));
+  REQUIRE(talk(cmd, "enable\n", 1) == "ok");
+  {
+    VelFeeder feed(cmd, "vel 0.03 0 0.05");
+    CHECK(wait_until([&] { return all_driven(rig); }, 1.0));
+  }
   kill(d.pid, SIGTERM);
   CHECK(d.wait_exit(2.0) == 0);
 }

@@ -9,6 +9,7 @@
 #include "auger/effect.hpp"
 #include "config.hpp"
 #include "lines.hpp"
+#include "status_text.hpp"
 
 using namespace augerd;
 
@@ -121,5 +122,35 @@ TEST_CASE("configuration file", "[daemon][unit]") {
       CHECK(std::string(e.what()).find(b.where) != std::string::npos);
     }
     unlink(q.c_str());
+  }
+}
+
+TEST_CASE("module words for augerd's messages and event log", "[daemon][unit]") {
+  using namespace auger::io;
+  CHECK(reset_cause_text(PROTO_RC_POWER_ON) == "power-on");
+  CHECK(reset_cause_text(PROTO_RC_BROWN_OUT | PROTO_RC_EXTERNAL) == "external+brown-out");
+  CHECK(reset_cause_text(PROTO_RC_WARM).rfind("warm reset (cause cleared by the bootloader", 0) == 0);
+  CHECK(reset_cause_text(0) == "none reported");
+  CHECK(reset_cause_text(0x48) == "watchdog+0x40");
+  CHECK(settings_origin_text(PROTO_ID_FROM_EEPROM) == "EEPROM");
+  CHECK(settings_origin_text(PROTO_ID_SETTINGS_OLD_LAYOUT) == "build defaults (the EEPROM held an older settings layout)");
+  CHECK(settings_origin_text(PROTO_ID_SETTINGS_CORRUPT) == "build defaults (the EEPROM image was corrupt)");
+  CHECK(settings_origin_text(0) == "build defaults (EEPROM empty)");
+  CHECK(fault_bits_text(PROTO_F_STALL | PROTO_F_SENSOR) == "F_SENSOR+F_STALL");
+  CHECK(fault_bits_text(0x4000 | PROTO_ST_ENABLED) == "F_0x4000");
+  CHECK(state_bits_text(PROTO_ST_ENABLED | PROTO_ST_CURRENT_LIMITED) == "EN ILIM");
+  const proto_fault_t f{61230, PROTO_F_STALL, PROTO_F_STALL | PROTO_ST_SETPOINT_OK, 4480, 17840, 0, 1000, 3890};
+  CHECK(fault_snapshot_text(f) ==
+        "F_STALL at module time 61.230 s: current 4.480 A, battery 17.840 V, speed 0.00 rpm (command 10.00 rpm), "
+        "duty 38.90 %, status SP, faults F_STALL");
+  proto_identity_t id{0, PROTO_VERSION, 0, 2, 0, PROTO_RC_POWER_ON, 0};
+  CHECK_NOTHROW(require_protocol(id, "/dev/ttyUSB0", "augerd"));
+  id.protocol_version = 1;
+  try {
+    require_protocol(id, "/dev/ttyUSB0", "augerd");
+    FAIL("accepted protocol 1");
+  } catch (const std::runtime_error& e) {
+    CHECK(std::string(e.what()).find("/dev/ttyUSB0: the module (firmware 0.2.0) speaks protocol 1, augerd protocol 2") == 0);
+    CHECK(std::string(e.what()).find("make flash PORT=/dev/ttyUSB0") != std::string::npos);
   }
 }
