@@ -1,7 +1,7 @@
 // Speed of the whole simulated robot in lock-step simulated time, as a multiple of real time:
 // four modules (firmware in the loop, or ideal screws), the true robot on frozen grass, the
 // sensors and the host controller at 100 Hz tracking a 0.5 m square (docs/benchmarks.md,
-// make bench-robot).   robot_speed [SECONDS] [THREADS]
+// make bench-robot).   robot_speed [--elf PATH] [SECONDS] [THREADS]
 #include "auger/controller.hpp"
 #include "auger/model_file.hpp"
 #include "scheduler.hpp"
@@ -9,10 +9,13 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <string>
 
 using namespace auger;
 
 namespace {
+
+std::string g_elf = AUGER_FIRMWARE_ELF;
 
 double run(sim::ScrewMode mode, double seconds, int threads, const ModelFile& file)
 {
@@ -21,7 +24,7 @@ double run(sim::ScrewMode mode, double seconds, int threads, const ModelFile& fi
     sim::TruthParams truth;
     sim::SchedulerConfig sc;
     sc.mode = mode;
-    sc.elf_path = AUGER_FIRMWARE_ELF;
+    sc.elf_path = g_elf;
     sc.threads = threads;
     sc.terrain = "frozen_grass";
     sim::Scheduler s(model, truth, sc);
@@ -41,6 +44,11 @@ double run(sim::ScrewMode mode, double seconds, int threads, const ModelFile& fi
 
 int main(int argc, char** argv)
 {
+    if (argc > 2 && std::string(argv[1]) == "--elf") {  // another image, e.g. to compare
+        g_elf = argv[2];
+        argc -= 2;
+        argv += 2;
+    }
     const double seconds = argc > 1 ? std::atof(argv[1]) : 20.0;
     const int threads = argc > 2 ? std::atoi(argv[2]) : 2;
     if (seconds <= 0 || threads < 1) {

@@ -57,6 +57,8 @@ static avr_cycle_count_t motor_step_timer(avr_t *avr, avr_cycle_count_t when, vo
 	if (m->pwm_level && now > m->mark)
 		m->high_cycles += now - m->mark;
 	m->mark = now;
+	if (m->pwm && m->pwm->active)
+		m->high_cycles = pwm_model_take_high(m->pwm, now);
 	avr_cycle_count_t window = now > m->window_start ? now - m->window_start : 1;
 	double duty = (double)m->high_cycles / (double)window;
 	if (duty > 1)
@@ -100,6 +102,7 @@ void motor_init(avr_t *avr, motor_t *m, const motor_params_t *p, battery_t *batt
 	m->battery_v = battery_terminal_v(battery, 0);
 	m->hook = NULL;
 	m->hook_ctx = NULL;
+	m->pwm = NULL;
 	avr_irq_register_notify(m->irq + IRQ_MOTOR_PWM_IN, motor_pwm_hook, m);
 	avr_irq_register_notify(m->irq + IRQ_MOTOR_DIR_IN, motor_dir_hook, m);
 }
@@ -109,6 +112,11 @@ void motor_attach(motor_t *m, avr_irq_t *pwm_pin, avr_irq_t *dir_pin)
 	avr_connect_irq(pwm_pin, m->irq + IRQ_MOTOR_PWM_IN);
 	avr_connect_irq(dir_pin, m->irq + IRQ_MOTOR_DIR_IN);
 	motor_start(m);
+}
+
+void motor_use_pwm_model(motor_t *m, pwm_model_t *pwm)
+{
+	m->pwm = pwm;
 }
 
 void motor_set_hook(motor_t *m, motor_step_hook_t hook, void *ctx)
@@ -136,11 +144,15 @@ void motor_set_load(motor_t *m, double load_nm)
 
 double motor_pwm_quiet_s(const motor_t *m)
 {
-	return (double)(m->avr->cycle - m->last_edge) / (double)m->avr->frequency;
+	avr_cycle_count_t quiet = m->pwm && m->pwm->active ? pwm_model_quiet(m->pwm, m->avr->cycle)
+			: m->avr->cycle - m->last_edge;
+	return (double)quiet / (double)m->avr->frequency;
 }
 
 double motor_pwm_duty(const motor_t *m)
 {
+	if (m->pwm && m->pwm->active)
+		return pwm_model_duty(m->pwm);
 	avr_cycle_count_t quiet = avr_usec_to_cycles(m->avr, 4000);
 	if (m->avr->cycle - m->last_edge > quiet || m->ring_n == 0)
 		return m->pwm_level ? 1.0 : 0.0;

@@ -14,6 +14,7 @@
 
 #include "battery.h"
 #include "motor_model.h"
+#include "pwm_model.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -52,6 +53,7 @@ typedef struct motor_t {
 	double battery_v;
 	motor_step_hook_t hook;
 	void *hook_ctx;
+	pwm_model_t *pwm; /* while it is active, the PWM pin's high time comes from it */
 } motor_t;
 
 void motor_init(avr_t *avr, motor_t *m, const motor_params_t *p, battery_t *battery,
@@ -59,6 +61,8 @@ void motor_init(avr_t *avr, motor_t *m, const motor_params_t *p, battery_t *batt
 /* Wire the PWM and DIR pins (ioport pin IRQs) to the part. */
 void motor_attach(motor_t *m, avr_irq_t *pwm_pin, avr_irq_t *dir_pin);
 void motor_set_hook(motor_t *m, motor_step_hook_t hook, void *ctx);
+/* Take the PWM pin's waveform from Timer1's registers (pwm_model.h) instead of its edges. */
+void motor_use_pwm_model(motor_t *m, pwm_model_t *pwm);
 /* (Re)start the physics timer: at attach time and after every avr_reset. */
 void motor_start(motor_t *m);
 /* Load torque on the screw, N m, opposing positive rotation when positive. */

@@ -25,6 +25,8 @@ static void pwm_ocr_fix_write(struct avr_t *avr, avr_io_addr_t addr, uint8_t v, 
 {
 	pwm_ocr_fix_t *f = (pwm_ocr_fix_t *)param;
 	avr_core_watch_write(avr, addr, v);
+	if (f->bypass && *f->bypass)
+		return;
 	avr_timer_t *t = f->timer;
 	if (f->pending || t->tov_cycles == 0)
 		return; /* stopped: the next TCCR write picks the value up */

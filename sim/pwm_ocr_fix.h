@@ -21,6 +21,7 @@ typedef struct pwm_ocr_fix_t {
 	avr_timer_t *timer;
 	avr_io_addr_t tccrb;
 	int pending;
+	const int *bypass; /* while *bypass is set, another part runs the timer's output */
 } pwm_ocr_fix_t;
 
 /* Watch the timer's OCRnA/OCRnB low bytes (the bytes whose write completes a 16-bit

@@ -33,6 +33,7 @@
 #include "ina219.h"
 #include "motor.h"
 #include "pty_bridge.h"
+#include "pwm_model.h"
 #include "pwm_ocr_fix.h"
 
 /* ATmega328P data-space addresses the board touches */
@@ -72,6 +73,8 @@ typedef struct module_t {
 	encoder_t encoder;
 	ina219_t ina;
 	pwm_ocr_fix_t ocr_fix;
+	pwm_model_t pwm;
+	int has_pwm_model;
 
 	avr_irq_t *uart_irq;
 	uint8_t in_buf[IN_CAP];
@@ -376,6 +379,8 @@ static void board_reset_hook(struct avr_io_t *io)
 	avr_cycle_timer_register(m->avr, 1, board_after_reset_timer, m);
 	ina219_start(&m->ina); /* the INA219 is not reset with the AVR; its timer was */
 	pwm_ocr_fix_restart(&m->ocr_fix);
+	if (m->has_pwm_model)
+		pwm_model_restart(&m->pwm);
 	m->feeding = 0;
 	m->xoff = 0;
 	if (m->has_boot)
@@ -383,9 +388,30 @@ static void board_reset_hook(struct avr_io_t *io)
 	m->foreign_reset = !m->own_reset;
 }
 
+/* simavr 1.6 runs one instruction per avr_run unless run_cycle_limit allows more: then
+ * avr_run_one goes on until the next cycle timer (avr_cycle_timer_register shortens the run
+ * when an instruction schedules an earlier one), an interrupt or a sleep. The simulation is
+ * the same instruction for instruction (module_advance puts a timer at every time it stops
+ * at); the per-instruction round of timer checks and calls goes. A profiler's step hook
+ * wants every instruction: then one at a time. avr_reset sets the limit back to 1. */
+static void set_run_batching(module_t *m)
+{
+	m->avr->run_cycle_limit = m->step_hook ? 1 : (avr_cycle_count_t)1 << 24;
+}
+
+/* A timer that does nothing: it ends an instruction run at a time the board stops at. */
+static avr_cycle_count_t fence_timer(avr_t *avr, avr_cycle_count_t when, void *param)
+{
+	(void)avr;
+	(void)when;
+	(void)param;
+	return 0;
+}
+
 static void module_after_reset(module_t *m)
 {
 	m->reset_seen = 0;
+	set_run_batching(m);
 	extint_fix(m->avr);
 	uint32_t flags = 0; /* no console echo, no polling sleep */
 	avr_ioctl(m->avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
@@ -428,6 +454,7 @@ static void module_advance(module_t *m, double t_s)
 	avr_cycle_count_t target = (avr_cycle_count_t)(t_s * m->freq_hz);
 	while (m->alive && avr->cycle < target) {
 		avr_cycle_count_t stop = target < m->next_service ? target : m->next_service;
+		avr_cycle_timer_register(avr, stop - avr->cycle, fence_timer, m);
 		while (avr->cycle < stop) {
 			if (m->step_hook) {
 				simmod_step_info_t info;
@@ -549,6 +576,11 @@ static module_t *module_create(simmod_t *sim, int index)
 	ina219_attach(&m->ina, 0);
 	if (pwm_ocr_fix_attach(m->avr, &m->ocr_fix, '1', REG_TCCR1B) != 0)
 		fprintf(stderr, "auger-sim: timer 1 not found, OCR1A writes may not reach PB1\n");
+	if (!cfg->exact_pwm && pwm_model_attach(m->avr, &m->pwm) == 0) {
+		m->has_pwm_model = 1;
+		m->ocr_fix.bypass = &m->pwm.active; /* simavr's Timer1 is stopped meanwhile */
+		motor_use_pwm_model(&m->motor, &m->pwm);
+	}
 
 	m->uart_irq = avr_io_getirq(m->avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
 	avr_irq_register_notify(m->uart_irq + UART_IRQ_OUTPUT, uart_out_hook, m);
@@ -1008,4 +1040,5 @@ void simmod_set_step_hook(simmod_t *sim, int module, simmod_step_hook_t hook, vo
 	module_t *m = sim->mod[module];
 	m->step_hook = hook;
 	m->step_hook_ctx = ctx;
+	set_run_batching(m);
 }

@@ -46,6 +46,8 @@ typedef struct simmod_config_t {
 	motor_params_t motor;
 	battery_params_t battery;
 	int verbose;                 /* simavr log level passed through (0: errors only) */
+	int exact_pwm;               /* 1: simavr steps Timer1 (every PWM edge an event); 0: its
+	                                PWM on OC1A from the registers (sim/pwm_model.h), faster */
 } simmod_config_t;
 
 void simmod_config_default(simmod_config_t *cfg);
