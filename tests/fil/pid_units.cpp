@@ -20,6 +20,7 @@ namespace {
 struct Result {
     StepMetrics m;
     uint16_t faults;
+    bool current_limited;  // the current foldback acted at some point
 };
 
 Result step_test(double kp, double ki, double kd, double battery_v)
@@ -38,9 +39,10 @@ Result step_test(double kp, double ki, double kd, double battery_v)
     const double t_step = rig.t_s();
     rig.command(0, 10.0, PROTO_SP_ENABLE);
     rig.run_for(2.0);
-    uint16_t faults = 0;
-    for (const auto& t : rig.telemetry(0)) faults |= t.tm.status & PROTO_F_MASK;
-    return {step_metrics(rig.telemetry(0), t_step, 0.0, 10.0), faults};
+    uint16_t status = 0;
+    for (const auto& t : rig.telemetry(0)) status |= t.tm.status;
+    return {step_metrics(rig.telemetry(0), t_step, 0.0, 10.0), uint16_t(status & PROTO_F_MASK),
+            (status & PROTO_ST_CURRENT_LIMITED) != 0};
 }
 
 bool works(const Result& r)
@@ -56,9 +58,10 @@ void row(const char* name, double kp, double ki, double kd)
     for (double v : {15.0, 21.0}) {
         Result r = step_test(kp, ki, kd, v);
         all = all && works(r);
-        std::printf(" %.2f s, %.0f %%, %.2f rpm%s%s |", r.m.rise_time_s, r.m.overshoot_pct,
+        std::printf(" %.2f s, %.0f %%, %.2f rpm%s%s%s%s |", r.m.rise_time_s, r.m.overshoot_pct,
                     r.m.steady_error_rpm, r.faults & PROTO_F_OVERCURRENT ? ", overcurrent" : "",
-                    r.faults & PROTO_F_UNDERVOLTAGE ? ", under-voltage" : "");
+                    r.faults & PROTO_F_UNDERVOLTAGE ? ", under-voltage" : "",
+                    r.faults & PROTO_F_STALL ? ", stall" : "", r.current_limited ? ", current-limited" : "");
     }
     std::printf(" %s |\n", all ? "yes" : "no");
     std::fflush(stdout);

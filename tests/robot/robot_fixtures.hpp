@@ -4,9 +4,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <sstream>
 #include <string>
 #include <vector>
 
+#include "auger/log.hpp"
 #include "auger/model_file.hpp"
 #include "scheduler.hpp"
 
@@ -50,7 +52,20 @@ struct DiagonalRun {
   double miss_m = 0;         // distance from the goal at the end
   double progress_m = 0;     // distance travelled towards the goal
   double max_abs_psi_rad = 0;
+  int module_status_or = 0;  // the modules' status words ORed over the run (fault bits: none expected)
 };
+
+// The modules' status words (robot log status_N) ORed over a log written by the scheduler.
+inline int status_or(const std::string& log_text) {
+  std::istringstream in(log_text);
+  auger::RobotLogReader reader(in, "scheduler log");
+  auger::RobotSample s;
+  int st = 0;
+  while (reader.next(s))
+    for (const auto& v : s.status)
+      if (v) st |= int(*v);
+  return st;
+}
 inline double diagonal_angle_rad(const auger::Model& m) {
   return std::atan2(m.terrain.sigma_lat / m.terrain.D_y, m.terrain.sigma_long / m.terrain.D_x);
 }
@@ -79,6 +94,8 @@ inline DiagonalRun run_diagonal(auger::sim::ScrewMode mode, auger::AllocatorKind
     sc.imu = sim::ImuParams{0.0, 0.0, 0.0, 0.0};
   }
   sim::Scheduler s(m, tp, sc);
+  std::ostringstream log;
+  s.set_log(&log);
   s.set_controller(&c);
   s.run_until(0.1);  // modules boot
   c.set_waypoints({{0.0, Vec3(0.5 * std::cos(diagonal_angle_rad(m)), 0.5 * std::sin(diagonal_angle_rad(m)), 0.0)}});
@@ -90,6 +107,8 @@ inline DiagonalRun run_diagonal(auger::sim::ScrewMode mode, auger::AllocatorKind
   r.miss_m = (eta.head<2>() - goal.head<2>()).norm();
   r.progress_m = eta.head<2>().dot(goal.head<2>().normalized());
   for (const auto& h : s.history()) r.max_abs_psi_rad = std::max(r.max_abs_psi_rad, std::fabs(h.eta_true[2]));
+  s.set_log(nullptr);
+  if (mode == sim::ScrewMode::fil) r.module_status_or = status_or(log.str());
   return r;
 }
 

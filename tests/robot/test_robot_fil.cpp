@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <fstream>
 
+#include "protocol.h"
 #include "robot_fixtures.hpp"
 #include "simmod.h"
 
@@ -48,6 +49,11 @@ TEST_CASE("FIL, frozen grass: a 0.5 m square tracked with RMS <= 0.05 m and <= 0
   std::printf("FIL square (frozen grass): RMS %.4f m, %.4f rad; reached x %.3f y %.3f; %.0f s simulated in %.1f s\n",
               rms.pos_m, rms.psi_rad, reach_x, reach_y, sim_s, wall_s(t0));
   for (int i = 0; i < 4; ++i) CHECK(simmod_state(s.modules(), i) == 0);
+  log.close();
+  std::ifstream written("robot_fil_square.csv");
+  std::stringstream text;
+  text << written.rdbuf();
+  CHECK((status_or(text.str()) & (PROTO_F_MASK | PROTO_ST_CURRENT_LIMITED)) == 0);  // no trip, no limit
   CHECK(reach_x > 0.4);
   CHECK(reach_y > 0.4);
   CHECK(rms.pos_m <= 0.05);
@@ -62,6 +68,12 @@ TEST_CASE("FIL, sand: the helix diagonal, null space arrives, pseudo-inverse sta
               pinv.miss_m, pinv.progress_m, ns.miss_m, wall_s(t0));
   CHECK(pinv.miss_m > 0.1);
   CHECK(ns.miss_m < 0.05);
+  // No module latched a fault on the way (issue 16: the stall detection and the current
+  // foldback must not act on sand with screws held near zero or blocked).
+  CHECK((pinv.module_status_or & PROTO_F_MASK) == 0);
+  CHECK((ns.module_status_or & PROTO_F_MASK) == 0);
+  CHECK((pinv.module_status_or & PROTO_ST_CURRENT_LIMITED) == 0);
+  CHECK((ns.module_status_or & PROTO_ST_CURRENT_LIMITED) == 0);
 }
 
 TEST_CASE("FIL, sand: the diagonal across the blocking threshold sweep", "[fil][.full]") {
@@ -72,6 +84,7 @@ TEST_CASE("FIL, sand: the diagonal across the blocking threshold sweep", "[fil][
                 ns.miss_m);
     CHECK(ns.miss_m < 0.05);
     if (block >= 1.0) CHECK(pinv.miss_m > 0.1);
+    CHECK(((pinv.module_status_or | ns.module_status_or) & PROTO_F_MASK) == 0);
   }
 }
 
