@@ -560,16 +560,18 @@ TEST_CASE("augerd logs a module's trip with its snapshot and a reset with its ca
           "[daemon]") {
   const std::string dir = make_dir("protect");
   RemoveDir cleanup{dir};
-  // Module 2 sends telemetry every 50 ms: augerd must not take the gaps for a lost module.
-  SimRig rig(dir, {0, 1, 2, 3}, {0, 1, 2, 3}, {10, 10, 50, 10});
+  // Module 2 sends telemetry every 100 ms, the others every 10 ms, and augerd takes 70 ms
+  // without telemetry for a lost module: it must follow module 2's period, not fault at its gaps.
+  SimRig rig(dir, {0, 1, 2, 3}, {0, 1, 2, 3}, {10, 10, 100, 10});
   const std::string cfg = dir + "/augerd.toml";
-  std::ofstream(cfg) << config_text(dir, {rig.port(0), rig.port(1), rig.port(2), rig.port(3)});
+  std::ofstream(cfg) << config_text(dir, {rig.port(0), rig.port(1), rig.port(2), rig.port(3)},
+                                    "telemetry_timeout_s = 0.07\n");
   Daemon d(cfg, dir + "/augerd.err");
   const std::string cmd = dir + "/cmd.sock";
   REQUIRE(wait_until([&] { return access(cmd.c_str(), F_OK) == 0; }, 5.0));
   INFO(d.stderr_text());
   CHECK(d.stderr_text().find("module 2 on " + rig.port(2) + " (firmware") != std::string::npos);
-  CHECK(d.stderr_text().find("telemetry every 50 ms") != std::string::npos);
+  CHECK(d.stderr_text().find("telemetry every 100 ms") != std::string::npos);
   CHECK(d.stderr_text().find("last reset: external") != std::string::npos);  // its port's open
   auto events = [&] {
     FILE* p = popen(("cat " + dir + "/log/*-events.log").c_str(), "r");
@@ -584,7 +586,7 @@ TEST_CASE("augerd logs a module's trip with its snapshot and a reset with its ca
   {
     VelFeeder feed(cmd, "vel 0.03 0 0.05");
     REQUIRE(wait_until([&] { return all_driven(rig); }, 1.0));
-    sleep_s(0.5);  // ten of module 2's 50 ms periods: no no-telemetry fault
+    sleep_s(0.25);  // module 2's 100 ms gaps: no no-telemetry fault
     CHECK(talk(cmd, "status\n", 1).find("fault=none") != std::string::npos);
 
     // A locked rotor on module 1: the module latches STALL and sends its snapshot; augerd
@@ -613,7 +615,7 @@ TEST_CASE("augerd logs a module's trip with its snapshot and a reset with its ca
     rig.in_sim([](simmod_t* s) { simmod_reset_as(s, 3, PROTO_RC_POWER_ON, 1); });
     REQUIRE(wait_until([&] { return all_stopped(rig); }, 1.0));
     CHECK(talk(cmd, "status\n", 1).find("fault=3:reset") != std::string::npos);
-    sleep_s(0.5);
+    sleep_s(0.2);
     CHECK_FALSE(enabled(rig.module(3).tm));
     CHECK(rig.module(3).tm.duty_x10000 == 0);
   }
