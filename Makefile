@@ -15,6 +15,7 @@
 #   make bench-firmware   firmware cycles, edge rates, CPU load, simulation speed (docs/benchmarks.md)
 #   make bench-host       instructions and time per host controller step (callgrind)
 #   make bench-robot      speed of the whole simulated robot in lock-step
+#   make bench-ros2       what augerd's ROS 2 interface costs its 100 Hz loop, under load
 # The robot's board (A64-OLinuXino, aarch64; docs/board.md):
 #   make board       augerd, auger, auger-module for aarch64 (cross on x86, native on aarch64),
 #                    in build-aarch64/ (BOARD_BUILD); ROS2=1: with augerd's ROS 2 interface
@@ -34,7 +35,7 @@ AVR_CFLAGS := -mmcu=atmega328p -DF_CPU=16000000UL -std=c99 -Os -Wall -Wextra -We
 HOST_WARN := -Wall -Wextra -Werror -pedantic
 
 .PHONY: all deps firmware flash host asan check-protocol fuzz fuzz-smoke test test-full demo \
-        bench-protocol bench-firmware bench-host bench-robot pid-units clean venv \
+        bench-protocol bench-firmware bench-host bench-robot bench-ros2 pid-units clean venv \
         board board-deps board-test install uninstall flash-all bench-board
 
 all: host
@@ -138,6 +139,9 @@ bench-host: host
 
 bench-robot: host
 	$(BUILD)/bench/robot_speed 20 2
+
+bench-ros2: host venv
+	scripts/bench-ros2.sh $(BUILD) 30
 
 # The paper's PID gains under every reading of their units (docs/firmware.md).
 pid-units: host

