@@ -218,6 +218,7 @@ void take_all(dds_entity_t reader, F&& f) {
     for (int i = 0; i < n; ++i)
       if (info[i].valid_data) f(*static_cast<const Msg*>(buf[i]));
     dds_return_loan(reader, buf, n);
+    buf[0] = nullptr;  // the next take lends again (a non-null buf[0] would be copied into)
     if (n < kMax) return;
   }
 }
