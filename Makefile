@@ -8,15 +8,17 @@
 #   make flash PORT=/dev/ttyUSB0 [ID=n]   flash a module through Optiboot, set its id
 #   make deps        install missing Debian packages (scripts/install-deps.sh)
 #   make host        configure and build the host, simulator and tests (Release, build/)
+#   make venv        the Python environment build/venv (python/requirements.txt; the DDS tests)
 #   make asan        the unit and protocol tests with ASan+UBSan (build-asan/)
 #   make fuzz        run the protocol parser fuzzer (FUZZ_RUNS, default unbounded: Ctrl-C)
 #   make bench-protocol   XOR byte vs CRC-16 corruption figures (docs/protocol.md)
 #   make bench-firmware   firmware cycles, edge rates, CPU load, simulation speed (docs/benchmarks.md)
 #   make bench-host       instructions and time per host controller step (callgrind)
 #   make bench-robot      speed of the whole simulated robot in lock-step
+#   make bench-ros2       what augerd's ROS 2 interface costs its 100 Hz loop, under load
 # The robot's board (A64-OLinuXino, aarch64; docs/board.md):
 #   make board       augerd, auger, auger-module for aarch64 (cross on x86, native on aarch64),
-#                    in build-aarch64/ (BOARD_BUILD)
+#                    in build-aarch64/ (BOARD_BUILD); ROS2=1: with augerd's ROS 2 interface
 #   make board-test  the unit tests of the board build under qemu-user (or natively)
 #   make install / uninstall   [DESTDIR=] [PREFIX=/usr/local] [SYSCONFDIR=/etc] [INSTALL_FROM=build-aarch64]
 #   make flash-all PORTS="P0 P1 P2 P3"   flash the four modules, ids 0..3 in that order, check them
@@ -33,7 +35,7 @@ AVR_CFLAGS := -mmcu=atmega328p -DF_CPU=16000000UL -std=c99 -Os -Wall -Wextra -We
 HOST_WARN := -Wall -Wextra -Werror -pedantic
 
 .PHONY: all deps firmware flash host asan check-protocol fuzz fuzz-smoke test test-full demo \
-        bench-protocol bench-firmware bench-host bench-robot pid-units clean \
+        bench-protocol bench-firmware bench-host bench-robot bench-ros2 pid-units clean venv \
         board board-deps board-test install uninstall flash-all bench-board
 
 all: host
@@ -52,6 +54,11 @@ flash: firmware
 	AUGER_MODULE=$(BUILD)/host/tools/auger-module \
 	  scripts/flash-module.sh $(PORT) firmware/build/auger-module.hex $(ID)
 
+# One Python environment for the project (python/requirements.txt; pip runs only when that
+# file changed): the DDS tests' independent ROS 2 participant runs in it.
+venv: deps
+	scripts/make-venv.sh $(abspath $(BUILD))/venv
+
 host: deps firmware
 	cmake -S . -B $(BUILD) -G $(CMAKE_GENERATOR) -DCMAKE_BUILD_TYPE=Release -DAUGER_SANITIZE=OFF -DAUGER_WITH_SIM=ON
 	cmake --build $(BUILD) -j $(JOBS)
@@ -62,6 +69,8 @@ ASAN_TARGETS := test_protocol test_firmware_logic test_host_core test_sim_models
                 test_robot_unit test_daemon_unit test_operator_unit
 # The log generator's unit tests (tests/workbench/hidden) and the workbench engine's.
 ASAN_TARGETS += test_sim_log test_workbench_engine
+# augerd's ROS 2 interface without DDS: names, conversions, its configuration (tests/ros2).
+ASAN_TARGETS += test_ros2_unit
 asan: deps firmware
 	cmake -S . -B $(ASAN_BUILD) -G $(CMAKE_GENERATOR) -DCMAKE_BUILD_TYPE=Debug \
 	  -DAUGER_SANITIZE=ON -DAUGER_WITH_SIM=ON
@@ -99,7 +108,7 @@ fuzz-smoke: $(FUZZ_BUILD)/fuzz_parser $(FUZZ_BUILD)/corpus
 	$(FUZZ_BUILD)/fuzz_parser -runs=300000 -seed=1 -max_len=512 -print_final_stats=1 \
 	  $(FUZZ_BUILD)/smoke $(FUZZ_BUILD)/corpus 2>&1 | tail -n 3
 
-test: deps check-protocol host asan fuzz-smoke board
+test: deps check-protocol host venv asan fuzz-smoke board
 	cd $(ASAN_BUILD) && ctest --output-on-failure -L unit -j $(JOBS)
 	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) ctest --output-on-failure -LE long
 
@@ -116,7 +125,7 @@ test-full: test
 
 # The simulated robot on sand driven by augerd: a square and the helix diagonal with each
 # allocator, tracking errors printed (scripts/demo.sh; about 90 s after the build).
-demo: host
+demo: host venv
 	scripts/demo.sh $(BUILD)
 
 bench-protocol: host
@@ -130,6 +139,9 @@ bench-host: host
 
 bench-robot: host
 	$(BUILD)/bench/robot_speed 20 2
+
+bench-ros2: host venv
+	scripts/bench-ros2.sh $(BUILD) 30
 
 # The paper's PID gains under every reading of their units (docs/firmware.md).
 pid-units: host
@@ -150,15 +162,23 @@ else
 BOARD_CMAKE := -DCMAKE_TOOLCHAIN_FILE=$(CURDIR)/cmake/toolchain-aarch64.cmake
 endif
 
+# augerd's ROS 2 interface (docs/ros2.md) is left out of the board's build unless ROS2=1: then
+# Cyclone DDS comes from Debian's arm64 packages (multiarch on a workstation) and the board
+# needs libddsc0debian to run augerd; without it augerd runs with nothing new and refuses
+# [ros2] enabled = true, saying how to build it in.
+ROS2 ?= 0
+BOARD_ROS2 := $(if $(filter 1,$(ROS2)),ON,OFF)
+
 # Only what building for the board needs (not the simulator, fuzzer or benchmark tools).
 board-deps:
-	@bash scripts/install-deps.sh board
+	@ROS2=$(ROS2) bash scripts/install-deps.sh board
 
 # The simulator and the tests are off: they run on the workstation (tests/board runs these
 # binaries under qemu-user there).
 board: board-deps
+	@[[ $(BOARD_ROS2) == ON ]] || echo "board: augerd without its ROS 2 interface (make board ROS2=1 to build it in; docs/ros2.md)"
 	cmake -S . -B $(BOARD_BUILD) -G $(CMAKE_GENERATOR) -DCMAKE_BUILD_TYPE=Release \
-	  -DAUGER_SANITIZE=OFF -DAUGER_WITH_SIM=OFF $(BOARD_CMAKE)
+	  -DAUGER_SANITIZE=OFF -DAUGER_WITH_SIM=OFF -DAUGER_WITH_ROS2=$(BOARD_ROS2) $(BOARD_CMAKE)
 	cmake --build $(BOARD_BUILD) -j $(JOBS) --target $(BOARD_TARGETS)
 
 # The unit tests of the board build, run under qemu-user (CMAKE_CROSSCOMPILING_EMULATOR of the

@@ -4,6 +4,9 @@
 # /dev/ttyUSB*), with the simulated camera and IMU fed into its sensors socket. It drives a 0.5 m
 # square and a 0.5 m diagonal along the helix direction, once with each allocator (the two
 # allocators run side by side), and prints the tracking error per DOF from augerd's own logs.
+# During the first square augerd also speaks ROS 2 (docs/ros2.md), and a DDS subscriber (the
+# build venv's Cyclone DDS, as a ROS 2 node would subscribe) prints the odometry it receives;
+# DDS stays on loopback (tests/ros2/dds-loopback.xml) on a domain id of this run.
 #   scripts/demo.sh [BUILD_DIR]      (make demo builds first)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -15,7 +18,8 @@ auger=$build/host/auger/auger
 track=$build/host/tools/auger-track
 module_tool=$build/host/tools/auger-module  # sim_start commissions with it
 elf=$root/firmware/build/auger-module.elf
-for f in "$sim" "$augerd" "$auger" "$track" "$module_tool" "$elf"; do
+py=$build/venv/bin/python3  # make venv
+for f in "$sim" "$augerd" "$auger" "$track" "$module_tool" "$elf" "$py"; do
   [[ -x $f || -r $f ]] || { echo "demo: $f is missing (make host)" >&2; exit 1; }
 done
 
@@ -50,17 +54,25 @@ AUGER_BUILD=$build AUGER_SRC=$root
 # shellcheck source=sim-robot.sh
 . "$root/scripts/sim-robot.sh"
 
-# run_case NAME ALLOCATOR TRAJECTORY SECONDS
+ros2_domain=$(( ($$ % 200) + 20 ))
+export CYCLONEDDS_URI=file://$root/tests/ros2/dds-loopback.xml
+
+# run_case NAME ALLOCATOR TRAJECTORY SECONDS [ros2]
 run_case() {
-  local name=$1 alloc=$2 traj=$3 seconds=$4 d=$work/$1
+  local name=$1 alloc=$2 traj=$3 seconds=$4 ros2=${5:-} d=$work/$1 sections=""
   mkdir -p "$d"
   sim_start "$d" sand $((seconds + 20))
   local sim_pid=$SIM_PID
+  [[ -z $ros2 ]] || sections="[ros2]
+enabled = true
+domain_id = $ros2_domain
+dds_config = \"$root/tests/ros2/dds-loopback.xml\""
   augerd_start "$d" sand "allocator = \"$alloc\"
 gamma_per_s = [0.2, 0.2, 0.2]
 omega_min_rpm = 3.0
-engage_rpm = 1.5" ""
+engage_rpm = 1.5" "" "$sections"
   local augerd_pid=$AUGERD_PID
+  [[ -z $ros2 ]] || (cd "$root/tests/ros2" && "$py" odom_echo.py "$ros2_domain" rt/odom "$seconds" 6) &
   "$auger" cmd --socket "$d/commands.sock" enable "follow $work/$traj.csv" > "$d/commands.out"
   sleep "$seconds"
   "$auger" cmd --socket "$d/commands.sock" status stop >> "$d/commands.out"
@@ -73,7 +85,9 @@ engage_rpm = 1.5" ""
 echo "demo: four simulated modules (firmware $elf) on ptys per run, the robot on sand, augerd;"
 echo "      logs under $work"
 start=$(date +%s)
-run_case square-nullspace nullspace square 58 & pids+=($!)
+echo "demo: augerd on the first square also publishes ROS 2 topics (DDS domain $ros2_domain, loopback);"
+echo "      a DDS subscriber prints its odometry (docs/ros2.md):"
+run_case square-nullspace nullspace square 58 ros2 & pids+=($!)
 run_case square-pinv pinv square 58 & pids+=($!)
 wait "${pids[0]}" "${pids[1]}"
 echo "demo: square done ($(($(date +%s) - start)) s)"

@@ -11,8 +11,10 @@ packages=(
   gcc-avr binutils-avr avr-libc avrdude
   # firmware-in-the-loop simulation
   simavr libsimavr-dev libelf-dev arduino-core-avr
-  # host
-  libeigen3-dev libtomlplusplus-dev libserial-dev catch2
+  # host; augerd's ROS 2 interface: Eclipse Cyclone DDS and its IDL compiler idlc
+  libeigen3-dev libtomlplusplus-dev libserial-dev catch2 cyclonedds-dev cyclonedds-tools
+  # the project's Python venv (scripts/make-venv.sh): the DDS tests' independent participant
+  python3-venv
   # fuzzing (libFuzzer) and sanitizers
   clang libclang-rt-14-dev
   # benchmarks (instruction counts)
@@ -39,20 +41,31 @@ multiarch=()
 if [[ ${1:-} == board ]]; then
   packages=(build-essential cmake ninja-build pkg-config libeigen3-dev libtomlplusplus-dev catch2 avrdude)
   [[ $(dpkg --print-architecture) == arm64 ]] || packages+=(g++-aarch64-linux-gnu qemu-user)
+  # `make board ROS2=1`: augerd with its ROS 2 interface, against Cyclone DDS for arm64; idlc
+  # (cyclonedds-tools) runs on the build machine.
+  if [[ ${ROS2:-0} == 1 ]]; then
+    packages+=(cyclonedds-tools)
+    if [[ $(dpkg --print-architecture) == arm64 ]]; then packages+=(cyclonedds-dev); else multiarch+=(cyclonedds-dev:arm64); fi
+  fi
 fi
 if grep -qsi 'curses' "$(dirname "$0")"/../host/*/CMakeLists.txt "$(dirname "$0")"/../host/CMakeLists.txt; then
   if [[ $(dpkg --print-architecture) == arm64 ]]; then
     packages+=(libncurses-dev)
   else
-    multiarch=(libncurses-dev:arm64)
+    multiarch+=(libncurses-dev:arm64)
   fi
 fi
 packages+=("${multiarch[@]}")
 
 missing=()
+native=$(dpkg --print-architecture)
 for p in "${packages[@]}"; do
-  status=$(dpkg-query -W -f='${Status}' "$p" 2>/dev/null || true)
-  [[ "$status" == "install ok installed" ]] || missing+=("$p")
+  # A name without :arch is the build machine's (or an Architecture: all) package; with arm64
+  # multiarch, dpkg-query also lists the arm64 one of the same name.
+  want_arch=${p#*:}
+  [[ $p == *:* ]] || want_arch=$native
+  dpkg-query -W -f='${Architecture} ${Status}\n' "$p" 2>/dev/null |
+    grep -Eq "^($want_arch|all) install ok installed\$" || missing+=("$p")
 done
 
 if [[ ${#missing[@]} -eq 0 ]]; then

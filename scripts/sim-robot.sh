@@ -34,11 +34,14 @@ sim_start() {
   done
 }
 
-# augerd_start DIR TERRAIN CONTROL_LINES LOG_LINES : augerd on the ptys of sim_start, listed in
-# another order than the ids (it maps modules by the id they report), with the given extra
-# lines in [control] and [log]; waits for its commands socket DIR/commands.sock. Sets AUGERD_PID.
+# augerd_start DIR TERRAIN CONTROL_LINES LOG_LINES [SECTIONS] : augerd on the ptys of sim_start,
+# listed in another order than the ids (it maps modules by the id they report), with the given
+# extra lines in [control] and [log] and extra SECTIONS at the end (e.g. [ros2]); its sensors
+# socket is DIR/sensors.sock (where sim_start sends the camera and IMU) unless
+# AUGERD_SENSORS_SOCKET names another. Waits for its commands socket DIR/commands.sock. Sets
+# AUGERD_PID.
 augerd_start() {
-  local d=$1 terrain=$2 control=$3 log=$4
+  local d=$1 terrain=$2 control=$3 log=$4 sections=${5:-}
   mkdir -p "$d/logs"
   cat > "$d/augerd.toml" <<CONF
 schema = 1
@@ -51,10 +54,11 @@ terrain = "$terrain"
 $control
 [sockets]
 commands = "$d/commands.sock"
-sensors = "$d/sensors.sock"
+sensors = "${AUGERD_SENSORS_SOCKET:-$d/sensors.sock}"
 [log]
 dir = "$d/logs"
 $log
+$sections
 CONF
   "$AUGER_BUILD/host/augerd/augerd" --config "$d/augerd.toml" > "$d/augerd.out" 2>&1 &
   AUGERD_PID=$!

@@ -64,6 +64,10 @@ struct Reader {
       it->second(v);
     }
   }
+  bool boolean(const toml::node& n, const std::string& key) const {
+    if (!n.is_boolean()) fail(n, "'" + key + "' must be true or false");
+    return *n.value<bool>();
+  }
   const toml::table& table(const toml::node& n, const std::string& key) const {
     if (!n.is_table()) fail(n, "'" + key + "' must be a table [" + key + "]");
     return *n.as_table();
@@ -74,6 +78,92 @@ std::string resolve(const std::string& config_path, const std::string& p) {
   if (p.empty() || p[0] == '/') return p;
   const auto slash = config_path.rfind('/');
   return slash == std::string::npos ? p : config_path.substr(0, slash + 1) + p;
+}
+
+// [ros2] (docs/ros2.md): every key optional; nothing happens unless enabled = true.
+void read_ros2(const Reader& r, const toml::table& t, const std::string& path, auger::ros2::Settings& s) {
+  namespace ros2 = auger::ros2;
+  auto name_check = [&](const toml::node& v, const std::string& name) {
+    try {
+      ros2::fully_qualified_name(name, "");
+    } catch (const std::invalid_argument& e) {
+      r.fail(v, e.what());
+    }
+  };
+  // A topic; an input's may be "" (not subscribed).
+  auto topic = [&](std::string& to, bool may_be_empty) {
+    return [&r, &to, may_be_empty, name_check](const toml::node& v) {
+      if (!v.is_string()) r.fail(v, "a topic must be a string");
+      to = *v.value<std::string>();
+      if (to.empty() && may_be_empty) return;
+      name_check(v, to);
+    };
+  };
+  auto frame = [&](std::string& to) {
+    return [&r, &to](const toml::node& v) {
+      to = r.text(v, "frame");
+      try {
+        ros2::check_frame_id(to);
+      } catch (const std::invalid_argument& e) {
+        r.fail(v, e.what());
+      }
+    };
+  };
+  auto rate = [&](double& to, const char* key) {
+    return [&r, &to, key](const toml::node& v) { to = r.number(v, key, 0, 100); };
+  };
+  r.keys(t, "[ros2]",
+         {{"enabled",
+           [&](const toml::node& v) {
+             s.enabled = r.boolean(v, "enabled");
+             if (s.enabled && !ros2::available())
+               r.fail(v, "this augerd was built without the ROS 2 interface (Cyclone DDS): build it with "
+                         "-DAUGER_WITH_ROS2=ON (for the board: make board ROS2=1)");
+           }},
+          {"domain_id", [&](const toml::node& v) {
+             const double d = r.number(v, "domain_id", 0, 232);
+             if (d != std::floor(d)) r.fail(v, "'domain_id' must be a whole number");
+             s.domain_id = int(d);
+           }},
+          {"dds_config", [&](const toml::node& v) { s.dds_config = resolve(path, r.text(v, "dds_config")); }},
+          {"namespace",
+           [&](const toml::node& v) {
+             if (!v.is_string()) r.fail(v, "'namespace' must be a string");
+             s.ns = *v.value<std::string>();
+             try {
+               ros2::fully_qualified_name("x", s.ns);
+             } catch (const std::invalid_argument& e) {
+               r.fail(v, e.what());
+             }
+           }},
+          {"cmd_vel_topic", topic(s.cmd_vel_topic, true)},
+          {"cmd_vel_stamped_topic", topic(s.cmd_vel_stamped_topic, true)},
+          {"pose_topic", topic(s.pose_topic, true)},
+          {"pose_cov_topic", topic(s.pose_cov_topic, true)},
+          {"imu_topic", topic(s.imu_topic, true)},
+          {"pose_std",
+           [&](const toml::node& v) {
+             const auger::Vec3 sd = r.vec3(v, "pose_std", 1e-6, 100);
+             s.pose_std = {sd[0], sd[1], sd[2]};
+           }},
+          {"odom_topic", topic(s.odom_topic, false)},
+          {"joint_states_topic", topic(s.joint_states_topic, false)},
+          {"diagnostics_topic", topic(s.diagnostics_topic, false)},
+          {"tf_topic", topic(s.tf_topic, false)},
+          {"odom_rate_hz", rate(s.odom_rate_hz, "odom_rate_hz")},
+          {"joint_states_rate_hz", rate(s.joint_states_rate_hz, "joint_states_rate_hz")},
+          {"diagnostics_rate_hz", rate(s.diagnostics_rate_hz, "diagnostics_rate_hz")},
+          {"tf", [&](const toml::node& v) { s.tf = r.boolean(v, "tf"); }},
+          {"odom_frame", frame(s.odom_frame)},
+          {"base_frame", frame(s.base_frame)},
+          {"joint_names", [&](const toml::node& v) {
+             const toml::array* a = v.as_array();
+             if (!a || a->size() != 4) r.fail(v, "'joint_names' must be an array of 4 names (screws 0..3)");
+             for (std::size_t i = 0; i < 4; ++i) {
+               s.joint_names[i] = r.text(*a->get(i), "joint_names");
+               frame(s.joint_names[i])(*a->get(i));
+             }
+           }}});
 }
 
 }  // namespace
@@ -221,6 +311,7 @@ DaemonConfig load_daemon_config(const std::string& path) {
                         have_sens = true;
                       }}});
            }},
+          {"ros2", [&](const toml::node& n) { read_ros2(r, r.table(n, "ros2"), path, c.ros2); }},
           {"log", [&](const toml::node& n) {
              r.keys(r.table(n, "log"), "[log]",
                     {{"dir",
@@ -247,6 +338,12 @@ DaemonConfig load_daemon_config(const std::string& path) {
   // sockaddr_un holds 108 bytes including the terminating zero.
   for (const auto* s : {&c.commands_socket, &c.sensors_socket})
     if (s->size() > 107) throw ConfigError(path, 1, 1, "socket path too long (max 107 bytes): " + *s);
+
+  try {
+    auger::ros2::check_settings(c.ros2);  // the namespace with each topic, the frames
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(path, 1, 1, std::string("[ros2]: ") + e.what());
+  }
 
   // The model file (its own errors name that file); then this file's overrides.
   const auger::ModelFile model = auger::load_model_file(c.model_file);

@@ -8,6 +8,7 @@
 
 #include "auger/controller.hpp"
 #include "auger/model.hpp"
+#include "ros2.hpp"
 
 namespace augerd {
 
@@ -38,6 +39,9 @@ struct DaemonConfig {
   std::string log_dir;
   std::uint64_t log_rotate_bytes = 64ull << 20;
   double log_flush_interval_s = 1.0;
+
+  // [ros2]: the ROS 2 interface on DDS, off unless enabled (docs/ros2.md)
+  auger::ros2::Settings ros2;
 };
 
 // Reads and checks the file, including the model file (so that a bad model is a start-up error

@@ -63,6 +63,9 @@ class Controller {
 
   const Vec3& eta_estimate() const { return eta_; }
   const Vec3& zeta_estimate() const { return zeta_; }
+  // The EKF's covariance over [x, y, psi, u, v, r] (augerd's ROS 2 Odometry); null with the
+  // dead-reckoning estimators, which keep none.
+  const Mat6* estimate_covariance() const { return config_.estimator == EstimatorKind::ekf ? &ekf_.P : nullptr; }
   const ReferenceState& reference() const { return ref_; }
   const PidTerms& pid_terms() const { return pid_terms_; }
   const AllocationResult& allocation() const { return alloc_; }

@@ -1,0 +1,530 @@
+// The bridge on Eclipse Cyclone DDS (docs/ros2.md). Threads: augerd's loop calls poll() and
+// publish(), which only try to take a mutex and copy plain data; Cyclone's receive thread runs
+// the readers' listeners (take, convert, keep the newest); the bridge's own thread writes the
+// outputs. So no DDS call, allocation or socket write ever happens on the 100 Hz loop.
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <condition_variable>
+#include <cstdio>
+#include <cstring>
+#include <mutex>
+#include <stdexcept>
+#include <thread>
+#include <vector>
+
+#include <dds/dds.h>
+
+#include "convert.hpp"
+#include "ros2.hpp"
+#include "protocol.h"
+#include "ros2_messages.h"
+#include "status_text.hpp"
+
+namespace auger::ros2 {
+namespace {
+
+// ROS 2's QoS profiles (rmw's qos_profiles.h): the default one (reliable, volatile, keep
+// last 10) for commands, odometry, joint states and diagnostics; the sensor data one (best
+// effort, volatile, keep last 5) for the camera pose and the IMU; /tf as tf2_ros's broadcaster
+// (the default one, keep last 100). Writers never block: keep-last history bounds what a
+// reliable writer holds for a slow reader, and max_blocking_time 0 makes a write that would
+// wait fail at once (counted) instead. XCDR1, the representation ROS 2's rmw_cyclonedds uses.
+enum class Profile { default_, sensor_data, tf };
+
+dds_qos_t* make_qos(Profile p) {
+  dds_qos_t* q = dds_create_qos();
+  const bool reliable = p != Profile::sensor_data;
+  dds_qset_reliability(q, reliable ? DDS_RELIABILITY_RELIABLE : DDS_RELIABILITY_BEST_EFFORT, 0);
+  dds_qset_durability(q, DDS_DURABILITY_VOLATILE);
+  dds_qset_history(q, DDS_HISTORY_KEEP_LAST, p == Profile::tf ? 100 : p == Profile::sensor_data ? 5 : 10);
+  const dds_data_representation_id_t xcdr1 = DDS_DATA_REPRESENTATION_XCDR1;
+  dds_qset_data_representation(q, 1, &xcdr1);
+  return q;
+}
+
+void copy_text(std::array<char, 200>& to, const std::string& s) {
+  const std::size_t n = std::min(s.size(), to.size() - 1);
+  std::memcpy(to.data(), s.data(), n);
+  to[n] = '\0';
+}
+
+// Keeps std::string storage alive for the char* fields of a sample being written.
+char* text(std::string& s) { return s.data(); }
+
+class CycloneBridge final : public Bridge {
+ public:
+  explicit CycloneBridge(const Settings& s);
+  ~CycloneBridge() override;
+  bool poll(Inputs& in) override;
+  void publish(const Snapshot& s) override;
+  std::string describe() const override { return description_; }
+
+ private:
+  struct Reader {
+    CycloneBridge* self;
+    dds_entity_t reader;
+    void (CycloneBridge::*take)(dds_entity_t);
+  };
+  dds_entity_t topic(const dds_topic_descriptor_t* desc, const std::string& ros_name);
+  void add_reader(const std::string& ros_name, const dds_topic_descriptor_t* desc, Profile p,
+                  void (CycloneBridge::*take)(dds_entity_t), const char* type);
+  dds_entity_t add_writer(const std::string& ros_name, const dds_topic_descriptor_t* desc, Profile p, const char* type);
+  static void on_data(dds_entity_t reader, void* arg);
+  // Listener bodies (Cyclone's receive thread).
+  void take_twist(dds_entity_t r);
+  void take_twist_stamped(dds_entity_t r);
+  void take_pose(dds_entity_t r);
+  void take_pose_cov(dds_entity_t r);
+  void take_imu(dds_entity_t r);
+  void pose_in(double t, const geometry_msgs_msg_dds__Pose_& p, double sx, double sy, double spsi);
+  void refuse(const std::string& why);  // with in_mu_ held
+  // The writer thread.
+  void run();
+  void write_odometry(const Snapshot& s);
+  void write_joint_states(const Snapshot& s);
+  void write_diagnostics(const Snapshot& s);
+  void write(dds_entity_t w, const void* sample, const char* what);
+
+  Settings settings_;
+  dds_entity_t domain_ = 0, participant_ = 0;
+  std::vector<std::unique_ptr<Reader>> readers_;
+  dds_entity_t odom_w_ = 0, joints_w_ = 0, diag_w_ = 0, tf_w_ = 0;
+  std::string description_;
+
+  std::mutex in_mu_;
+  Inputs in_;  // pending for the next poll
+
+  std::mutex out_mu_;
+  std::condition_variable out_cv_;
+  Snapshot out_;
+  bool out_new_ = false, stop_ = false;
+  long skipped_ = 0;       // cycles whose snapshot could not be handed over (writer busy)
+  double next_due_s_ = 0;  // publish(): the next snapshot time an output is due
+  double next_odom_s_ = 0, next_joints_s_ = 0, next_diag_s_ = 0;  // the writer thread's
+  long write_failures_ = 0;
+  std::thread thread_;
+};
+
+CycloneBridge::CycloneBridge(const Settings& s) : settings_(s) {
+  if (!s.dds_config.empty()) {
+    domain_ = dds_create_domain(dds_domainid_t(s.domain_id), ("file://" + s.dds_config).c_str());
+    if (domain_ < 0)
+      throw std::runtime_error("ROS 2: cannot create DDS domain " + std::to_string(s.domain_id) + " from " +
+                               s.dds_config + ": " + dds_strretcode(domain_));
+  }
+  dds_qos_t* pq = dds_create_qos();
+  dds_qset_entity_name(pq, "augerd");
+  participant_ = dds_create_participant(dds_domainid_t(s.domain_id), pq, nullptr);
+  dds_delete_qos(pq);
+  if (participant_ < 0) {
+    if (domain_ > 0) dds_delete(domain_);
+    throw std::runtime_error("ROS 2: cannot create the DDS participant in domain " + std::to_string(s.domain_id) +
+                             ": " + dds_strretcode(participant_) + " (check the Cyclone DDS configuration)");
+  }
+  try {
+    description_ = "domain " + std::to_string(s.domain_id) + "; in:";
+    add_reader(s.cmd_vel_topic, &geometry_msgs_msg_dds__Twist__desc, Profile::default_, &CycloneBridge::take_twist,
+               "Twist");
+    add_reader(s.cmd_vel_stamped_topic, &geometry_msgs_msg_dds__TwistStamped__desc, Profile::default_,
+               &CycloneBridge::take_twist_stamped, "TwistStamped");
+    add_reader(s.pose_topic, &geometry_msgs_msg_dds__PoseStamped__desc, Profile::sensor_data, &CycloneBridge::take_pose,
+               "PoseStamped");
+    add_reader(s.pose_cov_topic, &geometry_msgs_msg_dds__PoseWithCovarianceStamped__desc, Profile::sensor_data,
+               &CycloneBridge::take_pose_cov, "PoseWithCovarianceStamped");
+    add_reader(s.imu_topic, &sensor_msgs_msg_dds__Imu__desc, Profile::sensor_data, &CycloneBridge::take_imu, "Imu");
+    description_ += "; out:";
+    if (s.odom_rate_hz > 0) {
+      odom_w_ = add_writer(s.odom_topic, &nav_msgs_msg_dds__Odometry__desc, Profile::default_, "Odometry");
+      if (s.tf) tf_w_ = add_writer(s.tf_topic, &tf2_msgs_msg_dds__TFMessage__desc, Profile::tf, "TFMessage");
+    }
+    if (s.joint_states_rate_hz > 0)
+      joints_w_ = add_writer(s.joint_states_topic, &sensor_msgs_msg_dds__JointState__desc, Profile::default_,
+                             "JointState");
+    if (s.diagnostics_rate_hz > 0)
+      diag_w_ = add_writer(s.diagnostics_topic, &diagnostic_msgs_msg_dds__DiagnosticArray__desc, Profile::default_,
+                           "DiagnosticArray");
+  } catch (...) {
+    dds_delete(participant_);
+    if (domain_ > 0) dds_delete(domain_);
+    throw;
+  }
+  thread_ = std::thread([this] { run(); });
+}
+
+CycloneBridge::~CycloneBridge() {
+  {
+    std::lock_guard<std::mutex> lk(out_mu_);
+    stop_ = true;
+  }
+  out_cv_.notify_one();
+  thread_.join();
+  // Deleting the participant deletes its readers (their listeners stop first) and writers.
+  dds_delete(participant_);
+  if (domain_ > 0) dds_delete(domain_);
+}
+
+dds_entity_t CycloneBridge::topic(const dds_topic_descriptor_t* desc, const std::string& ros_name) {
+  const std::string name = dds_topic_name(fully_qualified_name(ros_name, settings_.ns));
+  const dds_entity_t t = dds_create_topic(participant_, desc, name.c_str(), nullptr, nullptr);
+  if (t < 0) throw std::runtime_error("ROS 2: cannot create DDS topic " + name + ": " + dds_strretcode(t));
+  return t;
+}
+
+void CycloneBridge::add_reader(const std::string& ros_name, const dds_topic_descriptor_t* desc, Profile p,
+                               void (CycloneBridge::*take)(dds_entity_t), const char* type) {
+  if (ros_name.empty()) return;
+  const dds_entity_t t = topic(desc, ros_name);
+  auto r = std::make_unique<Reader>(Reader{this, 0, take});
+  dds_listener_t* l = dds_create_listener(r.get());
+  dds_lset_data_available(l, &CycloneBridge::on_data);
+  dds_qos_t* q = make_qos(p);
+  r->reader = dds_create_reader(participant_, t, q, l);
+  dds_delete_qos(q);
+  dds_delete_listener(l);  // the reader keeps its own copy
+  if (r->reader < 0)
+    throw std::runtime_error("ROS 2: cannot create a reader of " + ros_name + ": " + dds_strretcode(r->reader));
+  description_ += " " + fully_qualified_name(ros_name, settings_.ns) + " (" + type + ")";
+  readers_.push_back(std::move(r));
+}
+
+dds_entity_t CycloneBridge::add_writer(const std::string& ros_name, const dds_topic_descriptor_t* desc, Profile p,
+                                       const char* type) {
+  const dds_entity_t t = topic(desc, ros_name);
+  dds_qos_t* q = make_qos(p);
+  const dds_entity_t w = dds_create_writer(participant_, t, q, nullptr);
+  dds_delete_qos(q);
+  if (w < 0) throw std::runtime_error("ROS 2: cannot create a writer of " + ros_name + ": " + dds_strretcode(w));
+  description_ += " " + fully_qualified_name(ros_name, settings_.ns) + " (" + type + ")";
+  return w;
+}
+
+// ---- inputs (Cyclone's receive thread) ----
+
+void CycloneBridge::on_data(dds_entity_t reader, void* arg) {
+  auto* r = static_cast<Reader*>(arg);
+  (r->self->*(r->take))(reader);
+}
+
+// Takes every sample waiting (loaned, no copy) and hands the valid ones to f, oldest first.
+template <class Msg, class F>
+void take_all(dds_entity_t reader, F&& f) {
+  constexpr int kMax = 16;
+  void* buf[kMax] = {nullptr};
+  dds_sample_info_t info[kMax];
+  for (;;) {
+    const dds_return_t n = dds_take(reader, buf, info, kMax, kMax);
+    if (n <= 0) return;
+    for (int i = 0; i < n; ++i)
+      if (info[i].valid_data) f(*static_cast<const Msg*>(buf[i]));
+    dds_return_loan(reader, buf, n);
+    buf[0] = nullptr;  // the next take lends again (a non-null buf[0] would be copied into)
+    if (n < kMax) return;
+  }
+}
+
+void CycloneBridge::refuse(const std::string& why) {
+  ++in_.refused;
+  copy_text(in_.refusal, why);
+}
+
+void CycloneBridge::take_twist(dds_entity_t r) {
+  take_all<geometry_msgs_msg_dds__Twist_>(r, [this](const geometry_msgs_msg_dds__Twist_& m) {
+    std::lock_guard<std::mutex> lk(in_mu_);
+    ++in_.received;
+    // A planar robot: linear.z and the roll and pitch rates have no screw speeds to go to.
+    in_.has_vel = true;
+    in_.u_mps = m.linear.x;
+    in_.v_mps = m.linear.y;
+    in_.r_radps = m.angular.z;
+  });
+}
+
+void CycloneBridge::take_twist_stamped(dds_entity_t r) {
+  take_all<geometry_msgs_msg_dds__TwistStamped_>(r, [this](const geometry_msgs_msg_dds__TwistStamped_& m) {
+    std::lock_guard<std::mutex> lk(in_mu_);
+    ++in_.received;
+    in_.has_vel = true;
+    in_.u_mps = m.twist.linear.x;
+    in_.v_mps = m.twist.linear.y;
+    in_.r_radps = m.twist.angular.z;
+  });
+}
+
+void CycloneBridge::pose_in(double t, const geometry_msgs_msg_dds__Pose_& p, double sx, double sy, double spsi) {
+  // in_mu_ held by the caller.
+  ++in_.received;
+  double yaw = 0;
+  std::string why;
+  if (!yaw_from_quaternion(p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w, yaw, why))
+    return refuse("pose: " + why);
+  in_.has_pose = true;
+  in_.pose_t_unix_s = t;
+  in_.x_m = p.position.x;
+  in_.y_m = p.position.y;
+  in_.psi_rad = yaw;
+  in_.sx_m = sx;
+  in_.sy_m = sy;
+  in_.spsi_rad = spsi;
+}
+
+void CycloneBridge::take_pose(dds_entity_t r) {
+  take_all<geometry_msgs_msg_dds__PoseStamped_>(r, [this](const geometry_msgs_msg_dds__PoseStamped_& m) {
+    std::lock_guard<std::mutex> lk(in_mu_);
+    const auto& sd = settings_.pose_std;
+    pose_in(stamp_to_unix_s(m.header.stamp.sec, m.header.stamp.nanosec), m.pose, sd[0], sd[1], sd[2]);
+  });
+}
+
+void CycloneBridge::take_pose_cov(dds_entity_t r) {
+  take_all<geometry_msgs_msg_dds__PoseWithCovarianceStamped_>(
+      r, [this](const geometry_msgs_msg_dds__PoseWithCovarianceStamped_& m) {
+        std::lock_guard<std::mutex> lk(in_mu_);
+        // The diagonal's x, y and rot Z variances; a negative one gives NaN, which augerd's
+        // checks refuse like any non-finite standard deviation.
+        const double* c = m.pose.covariance;
+        pose_in(stamp_to_unix_s(m.header.stamp.sec, m.header.stamp.nanosec), m.pose.pose, std::sqrt(c[0]),
+                std::sqrt(c[7]), std::sqrt(c[35]));
+      });
+}
+
+void CycloneBridge::take_imu(dds_entity_t r) {
+  take_all<sensor_msgs_msg_dds__Imu_>(r, [this](const sensor_msgs_msg_dds__Imu_& m) {
+    std::lock_guard<std::mutex> lk(in_mu_);
+    ++in_.received;
+    // sensor_msgs/Imu: element 0 of a covariance at -1 means that estimate is absent; augerd's
+    // IMU input is the heading and the yaw rate together (the sensors socket's `imu`).
+    if (m.orientation_covariance[0] == -1)
+      return refuse("imu: no orientation (orientation_covariance[0] = -1); augerd needs the heading");
+    if (m.angular_velocity_covariance[0] == -1)
+      return refuse("imu: no angular velocity (angular_velocity_covariance[0] = -1); augerd needs the yaw rate");
+    double yaw = 0;
+    std::string why;
+    if (!yaw_from_quaternion(m.orientation.x, m.orientation.y, m.orientation.z, m.orientation.w, yaw, why))
+      return refuse("imu: " + why);
+    in_.has_imu = true;
+    in_.imu_t_unix_s = stamp_to_unix_s(m.header.stamp.sec, m.header.stamp.nanosec);
+    in_.imu_psi_rad = yaw;
+    in_.imu_r_radps = m.angular_velocity.z;
+  });
+}
+
+bool CycloneBridge::poll(Inputs& in) {
+  std::unique_lock<std::mutex> lk(in_mu_, std::try_to_lock);
+  if (!lk || in_.received == 0) return false;
+  in = in_;
+  in_ = Inputs{};
+  return true;
+}
+
+// ---- outputs ----
+
+void CycloneBridge::publish(const Snapshot& s) {
+  if (s.t_unix_s < next_due_s_) return;
+  std::unique_lock<std::mutex> lk(out_mu_, std::try_to_lock);
+  if (!lk) {
+    ++skipped_;
+    return;
+  }
+  out_ = s;
+  out_new_ = true;
+  lk.unlock();
+  out_cv_.notify_one();
+  // The next time any output is due: the fastest rate's period (the writer thread keeps each
+  // output to its own rate).
+  const double fastest = std::max({settings_.odom_rate_hz, settings_.joint_states_rate_hz, settings_.diagnostics_rate_hz});
+  next_due_s_ = fastest > 0 ? s.t_unix_s + 1.0 / fastest - 0.002 : 1e300;
+}
+
+void CycloneBridge::run() {
+  Snapshot s;
+  for (;;) {
+    {
+      std::unique_lock<std::mutex> lk(out_mu_);
+      out_cv_.wait(lk, [this] { return out_new_ || stop_; });
+      if (stop_) return;
+      s = out_;
+      out_new_ = false;
+    }
+    // Each output on its own schedule, to within 2 ms of the loop's cycle (which is 10 ms).
+    auto due = [&](double& next, double rate_hz) {
+      if (rate_hz <= 0 || s.t_unix_s < next - 0.002) return false;
+      next = std::max(next + 1.0 / rate_hz, s.t_unix_s + 0.5 / rate_hz);
+      return true;
+    };
+    if (due(next_odom_s_, settings_.odom_rate_hz)) write_odometry(s);
+    if (due(next_joints_s_, settings_.joint_states_rate_hz)) write_joint_states(s);
+    if (due(next_diag_s_, settings_.diagnostics_rate_hz)) write_diagnostics(s);
+  }
+}
+
+void CycloneBridge::write(dds_entity_t w, const void* sample, const char* what) {
+  const dds_return_t rc = dds_write(w, sample);
+  if (rc == DDS_RETCODE_OK) return;
+  // Reported at the first failure and then every 100th (a reader that stopped acknowledging).
+  if (write_failures_++ % 100 == 0)
+    std::fprintf(stderr, "augerd: ROS 2: writing %s failed (%s); %ld failure(s) so far\n", what, dds_strretcode(rc),
+                 write_failures_);
+}
+
+void CycloneBridge::write_odometry(const Snapshot& s) {
+  std::string odom_frame = settings_.odom_frame, base_frame = settings_.base_frame;
+  nav_msgs_msg_dds__Odometry_ m{};
+  unix_s_to_stamp(s.t_unix_s, m.header.stamp.sec, m.header.stamp.nanosec);
+  m.header.frame_id = text(odom_frame);
+  m.child_frame_id = text(base_frame);
+  double q[4];
+  quaternion_from_yaw(s.eta[2], q);
+  m.pose.pose.position.x = s.eta[0];
+  m.pose.pose.position.y = s.eta[1];
+  m.pose.pose.orientation.x = q[0];
+  m.pose.pose.orientation.y = q[1];
+  m.pose.pose.orientation.z = q[2];
+  m.pose.pose.orientation.w = q[3];
+  m.twist.twist.linear.x = s.zeta[0];
+  m.twist.twist.linear.y = s.zeta[1];
+  m.twist.twist.angular.z = s.zeta[2];
+  // Without the EKF's covariance (dead-reckoning estimators) the covariances stay all zeros,
+  // ROS's "unknown".
+  if (s.has_cov) odometry_covariance(s.cov, m.pose.covariance, m.twist.covariance);
+  write(odom_w_, &m, "Odometry");
+  if (!tf_w_) return;
+  geometry_msgs_msg_dds__TransformStamped_ ts{};
+  ts.header = m.header;
+  ts.child_frame_id = m.child_frame_id;
+  ts.transform.translation.x = s.eta[0];
+  ts.transform.translation.y = s.eta[1];
+  ts.transform.rotation = m.pose.pose.orientation;
+  tf2_msgs_msg_dds__TFMessage_ tf{};
+  tf.transforms._length = tf.transforms._maximum = 1;
+  tf.transforms._buffer = &ts;
+  tf.transforms._release = false;
+  write(tf_w_, &tf, "TFMessage");
+}
+
+void CycloneBridge::write_joint_states(const Snapshot& s) {
+  constexpr double kRadpsPerRpm = 2.0 * M_PI / 60.0;
+  std::string frame;  // JointState's header frame is empty by convention
+  std::array<std::string, 4> names = settings_.joint_names;
+  char* name_ptrs[4];
+  double velocity_radps[4], effort_a[4];
+  for (int i = 0; i < 4; ++i) {
+    name_ptrs[i] = text(names[std::size_t(i)]);
+    const ModuleSnapshot& mod = s.module[i];
+    // A module not answering has no speed or current to report: NaN, not its last value.
+    velocity_radps[i] = mod.answering ? mod.omega_rpm * kRadpsPerRpm : NAN;
+    effort_a[i] = mod.answering ? mod.current_a : NAN;
+  }
+  sensor_msgs_msg_dds__JointState_ m{};
+  unix_s_to_stamp(s.t_unix_s, m.header.stamp.sec, m.header.stamp.nanosec);
+  m.header.frame_id = text(frame);
+  m.name._length = m.name._maximum = 4;
+  m.name._buffer = name_ptrs;
+  m.velocity._length = m.velocity._maximum = 4;
+  m.velocity._buffer = velocity_radps;
+  m.effort._length = m.effort._maximum = 4;
+  m.effort._buffer = effort_a;
+  // position stays empty: augerd does not know the counts per screw turn (module EEPROM).
+  write(joints_w_, &m, "JointState");
+}
+
+void CycloneBridge::write_diagnostics(const Snapshot& s) {
+  static const char* kWhere[4] = {"front-right", "rear-right", "rear-left", "front-left"};
+  // Storage for the strings the sample points into (this thread only; allocation is fine here).
+  struct Status {
+    std::string name, message, hardware_id;
+    std::vector<std::pair<std::string, std::string>> kv;
+    uint8_t level = 0;
+  };
+  std::vector<Status> st;
+  char b[128];
+  auto num = [&](const char* fmt, double v) {
+    std::snprintf(b, sizeof b, fmt, v);
+    return std::string(b);
+  };
+  for (int i = 0; i < 4; ++i) {
+    const ModuleSnapshot& m = s.module[i];
+    Status x;
+    x.name = "augerd: module " + std::to_string(i) + " (" + kWhere[i] + ")";
+    std::snprintf(b, sizeof b, "%s firmware %u.%u.%u", m.port.data(), m.fw[0], m.fw[1], m.fw[2]);
+    x.hardware_id = b;
+    const bool faults = (m.status & PROTO_F_MASK) != 0;
+    if (!m.answering) {
+      x.level = 3;  // STALE
+      x.message = "not answering";
+    } else if (faults) {
+      x.level = 2;  // ERROR
+      x.message = "fault: " + auger::io::fault_bits_text(m.status);
+    } else if (s.fault_module == i) {
+      x.level = 1;  // WARN: the module is fine now, the robot waits for `enable`
+      x.message = std::string("stopped the robot (") + s.fault_reason.data() + "); waiting for enable";
+    } else {
+      x.message = "ok";
+    }
+    std::snprintf(b, sizeof b, "0x%04x", m.status);
+    x.kv = {{"omega_rpm", num("%.2f", m.omega_rpm)},
+            {"cmd_rpm", num("%.2f", m.cmd_rpm)},
+            {"current_a", num("%.3f", m.current_a)},
+            {"voltage_v", num("%.3f", m.voltage_v)},
+            {"pwm", num("%.4f", m.pwm)},
+            {"status", b},
+            {"faults", faults ? auger::io::fault_bits_text(m.status) : "none"},
+            {"rx_errors", std::to_string(m.rx_errors)},
+            {"encoder_errors", std::to_string(m.encoder_errors)},
+            {"host_crc_errors", std::to_string(m.crc_errors)},
+            {"host_header_errors", std::to_string(m.header_errors)},
+            {"host_bytes_skipped", std::to_string(m.bytes_skipped)}};
+    st.push_back(std::move(x));
+  }
+  {
+    Status x;
+    x.name = "augerd: controller";
+    x.hardware_id = "augerd";
+    x.level = s.fault_module >= 0 ? 1 : 0;
+    x.message = s.fault_module >= 0
+                    ? "stopped by module " + std::to_string(s.fault_module) + " (" + s.fault_reason.data() + ")"
+                    : std::string("mode ") + s.mode.data();
+    x.kv = {{"mode", s.mode.data()},
+            {"enabled", s.enabled ? "1" : "0"},
+            {"loop_dt_s", num("%.5f", s.loop_dt_s)},
+            {"loop_jitter_max_s", num("%.5f", s.loop_jitter_max_s)},
+            {"ros2_hook_max_us", num("%.1f", s.hook_max_us)},
+            {"ros2_inputs_applied", std::to_string(s.inputs_applied)},
+            {"ros2_inputs_refused", std::to_string(s.inputs_refused)},
+            {"ros2_last_refusal", s.last_refusal[0] ? s.last_refusal.data() : "none"},
+            {"ros2_cycles_skipped", std::to_string(skipped_)}};
+    st.push_back(std::move(x));
+  }
+  std::vector<diagnostic_msgs_msg_dds__DiagnosticStatus_> status(st.size());
+  std::vector<std::vector<diagnostic_msgs_msg_dds__KeyValue_>> kvs(st.size());
+  for (std::size_t i = 0; i < st.size(); ++i) {
+    for (auto& [k, v] : st[i].kv) kvs[i].push_back({text(k), text(v)});
+    auto& d = status[i];
+    d.level = st[i].level;
+    d.name = text(st[i].name);
+    d.message = text(st[i].message);
+    d.hardware_id = text(st[i].hardware_id);
+    d.values._length = d.values._maximum = uint32_t(kvs[i].size());
+    d.values._buffer = kvs[i].data();
+    d.values._release = false;
+  }
+  std::string frame;
+  diagnostic_msgs_msg_dds__DiagnosticArray_ m{};
+  unix_s_to_stamp(s.t_unix_s, m.header.stamp.sec, m.header.stamp.nanosec);
+  m.header.frame_id = text(frame);
+  m.status._length = m.status._maximum = uint32_t(status.size());
+  m.status._buffer = status.data();
+  m.status._release = false;
+  write(diag_w_, &m, "DiagnosticArray");
+}
+
+}  // namespace
+
+bool available() { return true; }
+
+std::unique_ptr<Bridge> make_bridge(const Settings& s) {
+  check_settings(s);
+  return std::make_unique<CycloneBridge>(s);
+}
+
+}  // namespace auger::ros2

@@ -1,0 +1,119 @@
+// augerd's ROS 2 interface on the wire (DDS, Eclipse Cyclone DDS; docs/ros2.md): its settings
+// (augerd's [ros2] section), ROS 2's name rules, and the bridge. augerd's 100 Hz loop sees only
+// Bridge::poll and Bridge::publish, which never block: every DDS call happens on the bridge's
+// own thread or in Cyclone's receive thread. This header has no DDS type in it, so augerd and
+// its configuration reader compile the same with or without Cyclone DDS (AUGER_WITH_ROS2).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+namespace auger::ros2 {
+
+struct Settings {
+  bool enabled = false;
+  int domain_id = 0;            // ROS_DOMAIN_ID: 0..232 (Cyclone's default port mapping)
+  std::string dds_config;       // Cyclone DDS XML file; "" = CYCLONEDDS_URI, else Cyclone's defaults
+  std::string ns;               // ROS namespace of the relative topic names ("" = /)
+  // Inputs, each subscribed only when its topic is not "".
+  std::string cmd_vel_topic = "cmd_vel";  // geometry_msgs/msg/Twist, as `vel` (0.5 s dead-man)
+  std::string cmd_vel_stamped_topic;      // geometry_msgs/msg/TwistStamped, the same
+  std::string pose_topic;                 // geometry_msgs/msg/PoseStamped, as the sensors socket's `pose`
+  std::string pose_cov_topic;             // geometry_msgs/msg/PoseWithCovarianceStamped, the same
+  std::string imu_topic;                  // sensor_msgs/msg/Imu, as the sensors socket's `imu`
+  // PoseStamped carries no uncertainty: these standard deviations go with it (m, m, rad).
+  std::array<double, 3> pose_std = {0.003, 0.003, 0.005};
+  // Outputs, each published only when its rate is > 0.
+  std::string odom_topic = "odom";                 // nav_msgs/msg/Odometry
+  std::string joint_states_topic = "joint_states"; // sensor_msgs/msg/JointState
+  std::string diagnostics_topic = "/diagnostics";  // diagnostic_msgs/msg/DiagnosticArray
+  std::string tf_topic = "/tf";                    // tf2_msgs/msg/TFMessage (odom -> base_link)
+  double odom_rate_hz = 50, joint_states_rate_hz = 50, diagnostics_rate_hz = 1;
+  bool tf = true;  // the odom -> base_link transform with each Odometry (off when another node,
+                   // e.g. robot_localization, publishes it)
+  std::string odom_frame = "odom", base_frame = "base_link";
+  std::array<std::string, 4> joint_names = {"screw_0_joint", "screw_1_joint", "screw_2_joint", "screw_3_joint"};
+};
+
+// ---- ROS 2 names (design.ros2.org, "Topic and Service name mapping to DDS") ----
+
+// The fully qualified name of topic `name` in namespace `ns`: a relative name is put under the
+// namespace, an absolute one (leading '/') stays. Throws std::invalid_argument naming the rule a
+// name breaks (empty, a character other than [A-Za-z0-9_/], a token starting with a digit,
+// repeated '/' or '_', a trailing '/', '~' or '{}' substitutions, which augerd does not expand).
+std::string fully_qualified_name(const std::string& name, const std::string& ns);
+// The DDS topic of a ROS 2 topic: "rt" + the fully qualified name ("/odom" -> "rt/odom").
+std::string dds_topic_name(const std::string& fully_qualified);
+// Checks a frame id ("odom", "base_link"): non-empty, printable, no spaces. Throws
+// std::invalid_argument.
+void check_frame_id(const std::string& frame);
+// Checks every name and rate of the settings (throws std::invalid_argument naming the key).
+void check_settings(const Settings& s);
+
+// ---- the 100 Hz loop's side ----
+
+// One module's state for JointState and the diagnostics.
+struct ModuleSnapshot {
+  bool answering = false;       // telemetry within augerd's timeout
+  double omega_rpm = 0, cmd_rpm = 0, current_a = 0, voltage_v = 0, pwm = 0;
+  uint16_t status = 0;          // the telemetry's status word (latched faults in the high byte)
+  uint16_t rx_errors = 0, encoder_errors = 0;                     // the module's counters
+  uint16_t crc_errors = 0, header_errors = 0, bytes_skipped = 0;  // augerd's parser's
+  uint8_t fw[3] = {0, 0, 0};
+  std::array<char, 96> port{};
+};
+
+// What augerd knows at the end of a cycle; plain data, copied as a whole (no allocation).
+struct Snapshot {
+  double t_unix_s = 0;              // the cycle's wall-clock time (header stamps)
+  double eta[3] = {0, 0, 0};        // x_m, y_m, psi_rad in the world (odom) frame
+  double zeta[3] = {0, 0, 0};       // u_mps, v_mps, r_radps in the body (base_link) frame
+  bool has_cov = false;             // the EKF's covariance below (other estimators have none)
+  double cov[36] = {};              // 6x6 row-major over [x, y, psi, u, v, r]
+  ModuleSnapshot module[4];
+  bool enabled = false;
+  std::array<char, 16> mode{};
+  int fault_module = -1;            // the module whose fault stopped the robot, -1 none
+  std::array<char, 48> fault_reason{};
+  double loop_dt_s = 0, loop_jitter_max_s = 0;
+  double hook_max_us = 0;           // augerd's poll + publish, the longest over the last second
+  long inputs_applied = 0, inputs_refused = 0;  // ROS 2 inputs since start
+  std::array<char, 200> last_refusal{};         // why the last one was refused
+};
+
+// Inputs since the last poll: the newest of each kind (the loop uses one per cycle anyway),
+// converted to the sensors socket's and `vel`'s quantities.
+struct Inputs {
+  bool has_vel = false;
+  double u_mps = 0, v_mps = 0, r_radps = 0;
+  bool has_pose = false;
+  double pose_t_unix_s = 0, x_m = 0, y_m = 0, psi_rad = 0, sx_m = 0, sy_m = 0, spsi_rad = 0;
+  bool has_imu = false;
+  double imu_t_unix_s = 0, imu_psi_rad = 0, imu_r_radps = 0;
+  long received = 0;   // messages taken, the superseded ones included
+  long refused = 0;    // of which the bridge refused (a malformed message; the reason below)
+  std::array<char, 200> refusal{};
+};
+
+class Bridge {
+ public:
+  virtual ~Bridge() = default;
+  // Moves the inputs received since the last call into `in`; false when there were none, or
+  // when the receive thread holds them this instant (they come the next cycle). Never blocks.
+  virtual bool poll(Inputs& in) = 0;
+  // Hands the cycle's state to the bridge's thread when an output is due; never blocks (a
+  // cycle whose copy would have to wait is skipped and counted).
+  virtual void publish(const Snapshot& s) = 0;
+  // One line for augerd's start-up message: domain, topics in and out.
+  virtual std::string describe() const = 0;
+};
+
+// Whether this build has the bridge (built with Cyclone DDS).
+bool available();
+// Creates the participant, readers and writers. Throws std::runtime_error (no DDS, a bad
+// configuration file). Built without Cyclone DDS: throws, saying how to build with it.
+std::unique_ptr<Bridge> make_bridge(const Settings& s);
+
+}  // namespace auger::ros2

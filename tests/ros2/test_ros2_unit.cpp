@@ -1,0 +1,164 @@
+// augerd's ROS 2 interface, the parts without DDS: ROS 2's name rules, the conversions between
+// ROS messages' conventions and augerd's quantities, and the [ros2] configuration section.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <fstream>
+#include <unistd.h>
+
+#include "config.hpp"
+#include "convert.hpp"
+#include "ros2.hpp"
+
+using namespace auger::ros2;
+
+TEST_CASE("ROS 2 topic names map to DDS topics", "[ros2][unit]") {
+  CHECK(dds_topic_name(fully_qualified_name("odom", "")) == "rt/odom");
+  CHECK(dds_topic_name(fully_qualified_name("odom", "/")) == "rt/odom");
+  CHECK(dds_topic_name(fully_qualified_name("odom", "/robot1")) == "rt/robot1/odom");
+  CHECK(dds_topic_name(fully_qualified_name("odom", "robot1")) == "rt/robot1/odom");
+  CHECK(dds_topic_name(fully_qualified_name("imu/data", "/a/b")) == "rt/a/b/imu/data");
+  CHECK(dds_topic_name(fully_qualified_name("/diagnostics", "/robot1")) == "rt/diagnostics");
+  CHECK(dds_topic_name(fully_qualified_name("cmd_vel_keyboard", "")) == "rt/cmd_vel_keyboard");
+  struct Bad {
+    std::string name, ns, why;
+  };
+  for (const Bad& b : {Bad{"", "", "empty"}, Bad{"/", "", "empty"}, Bad{"odom/", "", "end with '/'"},
+                       Bad{"a//b", "", "repeated '/'"}, Bad{"a__b", "", "repeated '_'"},
+                       Bad{"2odom", "", "starting with a digit"}, Bad{"a/2b", "", "starting with a digit"},
+                       Bad{"odom", "/2robot", "starting with a digit"}, Bad{"od-om", "", "character '-' at 3"},
+                       Bad{"odom", "/ro bot", "character ' '"}, Bad{"~/odom", "", "substitution"},
+                       Bad{"{node}/odom", "", "substitution"}, Bad{std::string(260, 'a'), "", "too long"}}) {
+    INFO(b.name << " in " << b.ns);
+    try {
+      fully_qualified_name(b.name, b.ns);
+      FAIL("accepted");
+    } catch (const std::invalid_argument& e) {
+      CHECK(std::string(e.what()).find(b.why) != std::string::npos);
+    }
+  }
+}
+
+TEST_CASE("ROS 2 message conventions", "[ros2][unit]") {
+  int32_t sec;
+  uint32_t ns;
+  unix_s_to_stamp(1795481377.757133484, sec, ns);
+  CHECK(sec == 1795481377);
+  CHECK(std::abs(int64_t(ns) - 757133484) < 300);  // a double holds ~0.24 us at 1.8e9 s
+  unix_s_to_stamp(10.9999999999, sec, ns);  // rounding up into the next second
+  CHECK((sec == 11 && ns == 0));
+  CHECK(stamp_to_unix_s(12, 500000000) == 12.5);
+
+  std::string why;
+  double yaw = 0, q[4];
+  for (double psi : {0.0, 0.3, -2.0, 3.1}) {
+    quaternion_from_yaw(psi, q);
+    REQUIRE(yaw_from_quaternion(q[0], q[1], q[2], q[3], yaw, why));
+    CHECK(yaw == Approx(psi).margin(1e-12));
+  }
+  // Yaw of a tilted robot (roll 0.2 rad, then yaw 0.7 rad, z-y-x): still 0.7.
+  const double cy = std::cos(0.35), sy = std::sin(0.35), cr = std::cos(0.1), sr = std::sin(0.1);
+  REQUIRE(yaw_from_quaternion(sr * cy, sr * sy, cr * sy, cr * cy, yaw, why));
+  CHECK(yaw == Approx(0.7).margin(1e-12));
+  // Slightly off unit norm is normalised; far off or non-finite is refused.
+  REQUIRE(yaw_from_quaternion(0, 0, 1.05 * std::sin(0.2), 1.05 * std::cos(0.2), yaw, why));
+  CHECK(yaw == Approx(0.4).margin(1e-12));
+  CHECK_FALSE(yaw_from_quaternion(0, 0, 0, 0, yaw, why));
+  CHECK(why.find("not a unit quaternion") != std::string::npos);
+  CHECK_FALSE(yaw_from_quaternion(0, 0, NAN, 1, yaw, why));
+
+  // The estimator's [x, y, psi, u, v, r] covariance into Odometry's pose and twist blocks.
+  double cov[36], pose[36], twist[36];
+  for (int i = 0; i < 36; ++i) cov[i] = 100 + i;  // entry (r, c) = 100 + 6 r + c
+  odometry_covariance(cov, pose, twist);
+  CHECK(pose[0] == 100);            // x x
+  CHECK(pose[1] == 101);            // x y
+  CHECK(pose[5] == 102);            // x psi -> (x, rot Z)
+  CHECK(pose[6 * 5 + 5] == 114);    // psi psi
+  CHECK(pose[6 * 5 + 1] == 113);    // psi y
+  CHECK(twist[0] == 121);           // u u
+  CHECK(twist[6 * 1 + 5] == 129);   // v r -> (vy, wz)
+  CHECK(twist[6 * 5 + 5] == 135);   // r r
+  for (int k : {2, 3, 4}) {
+    CHECK(pose[7 * k] == kNotEstimatedVariance);
+    CHECK(twist[7 * k] == kNotEstimatedVariance);
+    CHECK(pose[6 * k] == 0);        // no correlation with what is not estimated
+  }
+}
+
+namespace {
+std::string write_tmp(const std::string& text) {
+  static int n = 0;
+  const std::string p = "/tmp/augerd-ros2-unit-" + std::to_string(getpid()) + "-" + std::to_string(n++) + ".toml";
+  std::ofstream(p) << text;
+  return p;
+}
+const std::string kBase =
+    "schema = 1\n"
+    "[serial]\nports = [\"/dev/a\", \"/dev/b\", \"/dev/c\", \"/dev/d\"]\n"
+    "[model]\nfile = \"" AUGER_SOURCE_DIR "/models/robot.toml\"\n"
+    "[sockets]\ncommands = \"c.sock\"\nsensors = \"s.sock\"\n"
+    "[log]\ndir = \"/tmp\"\n";
+}  // namespace
+
+TEST_CASE("the [ros2] configuration section", "[ros2][unit]") {
+  {
+    const std::string p = write_tmp(kBase);
+    const augerd::DaemonConfig c = augerd::load_daemon_config(p);
+    CHECK_FALSE(c.ros2.enabled);  // off unless asked for
+    CHECK(c.ros2.cmd_vel_topic == "cmd_vel");
+    CHECK(c.ros2.odom_rate_hz == 50);
+    unlink(p.c_str());
+  }
+  {
+    const std::string p = write_tmp(kBase +
+                                    "[ros2]\nenabled = false\ndomain_id = 42\nnamespace = \"/robot1\"\n"
+                                    "cmd_vel_topic = \"/cmd_vel_keyboard\"\nimu_topic = \"bno080_imu\"\n"
+                                    "pose_std = [0.01, 0.02, 0.03]\ntf = false\ndds_config = \"dds.xml\"\n"
+                                    "joint_names = [\"a\", \"b\", \"c\", \"d\"]\nodom_rate_hz = 20\n");
+    const augerd::DaemonConfig c = augerd::load_daemon_config(p);
+    CHECK(c.ros2.domain_id == 42);
+    CHECK(c.ros2.ns == "/robot1");
+    CHECK(c.ros2.cmd_vel_topic == "/cmd_vel_keyboard");
+    CHECK(c.ros2.imu_topic == "bno080_imu");
+    CHECK(c.ros2.pose_std[1] == 0.02);
+    CHECK_FALSE(c.ros2.tf);
+    CHECK(c.ros2.dds_config == "/tmp/dds.xml");  // relative to the file
+    CHECK(c.ros2.joint_names[3] == "d");
+    CHECK(c.ros2.odom_rate_hz == 20);
+    unlink(p.c_str());
+  }
+  struct Bad {
+    std::string text, where;
+  };
+  const int l = 11;  // the line of [ros2]
+  for (const Bad& b : {Bad{"[ros2]\ndomain_id = 233\n", ":" + std::to_string(l + 1) + ":13: 'domain_id' = 233 is outside 0..232"},
+                       Bad{"[ros2]\ndomain_id = 1.5\n", "whole number"},
+                       Bad{"[ros2]\nodom_topic = \"od-om\"\n", ":" + std::to_string(l + 1) + ":14: ROS 2 name 'od-om' has the character '-'"},
+                       Bad{"[ros2]\nodom_topic = \"\"\n", "is empty"},
+                       Bad{"[ros2]\nnamespace = \"/a//b\"\n", "repeated '/'"},
+                       Bad{"[ros2]\nodom_frame = \"base_link\"\n", "must differ"},
+                       Bad{"[ros2]\nbase_frame = \"base link\"\n", "space"},
+                       Bad{"[ros2]\nodom_rate_hz = 200\n", "outside 0..100"},
+                       Bad{"[ros2]\nenabled = 1\n", "true or false"},
+                       Bad{"[ros2]\nqos = \"fast\"\n", "unknown key 'qos' in [ros2]"}}) {
+    const std::string q = write_tmp(kBase + b.text);
+    INFO(b.text);
+    try {
+      augerd::load_daemon_config(q);
+      FAIL("accepted");
+    } catch (const std::exception& e) {
+      INFO(e.what());
+      CHECK(std::string(e.what()).find(b.where) != std::string::npos);
+    }
+    unlink(q.c_str());
+  }
+  // enabled = true is accepted exactly when this build has the bridge.
+  const std::string p = write_tmp(kBase + "[ros2]\nenabled = true\n");
+  if (available()) {
+    CHECK(augerd::load_daemon_config(p).ros2.enabled);
+  } else {
+    CHECK_THROWS_WITH(augerd::load_daemon_config(p), Catch::Contains("built without the ROS 2 interface"));
+  }
+  unlink(p.c_str());
+}
