@@ -64,6 +64,7 @@ void register_builtin_effects(EffectRegistry& r) {
   effects::register_drive(r);
   effects::register_terrain(r);
   effects::register_sensors(r);
+  effects::register_body(r);
 }
 
 const EffectRegistry& EffectRegistry::builtin() {

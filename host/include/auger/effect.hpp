@@ -5,6 +5,7 @@
 #pragma once
 
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <stdexcept>
@@ -74,6 +75,9 @@ class Effect {
   // What the sensors report for the state (eta, zeta).
   virtual void sensors(const Model& /*model*/, const Vec3& /*eta*/, const Vec3& /*zeta*/,
                        SensorValues& /*values*/) const {}
+  // eq. (8): the inertia of the linear dynamics, changed in place (M_diag holds m, m, I_z and
+  // model.D_diag is set when make_model calls this).
+  virtual void inertia(const Model& /*model*/, Vec3& /*M_diag*/) const {}
 };
 
 // A parameter a factory accepts; required parameters have no default.
@@ -91,6 +95,15 @@ struct ParamSpec {
   bool integer = false;  // enumerated lower..upper by the search, not fitted by Gauss-Newton
   bool fitted = true;    // false: kept at the default while fitting
   bool log_scale = false;  // positive, fitted in log (spans decades, e.g. a force limit)
+  // The physically plausible range for this robot (a 29 kg, 0.6 m robot on soil, screws of at
+  // most 23 rpm): a fit outside it, or at a search bound, is flagged by the workbench.
+  double physical_lower = -std::numeric_limits<double>::infinity();
+  double physical_upper = std::numeric_limits<double>::infinity();
+  ParamSpec& physical(double lower_value, double upper_value) {
+    physical_lower = lower_value;
+    physical_upper = upper_value;
+    return *this;
+  }
 };
 
 struct EffectParamValue {

@@ -93,8 +93,8 @@ class TerrainChange final : public Effect {
 
 void register_terrain(EffectRegistry& r) {
   r.add({"terrain_slope", "a plane inclined along world x and y: gravity in the world frame",
-         {{"incline_x_rad", 0, false, "rise towards world +x", "rad", -0.6, 0.6, 0.02},
-          {"incline_y_rad", 0, false, "rise towards world +y", "rad", -0.6, 0.6, 0.02}},
+         {ParamSpec{"incline_x_rad", 0, false, "rise towards world +x", "rad", -0.6, 0.6, 0.02}.physical(-0.35, 0.35),
+          ParamSpec{"incline_y_rad", 0, false, "rise towards world +y", "rad", -0.6, 0.6, 0.02}.physical(-0.35, 0.35)},
          [](const std::vector<double>& v) {
            if (!(std::fabs(v[0]) < 1.5 && std::fabs(v[1]) < 1.5)) throw std::invalid_argument("inclines must be in (-1.5, 1.5) rad");
            return std::make_shared<TerrainSlope>(v[0], v[1]);
@@ -107,8 +107,8 @@ void register_terrain(EffectRegistry& r) {
                   " N on the 29 kg robot): terrain slope";
          }});
   r.add({"resistance_offset", "the resistance -D zeta acts at (offset_x_m, offset_y_m) from the centre",
-         {{"offset_x_m", 0, false, "ahead of the centre", "m", -1, 1, 0.05},
-          {"offset_y_m", 0, false, "left of the centre", "m", -1, 1, 0.05}},
+         {ParamSpec{"offset_x_m", 0, false, "ahead of the centre", "m", -1, 1, 0.05}.physical(-0.2, 0.2),
+          ParamSpec{"offset_y_m", 0, false, "left of the centre", "m", -1, 1, 0.05}.physical(-0.35, 0.35)},
          [](const std::vector<double>& v) {
            if (!(std::isfinite(v[0]) && std::isfinite(v[1]))) throw std::invalid_argument("offsets must be finite");
            return std::make_shared<ResistanceOffset>(v[0], v[1]);
@@ -118,9 +118,9 @@ void register_terrain(EffectRegistry& r) {
                   " m left of the centre, so sideways motion turns the robot: offset of the centre of resistance";
          }});
   r.add({"terrain_change", "from t_change_s on, traction x sigma_factor and resistance x drag_factor",
-         {{"t_change_s", 0, true, "time of the change (log time)", "s", 0, 1e9, 10, false, false},
-          {"sigma_factor", 1, false, "traction after / before", "", 0.05, 20, 0.2},
-          {"drag_factor", 1, false, "resistance after / before", "", 0.05, 20, 0.2}},
+         {ParamSpec{"t_change_s", 0, true, "time of the change (log time)", "s", 0, 1e9, 10, false, false}.physical(0, 1e9),
+          ParamSpec{"sigma_factor", 1, false, "traction after / before", "", 0.05, 20, 0.2}.physical(0.2, 5),
+          ParamSpec{"drag_factor", 1, false, "resistance after / before", "", 0.05, 20, 0.2}.physical(0.2, 5)},
          [](const std::vector<double>& v) {
            if (!(v[1] > 0 && v[2] > 0)) throw std::invalid_argument("factors must be > 0");
            return std::make_shared<TerrainChange>(v[0], v[1], v[2]);

@@ -31,7 +31,7 @@ struct Generated {
 Generated robot_log(const std::string& effect, Trajectory traj = Trajectory::manual, double seconds = 60.0,
                     std::uint64_t seed = 5) {
   LogGenConfig cfg;
-  cfg.effect = parse_effect_spec(effect);
+  cfg.effects = {parse_effect_spec(effect)};
   cfg.trajectory = traj;
   cfg.seconds = seconds;
   cfg.seed = seed;
@@ -87,7 +87,7 @@ TEST_CASE("sim-log: metadata is only what the formats require", "[unit][simlog]"
   LogGenConfig cfg;
   cfg.gantry = GantryAxis::lateral;
   cfg.seconds = 20;
-  cfg.effect = parse_effect_spec("coulomb_friction:force_y_n=3");
+  cfg.effects = {parse_effect_spec("coulomb_friction:force_y_n=3")};
   const ModelFile gf = load_model_file(AUGER_GANTRY_MODEL_FILE);
   std::ostringstream out;
   generate_gantry_log(gf.find_terrain("sand")->params, *gf.gantry_mass_kg, cfg, out);
@@ -172,7 +172,7 @@ TEST_CASE("sim-log: every effect changes the log", "[unit][simlog]") {
     LogGenConfig cfg;
     cfg.gantry = GantryAxis::longitudinal;
     cfg.seconds = 60;
-    cfg.effect = parse_effect_spec(effect);
+    cfg.effects = {parse_effect_spec(effect)};
     std::ostringstream out;
     return generate_gantry_log(gf.find_terrain("sand")->params, *gf.gantry_mass_kg, cfg, out);
   };
