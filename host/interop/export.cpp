@@ -48,8 +48,10 @@ int run_export(int argc, char** argv) {
   std::string tmp_path = out_path + ".part-XXXXXX";
   int fd = -1;
   try {
-    CsvLogReader log(log_path);
-    log.check_format(kRobotLogFormat);
+    // The typed reader checks every known column (numbers, integers, required columns, t_s);
+    // its generic reader gives every column's value, other programs' columns too.
+    RobotLogReader reader(log_path);
+    const CsvLogReader& log = reader.csv();
     std::vector<std::pair<std::string, std::string>> meta;
     for (const auto& m : log.metadata()) meta.emplace_back(m.key, m.value);
 
@@ -78,7 +80,8 @@ int run_export(int argc, char** argv) {
     RobotLogMcapWriter w(out, meta, log.columns());
     std::size_t rows = 0;
     double t_first = 0, t_last = 0;
-    while (log.next()) {
+    RobotSample sample;
+    while (reader.next(sample)) {
       std::vector<double> v(log.columns().size());
       for (std::size_t i = 0; i < v.size(); ++i) v[i] = log.value(static_cast<int>(i));
       w.write_row(v.data(), v.size());
