@@ -146,6 +146,26 @@ RobotLogMcapWriter::RobotLogMcapWriter(std::ostream& out,
     ref_pose_ch_ = mcap_.add_channel(pose_schema_, "/reference/pose", "json");
 }
 
+namespace {
+std::vector<std::string> robot_and(const std::vector<std::string>& extra) {
+  std::vector<std::string> c = robot_log_columns();
+  c.insert(c.end(), extra.begin(), extra.end());
+  return c;
+}
+}  // namespace
+
+RobotLogMcapWriter::RobotLogMcapWriter(std::ostream& out,
+                                       const std::vector<std::pair<std::string, std::string>>& metadata,
+                                       const RobotColumnsAnd& columns, std::size_t chunk_bytes)
+    : RobotLogMcapWriter(out, metadata, robot_and(columns.extra), chunk_bytes) {}
+
+void RobotLogMcapWriter::write(const RobotSample& sample, const std::vector<double>& extra) {
+  if (columns_.size() != robot_log_columns().size() + extra.size())
+    throw std::invalid_argument("RobotLogMcapWriter::write: wrong number of extra values");
+  robot_log_row(sample, extra, row_);
+  write_row(row_.data(), row_.size());
+}
+
 std::uint64_t RobotLogMcapWriter::time_ns(double t_s) const {
   const std::int64_t ns = t0_ns_ + std::llround(t_s * 1e9);
   if (ns < 0) throw std::invalid_argument("a time before 1970 cannot be written to MCAP (t_s " + std::to_string(t_s) + ")");

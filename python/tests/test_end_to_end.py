@@ -76,6 +76,48 @@ def yaw(q):
     return math.atan2(2 * (q["w"] * q["z"] + q["x"] * q["y"]), 1 - 2 * (q["y"] ** 2 + q["z"] ** 2))
 
 
+def assert_mcap_matches_log(mcap_path, log_path, t0_ns):
+    """Every value of the log in its channel of the MCAP file (and nothing else there), the pose
+    as foxglove.PoseInFrame and on /tf; CRCs checked. Returns {topic: [(log_time, message)]}."""
+    meta, cols = read_log(log_path)
+    by_topic = {}
+    with open(mcap_path, "rb") as f:
+        reader = make_reader(f, validate_crcs=True)
+        summary = reader.get_summary()
+        schemas = {c.topic: summary.schemas[c.schema_id].name for c in summary.channels.values()}
+        assert schemas["/pose"] == "foxglove.PoseInFrame" and schemas["/tf"] == "foxglove.FrameTransform"
+        assert all(c.message_encoding == "json" for c in summary.channels.values())
+        assert summary.statistics.chunk_count >= 2 and len(summary.chunk_indexes) == summary.statistics.chunk_count
+        (m,) = list(reader.iter_metadata())
+        assert m.name == "auger-log" and m.metadata == meta
+        for schema, channel, msg in reader.iter_messages():
+            assert msg.log_time == msg.publish_time
+            by_topic.setdefault(channel.topic, []).append((msg.log_time, json.loads(msg.data)))
+    # every record's CRC (chunks, data section, summary) checked by a second pass
+    assert sum(1 for _ in StreamReader(str(mcap_path), validate_crcs=True).records) > 0
+
+    t = cols["t_s"]
+    rows_ns = [t0_ns + round(x * 1e9) for x in t]
+    names = [c for c in cols if c != "t_s"]
+    for topic in set(channel_of(c) for c in names):
+        mine = [c for c in names if channel_of(c) == topic]
+        expect = []
+        for k in range(len(t)):
+            fields = {c: cols[c][k] for c in mine if not math.isnan(cols[c][k])}
+            if fields:
+                expect.append((rows_ns[k], dict(t_s=t[k], **fields)))
+        assert by_topic.get(topic, []) == expect, topic   # exact: shortest round-trip numbers both ways
+    pose_rows = [k for k in range(len(t)) if not math.isnan(cols["x_m"][k])]
+    assert [ns for ns, _ in by_topic["/pose"]] == [rows_ns[k] for k in pose_rows]
+    for (ns, p), k in zip(by_topic["/pose"], pose_rows):
+        assert p["frame_id"] == "world" and p["timestamp"] == {"sec": ns // 10**9, "nsec": ns % 10**9}
+        assert p["pose"]["position"] == {"x": cols["x_m"][k], "y": cols["y_m"][k], "z": 0}
+        assert abs(math.remainder(yaw(p["pose"]["orientation"]) - cols["psi_rad"][k], 2 * math.pi)) < 1e-12
+    tf = [m for m in by_topic["/tf"] if m[1]["child_frame_id"] == "base_link"]
+    assert [(ns, m["translation"]) for ns, m in tf] == [(ns, p["pose"]["position"]) for ns, p in by_topic["/pose"]]
+    return by_topic
+
+
 def test_export_mcap_every_value(drive):
     auger = binary("AUGER_BIN")
     log = drive / "drive.csv"
@@ -93,43 +135,10 @@ def test_export_mcap_every_value(drive):
     meta, cols = read_log(log)
     t0_ns = 1767225600250000000
 
-    by_topic = {}
-    with open(drive / "drive.mcap", "rb") as f:
-        reader = make_reader(f, validate_crcs=True)
-        summary = reader.get_summary()
-        schemas = {c.topic: summary.schemas[c.schema_id].name for c in summary.channels.values()}
-        assert schemas["/pose"] == "foxglove.PoseInFrame" and schemas["/tf"] == "foxglove.FrameTransform"
-        assert schemas["/model/pose"] == "foxglove.PoseInFrame"
-        assert all(c.message_encoding == "json" for c in summary.channels.values())
-        assert summary.statistics.chunk_count >= 2 and len(summary.chunk_indexes) == summary.statistics.chunk_count
-        (m,) = list(reader.iter_metadata())
-        assert m.name == "auger-log" and m.metadata["terrain"] == "sand" and m.metadata["t0_unix_s"] == "1767225600.25"
-        for schema, channel, msg in reader.iter_messages():
-            assert msg.log_time == msg.publish_time
-            by_topic.setdefault(channel.topic, []).append((msg.log_time, json.loads(msg.data)))
-    # every record's CRC (chunks, data section, summary) checked by a second pass
-    assert sum(1 for _ in StreamReader(str(drive / "drive.mcap"), validate_crcs=True).records) > 0
-
+    by_topic = assert_mcap_matches_log(drive / "drive.mcap", log, t0_ns)
+    assert len(by_topic["/other"]) == sum(~np.isnan(cols["wheel_temp_c"])) > 0
     t = cols["t_s"]
     rows_ns = [t0_ns + round(x * 1e9) for x in t]
-    names = [c for c in cols if c != "t_s"]
-    for topic in set(channel_of(c) for c in names):
-        mine = [c for c in names if channel_of(c) == topic]
-        expect = []
-        for k in range(len(t)):
-            fields = {c: cols[c][k] for c in mine if not math.isnan(cols[c][k])}
-            if fields:
-                expect.append((rows_ns[k], dict(t_s=t[k], **fields)))
-        assert by_topic.get(topic, []) == expect, topic   # exact: shortest round-trip numbers both ways
-    assert len(by_topic["/other"]) == sum(~np.isnan(cols["wheel_temp_c"])) > 0
-    pose_rows = [k for k in range(len(t)) if not math.isnan(cols["x_m"][k])]
-    assert [ns for ns, _ in by_topic["/pose"]] == [rows_ns[k] for k in pose_rows]
-    for (ns, p), k in zip(by_topic["/pose"], pose_rows):
-        assert p["frame_id"] == "world" and p["timestamp"] == {"sec": ns // 10**9, "nsec": ns % 10**9}
-        assert p["pose"]["position"] == {"x": cols["x_m"][k], "y": cols["y_m"][k], "z": 0}
-        assert abs(math.remainder(yaw(p["pose"]["orientation"]) - cols["psi_rad"][k], 2 * math.pi)) < 1e-12
-    tf = [m for m in by_topic["/tf"] if m[1]["child_frame_id"] == "base_link"]
-    assert [(ns, m["translation"]) for ns, m in tf] == [(ns, p["pose"]["position"]) for ns, p in by_topic["/pose"]]
 
     # The prediction: one message per row, and its error against the measured pose is exactly
     # what `auger compare` reports for its 25 s segments (the same simulation).
@@ -157,3 +166,12 @@ def test_export_refuses_bad_input_and_keeps_the_old_file(drive, tmp_path):
     assert "bad.csv:4:" in p.stderr
     assert out.read_bytes() == b"old"
     assert sorted(x.name for x in tmp_path.iterdir()) == ["bad.csv", "old.mcap"]
+
+
+def test_mcap_sample_writer_matches_the_csv_writer(tmp_path):
+    """RobotLogMcapWriter fed RobotSamples (augerd's interface) holds what RobotLogWriter wrote,
+    status words as integers, lost modules and reference rows included."""
+    run(binary("MCAP_SAMPLES_BIN"), tmp_path / "s.csv", tmp_path / "s.mcap")
+    by_topic = assert_mcap_matches_log(tmp_path / "s.mcap", tmp_path / "s.csv", 1767225600000250000)
+    assert len(by_topic["/status"]) == 500 and isinstance(by_topic["/status"][-1][1]["status_0"], int)
+    assert len(by_topic["/reference/pose"]) == 399 and len(by_topic["/other"]) == 500

@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "auger/log.hpp"
 #include "auger/mcap.hpp"
 
 namespace auger {
@@ -22,6 +23,15 @@ class RobotLogMcapWriter {
   // t0_unix_s + t_s when the metadata has t0_unix_s, else t_s from the Unix epoch.
   RobotLogMcapWriter(std::ostream& out, const std::vector<std::pair<std::string, std::string>>& metadata,
                      const std::vector<std::string>& columns, std::size_t chunk_bytes = 1u << 20);
+  // The columns of a RobotLogWriter: robot_log_columns(), then these.
+  struct RobotColumnsAnd {
+    std::vector<std::string> extra;
+  };
+  // The same file from RobotLogWriter's arguments (for augerd, which would write its samples to
+  // both); write() takes what RobotLogWriter::write takes.
+  RobotLogMcapWriter(std::ostream& out, const std::vector<std::pair<std::string, std::string>>& metadata,
+                     const RobotColumnsAnd& columns, std::size_t chunk_bytes = 1u << 20);
+  void write(const RobotSample& sample, const std::vector<double>& extra = {});
   // One row, values in the order of columns (NaN = not measured: the field is left out, and a
   // message none of whose fields is measured is not written).
   void write_row(const double* values, std::size_t count);
@@ -51,6 +61,7 @@ class RobotLogMcapWriter {
   std::uint16_t pose_schema_ = 0, pose_ch_ = 0, tf_ch_ = 0, ref_pose_ch_ = 0, model_flat_ch_ = 0, model_pose_ch_ = 0;
   int x_col_ = -1, y_col_ = -1, psi_col_ = -1, xd_col_ = -1, yd_col_ = -1, psid_col_ = -1;
   std::string msg_;
+  std::vector<double> row_;
 };
 
 }  // namespace auger
