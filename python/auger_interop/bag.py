@@ -136,6 +136,9 @@ def list_topics(path: str) -> list[tuple[str, str, int]]:
 
 def _open(path):
     p = Path(path)
+    if p.is_dir() and not (p / "metadata.yaml").exists():
+        raise InputError("%s: not a rosbag2 folder (no metadata.yaml); give the bag's folder or its .db3 "
+                         "or .mcap file" % path)
     try:
         reader = Reader(p)
         reader.open()
@@ -214,6 +217,9 @@ def read_bag(path: str, cmap: Map, warn) -> tuple[dict[str, Series], list[str]]:
                 except ValueError:
                     raise InputError("%s: topic %s: message %d: field %s is not a number"
                                      % (path, conn.topic, n, spec.field)) from None
+                except AttributeError as e:  # a match key the message does not have
+                    raise InputError("%s: column %s: match on %s (%s): %s"
+                                     % (cmap.path, spec.name, conn.topic, conn.msgtype, e)) from None
                 ts, vs = samples[spec.name]
                 ts.append(t_ns)
                 vs.append(v * spec.scale + spec.offset)

@@ -150,3 +150,20 @@ def test_list_topics(tmp_path):
     assert code == 0
     assert "/front_right/motor_module" in out and "robominer_msgs/msg/MotorModuleFeedback" in out
     assert "/cmd_vel_keyboard" in out
+
+
+def test_match_selects_messages_by_field(tmp_path):
+    """Several modules on one topic are told apart by a field (`match`)."""
+    synthetic_log(tmp_path / "in.csv", seconds=1)
+    bag = log_to_bag(tmp_path / "in.csv", tmp_path / "bag")
+    lines = "".join('omega_rpm_%d = { topic = "/%s/motor_module", field = "motor_rpm", match = { motor_id = "%s" } }\n'
+                    % (i, p, mid) for i, (p, mid) in enumerate(zip(POSITIONS, ("0", "1", "2", "3"))))
+    m = tmp_path / "map.toml"
+    m.write_text("schema = 1\n[columns]\n" + lines)
+    assert run_import(bag, "--out", tmp_path / "a.csv", "--map", m)[0] == 0
+    m.write_text("schema = 1\n[columns]\n" + lines.replace('motor_id = "2"', 'motor_id = "9"'))
+    code, _, err = run_import(bag, "--out", tmp_path / "b.csv", "--map", m)
+    assert code == 2 and "no message matches /rear_left/motor_module field motor_rpm with motor_id == '9'" in err
+    m.write_text("schema = 1\n[columns]\n" + lines.replace("motor_id =", "motor_idx ="))
+    code, _, err = run_import(bag, "--out", tmp_path / "b.csv", "--map", m)
+    assert code == 2 and "match: /front_right/motor_module (robominer_msgs/msg/MotorModuleFeedback) has no field 'motor_idx'" in err
