@@ -50,7 +50,7 @@ struct State {
   int n_params = 0;
   ChannelValues held{kNaN, kNaN, kNaN, kNaN};
   double h = kNaN;
-  bool flagged = false;
+  bool flagged = false, implausible = false;
   std::vector<ExplainStep> history;
   FitOutcome fit;
 };
@@ -153,7 +153,7 @@ class Explainer {
         }
       }
       std::stable_sort(next.begin(), next.end(), [](const State& a, const State& b) {
-        if (a.flagged != b.flagged) return !a.flagged;
+        if (a.implausible != b.implausible) return !a.implausible;
         return a.h < b.h;
       });
       if (static_cast<int>(next.size()) > opt_.beam) next.resize(static_cast<std::size_t>(opt_.beam));
@@ -163,12 +163,12 @@ class Explainer {
     // The final model: the lowest held-out error, a simpler structure within 1 % of it preferred,
     // plausible before flagged.
     std::stable_sort(finished.begin(), finished.end(), [](const State& a, const State& b) {
-      if (a.flagged != b.flagged) return !a.flagged;
+      if (a.implausible != b.implausible) return !a.implausible;
       return a.h < b.h;
     });
     const State* best = &finished.front();
     for (const State& s : finished)
-      if (s.flagged == best->flagged && s.h <= best->h * 1.01 && effects_in(s) < effects_in(*best)) best = &s;
+      if (s.implausible == best->implausible && s.h <= best->h * 1.01 && effects_in(s) < effects_in(*best)) best = &s;
     finish(*best, res);
     res.structures_tried = structures_;
     return res;
@@ -392,14 +392,56 @@ class Explainer {
       if (gains[k].first > 0 && (k < 5 || gains[k].first >= 0.1 * best_gain)) joint.push_back(gains[k].second);
     for (Task& t : tasks) t.wait_for = -1;
     finished = 0;
+    // Each effect's fit on the paper's model alone (the first step's), kept as a start.
+    if (s.parts.empty())
+      for (const Task& t : tasks)
+        if (!t.joint && std::isfinite(t.first.cost) && !t.first.parts.empty()) {
+          std::lock_guard<std::mutex> lock(alone_mutex_);
+          alone_[t.id + "@" + std::to_string(t.log)] = t.first.parts.back();
+        }
     run_parallel(tasks, joint, [&](std::size_t i) {
       Task& t = tasks[i];
       t.out = refit_joint(train_, state, candidate_part(t), t.first, 10);
+      t.out = from_scratch(std::move(t.out));
       t.joint = true;
       ++structures_;
       progress("explain: step %d: %zu/%zu refitted jointly (%s, %d simulations)", step, ++finished, joint.size(),
                t.id.c_str(), t.out.sims);
     });
+  }
+
+  // A fit whose paper parameters end at their physical range has taken up an effect it lacked
+  // (every force scaled up shortens every time constant). The same structure is refitted from
+  // the paper's values and each effect's own fit on the paper's model, where each effect can
+  // take its share back; the better fit is kept.
+  FitOutcome from_scratch(FitOutcome o) {
+    bool at_end = false;
+    for (const Part& p : o.parts) {
+      if (p.entry) continue;
+      std::vector<FitParam> f(p.specs.size());
+      for (std::size_t i = 0; i < p.specs.size(); ++i) f[i].value = p.values[i];
+      flag_params(f, p);
+      for (const FitParam& x : f) at_end = at_end || x.flag.find("physical range") != std::string::npos;
+    }
+    if (!at_end || !std::isfinite(o.cost)) return o;
+    std::vector<Part> start = o.parts;
+    for (Part& p : start) {
+      if (!p.entry) {
+        for (std::size_t i = 0; i < p.values.size(); ++i) p.values[i] = p.specs[i].default_value;
+        continue;
+      }
+      std::lock_guard<std::mutex> lock(alone_mutex_);
+      const auto it = alone_.find(p.id + "@" + std::to_string(p.log));
+      if (it == alone_.end()) continue;
+      for (std::size_t i = 0; i < p.values.size(); ++i)
+        if (std::find(p.free.begin(), p.free.end(), static_cast<int>(i)) != p.free.end()) p.values[i] = it->second.values[i];
+    }
+    FitOutcome again = refit(train_, start, 10, 1);
+    ++structures_;
+    again.sims += o.sims;
+    if (again.cost < o.cost) return again;
+    o.sims = again.sims;
+    return o;
   }
 
   Part candidate_part(const Task& t) const {
@@ -422,7 +464,10 @@ class Explainer {
     heldout(s);
     const double n = static_cast<double>(s.fit.r.size());
     const double s2 = s.cost / std::max(1.0, n - s.n_params) * n / n_eff_of(s.fit);
-    for (const FittedEffect& fe : fitted_of(s, s2)) s.flagged = s.flagged || any_flag(fe.params);
+    for (const FittedEffect& fe : fitted_of(s, s2)) {
+      s.flagged = s.flagged || any_flag(fe.params);
+      s.implausible = s.implausible || any_implausible(fe.params);
+    }
     return s;
   }
 
@@ -460,6 +505,7 @@ class Explainer {
       c.heldout_rms = e.held;
       c.heldout_ratio = e.h;
       c.flagged = e.flagged;
+      c.implausible = e.implausible;
       ranked.push_back(c);
       cands.push_back(std::move(e));
       added.push_back(c.fitted.effect);
@@ -469,7 +515,7 @@ class Explainer {
     for (std::size_t i = 0; i < cands.size(); ++i)
       if (ranked[i].delta_bic < kAddBic && cands[i].h < s.h * (1.0 - kAddHeldout)) order.push_back(i);
     std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-      if (cands[a].flagged != cands[b].flagged) return !cands[a].flagged;
+      if (cands[a].implausible != cands[b].implausible) return !cands[a].implausible;
       return cands[a].h < cands[b].h;
     });
     if (order.empty()) {
@@ -504,6 +550,7 @@ class Explainer {
       st.heldout_combined = e.h;
       st.delta_bic = ranked[i].delta_bic;
       st.flagged = e.flagged;
+      st.implausible = e.implausible;
       const double n = static_cast<double>(e.fit.r.size());
       st.fitted = fitted_of(e, e.cost / std::max(1.0, n - e.n_params) * n / n_eff_of(e.fit));
       for (std::size_t k = 0; k < sig.size(); ++k)
@@ -596,6 +643,11 @@ class Explainer {
     const double n = static_cast<double>(f.fit.r.size());
     const double n_eff = f.fit.r.size() ? effective_n(n, lag1_autocorrelation(all_, f.fit.r)) : 1.0;
     res.final_fitted = fitted_of(f, f.fit.r.size() ? f.cost / std::max(1.0, n - f.n_params) * n / n_eff : 1.0);
+    f.flagged = f.implausible = false;
+    for (const FittedEffect& fe : res.final_fitted) {
+      f.flagged = f.flagged || any_flag(fe.params);
+      f.implausible = f.implausible || any_implausible(fe.params);
+    }
     std::array<double, kChannels> sum{}, cnt{};
     for (std::size_t i = 0; i < ctx_.size(); ++i) {
       ModelChoice mc = ctx_[i].choice;
@@ -709,7 +761,8 @@ class Explainer {
                     tests_words.empty() ? "" : "; ", tests_words.c_str());
     }
     res.verdict = buf;
-    if (f.flagged) res.verdict += "; CAUTION: a fitted value is flagged as implausible or unidentified (see the flags)";
+    if (f.implausible) res.verdict += "; CAUTION: a fitted value is at or beyond its physical range (see the flags)";
+    else if (f.flagged) res.verdict += "; a fitted value is not identified by this log (see the flags)";
   }
 
   ExplainOptions opt_;
@@ -717,6 +770,8 @@ class Explainer {
   Problem train_, all_;
   std::mutex print_;
   std::vector<std::string> dropped_;
+  std::map<std::string, Part> alone_;  // "id@log" -> the effect fitted alone on the paper's model
+  std::mutex alone_mutex_;
   bool limit_reached_ = false;
   std::atomic<int> structures_{0};
 };

@@ -24,13 +24,14 @@ double to_value(const ParamSpec& s, double z) { return s.log_scale ? std::exp(z)
 double to_internal(const ParamSpec& s, double v) { return s.log_scale ? std::log(std::max(v, 1e-300)) : v / s.typical; }
 double dvalue_dz(const ParamSpec& s, double z) { return s.log_scale ? std::exp(z) : s.typical; }
 
-// The DOF a parameter belongs to, from its name's tokens (force_x_n -> x): the gantry moves one.
+// The DOF a parameter belongs to, from its name's tokens (force_x_n -> x, force_max_lat_n -> y):
+// the gantry moves one.
 int param_dof(const std::string& name) {
   std::stringstream ss(name);
   std::string tok;
   while (std::getline(ss, tok, '_')) {
-    if (tok == "x") return 0;
-    if (tok == "y") return 1;
+    if (tok == "x" || tok == "long") return 0;
+    if (tok == "y" || tok == "lat") return 1;
     if (tok == "psi") return 2;
   }
   return -1;
@@ -38,14 +39,23 @@ int param_dof(const std::string& name) {
 
 std::vector<ParamSpec> paper_specs(const Model& m, const Dataset& d) {
   const TerrainParams& t = m.terrain;
-  // Physical ranges: a 29 kg robot that moves at 0.02-0.15 m/s at 5-23 rpm (Tables 2-3 span
-  // sigma 0.09-0.81 N/rpm, D 23-560 N/(m/s)); outside them the fit traded sigma against D.
-  std::vector<ParamSpec> s = {
-      ParamSpec{"sigma_long", t.sigma_long, true, "eq. (7), N per rpm", "N/rpm", 1e-3, 100, t.sigma_long}.physical(0.05, 3),
-      ParamSpec{"sigma_lat", t.sigma_lat, true, "eq. (7), N per rpm", "N/rpm", 1e-3, 100, t.sigma_lat}.physical(0.02, 2),
-      ParamSpec{"D_x", t.D_x, true, "eq. (6)", "N/(m/s)", 1, 1e5, t.D_x}.physical(50, 5000),
-      ParamSpec{"D_y", t.D_y, true, "eq. (6)", "N/(m/s)", 1, 1e5, t.D_y}.physical(10, 5000),
-      ParamSpec{"D_psi", t.D_psi, true, "eq. (6)", "N m/(rad/s)", 0.01, 1e4, t.D_psi}.physical(0.5, 200)};
+  // Physical ranges: within a factor of 3 of the terrain's table values (Tables 2-3 span sigma
+  // 0.09-0.81 N/rpm, D 23-560 N/(m/s) across terrains), and absolute limits for a 29 kg robot.
+  // Beyond them the log is from other ground than its metadata says, or the fit traded sigma and
+  // D against a missing effect: both scaled up together keep every steady speed and shorten every
+  // time constant, as a missing yaw time constant would.
+  auto spec = [](const char* name, double v, const char* doc, const char* unit, double lo, double hi, double abs_lo,
+                 double abs_hi) {
+    ParamSpec s{name, v, true, doc, unit, lo, hi, v};
+    const double plo = std::isfinite(v) && v > 0 ? std::max(abs_lo, v / 3.0) : abs_lo;
+    const double phi = std::isfinite(v) && v > 0 ? std::min(abs_hi, v * 3.0) : abs_hi;
+    return s.physical(plo, phi);
+  };
+  std::vector<ParamSpec> s = {spec("sigma_long", t.sigma_long, "eq. (7), N per rpm", "N/rpm", 1e-3, 100, 0.02, 3),
+                              spec("sigma_lat", t.sigma_lat, "eq. (7), N per rpm", "N/rpm", 1e-3, 100, 0.01, 2),
+                              spec("D_x", t.D_x, "eq. (6)", "N/(m/s)", 1, 1e5, 10, 5000),
+                              spec("D_y", t.D_y, "eq. (6)", "N/(m/s)", 1, 1e5, 5, 5000),
+                              spec("D_psi", t.D_psi, "eq. (6)", "N m/(rad/s)", 0.01, 1e4, 0.2, 200)};
   if (d.gantry) {
     const bool lon = d.axis == "longitudinal";
     s[lon ? 1 : 0].fitted = false;
@@ -698,24 +708,35 @@ void flag_params(std::vector<FitParam>& params, const Part& part) {
     const bool searched = std::find(part.free.begin(), part.free.end(), static_cast<int>(i)) != part.free.end();
     if (!s.fitted || s.integer) continue;
     char buf[200];
-    const double lo = search_lower(s), hi = search_upper(s);
-    const double span = std::max(std::fabs(hi - lo), 1e-300);
-    const bool at_lo = std::fabs(p.value - lo) <= 1e-3 * span, at_hi = std::fabs(p.value - hi) <= 1e-3 * span;
+    if (!searched) continue;  // held at its default: nothing was fitted
+    // At the end of the physical range where it is stricter than the effect's own bounds (those
+    // are definitions: a breakaway ratio of 1 is Coulomb friction, a force limit of 1e6 N none).
+    const double pspan = s.physical_upper - s.physical_lower;
+    auto near = [&](double bound) {
+      const double tol = s.log_scale ? 1e-3 * std::fabs(bound) : 1e-3 * (std::isfinite(pspan) ? pspan : std::fabs(s.typical));
+      return std::fabs(p.value - bound) <= tol;
+    };
+    const bool at_lo = s.physical_lower > s.lower && near(s.physical_lower);
+    const bool at_hi = s.physical_upper < s.upper && near(s.physical_upper);
     if (p.value < s.physical_lower || p.value > s.physical_upper) {
       std::snprintf(buf, sizeof buf, "outside the physical range %g..%g %s", s.physical_lower, s.physical_upper,
                     s.unit.c_str());
       p.flag = buf;
-    } else if (searched && (at_lo || at_hi) && !(p.value == 0 && lo == 0)) {
-      std::snprintf(buf, sizeof buf, "at the %s %g %s", (at_lo ? lo == s.physical_lower : hi == s.physical_upper)
-                                                             ? "end of its physical range"
-                                                             : "search bound",
-                    at_lo ? lo : hi, s.unit.c_str());
+    } else if (at_lo || at_hi) {
+      std::snprintf(buf, sizeof buf, "at the end of its physical range, %g %s", at_lo ? s.physical_lower : s.physical_upper,
+                    s.unit.c_str());
       p.flag = buf;
     } else if (searched && std::isfinite(p.sigma) && p.sigma > std::fabs(p.value) && p.sigma > 0.5 * std::fabs(s.typical)) {
       // (A value near zero known to a small fraction of its typical size is identified: it is zero.)
       p.flag = "uncertainty larger than the value: not identified by this log";
     }
   }
+}
+
+bool any_implausible(const std::vector<FitParam>& params) {
+  for (const FitParam& p : params)
+    if (p.flag.rfind("outside", 0) == 0 || p.flag.rfind("at the end", 0) == 0) return true;
+  return false;
 }
 
 bool any_flag(const std::vector<FitParam>& params) {

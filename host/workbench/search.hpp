@@ -126,5 +126,8 @@ std::vector<std::string> candidate_ids(const Dataset& d, const std::vector<std::
 // Flags of implausible or unidentifiable values (docs/workbench.md "Plausibility").
 void flag_params(std::vector<FitParam>& params, const Part& part);
 bool any_flag(const std::vector<FitParam>& params);
+// A flag that makes a fit implausible (outside or at the end of a physical range), as opposed
+// to an unidentified parameter (an effect that fitted as a simpler one it contains).
+bool any_implausible(const std::vector<FitParam>& params);
 
 }  // namespace auger::wb::search

@@ -27,12 +27,12 @@ constexpr const char* kStickSlip = "stick_slip_friction";
 namespace {
 
 // Ranking of candidates (docs/workbench.md "Ranking"): those that improve the held-out error
-// come first; among them plausible fits (no flagged parameter) before flagged ones; then by
-// delta BIC.
+// come first; among them plausible fits before implausible ones (a value outside or at the end
+// of its physical range); then by delta BIC.
 bool ranks_before(const Candidate& a, const Candidate& b, double nominal_heldout) {
   const bool ga = a.heldout_ratio < nominal_heldout, gb = b.heldout_ratio < nominal_heldout;
   if (ga != gb) return ga;
-  if (ga && a.flagged != b.flagged) return !a.flagged;
+  if (ga && a.implausible != b.implausible) return !a.implausible;
   return a.delta_bic < b.delta_bic;
 }
 
@@ -159,6 +159,7 @@ DiagnoseResult diagnose(const Dataset& full, ModelChoice mc, const DiagnoseOptio
       for (std::size_t q = 0; q < o.parts[p].specs.size(); ++q) fe.params.push_back(all[k++]);
       fe.description = describe(o.parts[p], base);
       c.flagged = c.flagged || any_flag(fe.params);
+      c.implausible = c.implausible || any_implausible(fe.params);
       if (p + 1 == o.parts.size()) c.fitted = fe;
       else c.refitted.push_back(fe);
     }
@@ -221,7 +222,8 @@ DiagnoseResult diagnose(const Dataset& full, ModelChoice mc, const DiagnoseOptio
     std::snprintf(buf, sizeof buf, "most likely missing: %s (held-out error %.2f times the noise floor, %s %.2f times)%s%s",
                   best->fitted.description.c_str(), best->heldout_ratio, res.refits_model ? "model" : "nominal",
                   res.nominal_heldout_ratio,
-                  best->flagged ? "; CAUTION: its fit is implausible (flagged parameters), no plausible candidate improves the held-out error" : "",
+                  best->implausible ? "; CAUTION: its fit is implausible (a value at or beyond its physical range), and no plausible candidate improves the held-out error"
+                  : best->flagged ? "; a parameter of it is not identified by this log (see the flags)" : "",
                   best->near_tie ? "; a near tie with the next candidate: see the experiment that tells them apart" : "");
   }
   res.verdict = buf;

@@ -241,7 +241,9 @@ NoiseColour camera_noise_colour(const Dataset& d, const ChannelValues& white) {
     t.clear();
     diff.clear();
   };
-  double stretch_start = -1e300;
+  // Samples grouped by 60 s of log time (not by contiguous stretch: the mean of a short stretch
+  // would take away much of a slow noise's variance).
+  long group = -1;
   for (std::size_t k = 0; k < d.size(); ++k) {
     const auto& m = d.meas[k];
     if (!finite(m[kPsi]) || !finite(m[kImuPsi])) continue;
@@ -249,10 +251,11 @@ NoiseColour camera_noise_colour(const Dataset& d, const ChannelValues& white) {
     // mean speed, below 0.5 rpm: eq. (10)'s yaw row is the same for every screw).
     const bool still = have_r && finite(d.imu_r_radps[k]) ? std::fabs(d.imu_r_radps[k]) < 0.01
                                                           : std::fabs(d.omega_rpm[k].mean()) < 0.5;
-    if (!still || d.t_s[k] - stretch_start > 25.0) {
+    if (!still) continue;
+    const long g = static_cast<long>(std::floor((d.t_s[k] - d.t_s.front()) / 60.0));
+    if (g != group) {
       flush();
-      stretch_start = d.t_s[k];
-      if (!still) continue;
+      group = g;
     }
     t.push_back(d.t_s[k]);
     diff.push_back(wrap_angle(m[kPsi] - m[kImuPsi]));

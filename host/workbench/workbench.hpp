@@ -190,6 +190,7 @@ struct Candidate {
   bool near_tie = false;
   std::string tell_apart;       // the experiment that separates it from its near tie
   bool flagged = false;         // a parameter (its own or a refitted one) is flagged
+  bool implausible = false;     // ... outside or at the end of its physical range (ranks after plausible fits)
   std::vector<FittedEffect> refitted;  // diagnose --model: the model's effects, refitted with it
 };
 
@@ -281,6 +282,7 @@ struct ExplainStep {
   double heldout_combined = kNaN;     // RMS over channels
   double delta_bic = 0;               // against the step before
   bool flagged = false;               // an implausible or unidentified parameter
+  bool implausible = false;           // a value outside or at the end of its physical range
   std::vector<Candidate> alternatives;  // candidates this step nearly chose instead (near ties)
 };
 struct ExplainResult {

@@ -62,25 +62,27 @@ class YawTimeConstant final : public Effect {
 // up to force_n (mu m g / 4 would be 36 N at mu = 0.5). Hard-sign Coulomb friction at each
 // blocked contact, solved implicitly over the step (projected Gauss-Seidel on the contacts'
 // velocities at the step's end, zeta_end = zeta_free + gain .* f): a blocked robot stops exactly,
-// never chatters. A screw's share fades linearly from full below 0.8 omega_block_rpm to none
-// above 1.2 omega_block_rpm (encoder speeds near zero are coarse; a hard switch would make the
-// fit's cost flat in the threshold).
+// never chatters. A screw's share fades linearly from full below (1 - width / 2) omega_block_rpm
+// to none above (1 + width / 2) omega_block_rpm: a logged speed is a mean over 10 ms or more,
+// and a screw held near the threshold by its speed loop blocks for part of that time (a hard
+// switch would also make the fit's cost flat in the threshold).
 class ScrewBlocking final : public Effect {
  public:
-  ScrewBlocking(double force_n, double omega_block_rpm) : force_n_(force_n), omega_block_rpm_(omega_block_rpm) {}
+  ScrewBlocking(double force_n, double omega_block_rpm, double width)
+      : force_n_(force_n), omega_block_rpm_(omega_block_rpm), width_(width) {}
   const std::string& id() const override {
     static const std::string s = "screw_blocking";
     return s;
   }
   std::vector<std::pair<std::string, double>> params() const override {
-    return {{"force_n", force_n_}, {"omega_block_rpm", omega_block_rpm_}};
+    return {{"force_n", force_n_}, {"omega_block_rpm", omega_block_rpm_}, {"width", width_}};
   }
   void body_force(const Model& model, const EffectContext& ctx, Vec3& force_n, double*) const override {
     force_n.setZero();
     std::array<double, 4> limit_n{};
     bool any = false;
     for (int i = 0; i < 4; ++i) {
-      const double w = (omega_block_rpm_ - std::fabs(ctx.omega_rpm[i])) / (0.4 * omega_block_rpm_) + 0.5;
+      const double w = (omega_block_rpm_ - std::fabs(ctx.omega_rpm[i])) / (width_ * omega_block_rpm_) + 0.5;
       limit_n[static_cast<std::size_t>(i)] = force_n_ * std::clamp(w, 0.0, 1.0);
       any = any || limit_n[static_cast<std::size_t>(i)] > 0;
     }
@@ -113,7 +115,7 @@ class ScrewBlocking final : public Effect {
   }
 
  private:
-  double force_n_, omega_block_rpm_;
+  double force_n_, omega_block_rpm_, width_;
 };
 
 void check_finite_positive(double v, const char* name) {
@@ -151,11 +153,14 @@ void register_body(EffectRegistry& r) {
          {ParamSpec{"force_n", 30, true, "dry resistance of one blocked screw", "N", 0.1, 500, 30, false, true, true}
               .physical(2, 150),
           ParamSpec{"omega_block_rpm", 1.5, false, "speed below which a screw blocks", "rpm", 0.05, 10, 1.5}
-              .physical(0.2, 5)},
+              .physical(0.2, 5),
+          ParamSpec{"width", 0.4, false, "width of the fade around omega_block_rpm, as a fraction of it", "", 0.02, 2, 0.4}
+              .physical(0.02, 2)},
          [](const std::vector<double>& v) {
            check_finite_positive(v[0], "force_n");
            check_finite_positive(v[1], "omega_block_rpm");
-           return std::make_shared<ScrewBlocking>(v[0], v[1]);
+           check_finite_positive(v[2], "width");
+           return std::make_shared<ScrewBlocking>(v[0], v[1], v[2]);
          },
          [](const std::vector<double>& v) {
            return "a screw turning slower than " + fmt(v[1]) + " rpm blocks in the soil and resists with up to " +

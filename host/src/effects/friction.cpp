@@ -117,9 +117,9 @@ void register_friction(EffectRegistry& r) {
          {ParamSpec{"force_x_n", 0, false, "sliding level, longitudinal", "N", 0, 500, 10}.physical(0, 60),
           ParamSpec{"force_y_n", 0, false, "sliding level, lateral", "N", 0, 500, 10}.physical(0, 30),
           ParamSpec{"torque_psi_nm", 0, false, "sliding level, yaw", "N m", 0, 50, 0.5}.physical(0, 1.5),
-          ParamSpec{"breakaway_ratio", 1.5, false, "breakaway (static) / sliding level", "", 1, 5, 1.3}.physical(1, 3),
+          ParamSpec{"breakaway_ratio", 1.5, false, "breakaway (static) / sliding level", "", 1, 5, 1.3}.physical(1, 5),
           ParamSpec{"stribeck_mps", 0.005, false, "sliding speed over which the breakaway excess decays (m/s; in yaw at the contacts, r hypot(l_x, l_y))", "m/s",
-           1e-4, 0.2, 0.005, false, true, true}.physical(0.0005, 0.05)},
+           1e-4, 0.2, 0.005, false, true, true}.physical(1e-4, 0.05)},
          [](const std::vector<double>& v) {
            check_non_negative(v[0], "force_x_n");
            check_non_negative(v[1], "force_y_n");
