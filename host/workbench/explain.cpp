@@ -153,18 +153,23 @@ class Explainer {
         }
       }
       std::stable_sort(next.begin(), next.end(), [](const State& a, const State& b) {
-        if (a.implausible != b.implausible) return !a.implausible;
-        return a.h < b.h;
+        return score(a) < score(b);
       });
       if (static_cast<int>(next.size()) > opt_.beam) next.resize(static_cast<std::size_t>(opt_.beam));
+      // A structure that ended at the noise floor ends the search for every branch that is not
+      // already better than it: more effects could only match it.
+      double done_at_noise = std::numeric_limits<double>::infinity();
+      for (const State& f : finished)
+        if (at_noise(f)) done_at_noise = std::min(done_at_noise, score(f));
+      next.erase(std::remove_if(next.begin(), next.end(), [&](const State& x) { return score(x) >= done_at_noise; }),
+                 next.end());
       beam = std::move(next);
     }
     for (State& s : beam) finished.push_back(s);
     // The final model: the lowest held-out error, a simpler structure within 1 % of it preferred,
     // plausible before flagged.
     std::stable_sort(finished.begin(), finished.end(), [](const State& a, const State& b) {
-      if (a.implausible != b.implausible) return !a.implausible;
-      return a.h < b.h;
+      return score(a) < score(b);
     });
     const State* best = &finished.front();
     for (const State& s : finished)
@@ -176,12 +181,22 @@ class Explainer {
 
  private:
   template <typename... A>
+  void detail(const char* fmt, A... a) {
+    if (opt_.progress_detail) progress(fmt, a...);
+  }
+  template <typename... A>
   void progress(const char* fmt, A... a) {
     if (!opt_.progress) return;
     std::lock_guard<std::mutex> lock(print_);
     std::fprintf(stderr, fmt, a...);
     std::fprintf(stderr, "\n");
   }
+
+  // Ranking of structures: the held-out error, an implausible fit (a value at or beyond its
+  // physical range) counted 15 % worse: a part of the answer often fits with the paper's
+  // parameters stretched, and the next step takes them back (from_scratch), so it must not be
+  // ruled out, but a plausible structure of nearly the same error goes first.
+  static double score(const State& s) { return s.h * (s.implausible ? 1.15 : 1.0); }
 
   static int effects_in(const State& s) {
     int n = 0;
@@ -359,7 +374,7 @@ class Explainer {
   // Two passes: every candidate fitted on top of the state held (cheap: only its own
   // parameters), then the promising ones refitted jointly with everything (the expensive part).
   // Promising: the five best by training cost and any that gains at least 10 % of what the best
-  // gains; a candidate whose own fit gains nothing on top of the state is not refitted.
+  // gains.
   void run_tasks(std::vector<Task>& tasks, const State& s, int step) {
     std::vector<std::size_t> all(tasks.size());
     for (std::size_t i = 0; i < tasks.size(); ++i) all[i] = i;
@@ -375,7 +390,7 @@ class Explainer {
         t.first = fit_candidate(train_, state, candidate_part(t), 12, hint);
       }
       ++structures_;
-      progress("explain: step %d: %zu/%zu candidates fitted on top (%s, %d simulations)", step, ++finished,
+      detail("explain: step %d: %zu/%zu candidates fitted on top (%s, %d simulations)", step, ++finished,
                tasks.size(), t.id.c_str(), (t.joint ? t.out : t.first).sims);
     });
     std::vector<std::pair<double, std::size_t>> gains;
@@ -388,8 +403,9 @@ class Explainer {
     }
     std::sort(gains.begin(), gains.end(), std::greater<>());
     std::vector<std::size_t> joint;
+    // (Even one that gains nothing held on top: the state's own fit may have absorbed it.)
     for (std::size_t k = 0; k < gains.size(); ++k)
-      if (gains[k].first > 0 && (k < 5 || gains[k].first >= 0.1 * best_gain)) joint.push_back(gains[k].second);
+      if (k < 5 || (gains[k].first > 0 && gains[k].first >= 0.1 * best_gain)) joint.push_back(gains[k].second);
     for (Task& t : tasks) t.wait_for = -1;
     finished = 0;
     // Each effect's fit on the paper's model alone (the first step's), kept as a start.
@@ -405,7 +421,7 @@ class Explainer {
       t.out = from_scratch(std::move(t.out));
       t.joint = true;
       ++structures_;
-      progress("explain: step %d: %zu/%zu refitted jointly (%s, %d simulations)", step, ++finished, joint.size(),
+      detail("explain: step %d: %zu/%zu refitted jointly (%s, %d simulations)", step, ++finished, joint.size(),
                t.id.c_str(), t.out.sims);
     });
   }
@@ -515,8 +531,7 @@ class Explainer {
     for (std::size_t i = 0; i < cands.size(); ++i)
       if (ranked[i].delta_bic < kAddBic && cands[i].h < s.h * (1.0 - kAddHeldout)) order.push_back(i);
     std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-      if (cands[a].implausible != cands[b].implausible) return !cands[a].implausible;
-      return cands[a].h < cands[b].h;
+      return score(cands[a]) < score(cands[b]);
     });
     if (order.empty()) {
       progress("explain: step %d: no candidate is significant (best held-out %.2f, the model %.2f times the noise)",
@@ -536,9 +551,10 @@ class Explainer {
         sig[k].tell_apart = pair[1].tell_apart;
       }
     }
+    // The best few go on (a beam: the next step may show that the second was the right one);
+    // near ties of the best are listed with it as alternatives.
     std::vector<State> out;
     for (std::size_t j = 0; j < order.size() && static_cast<int>(out.size()) < opt_.beam; ++j) {
-      if (j > 0 && !tied[j]) continue;
       const std::size_t i = order[j];
       State e = backward(std::move(cands[i]), added[i], n_eff);
       ExplainStep st;

@@ -24,7 +24,8 @@ constexpr const char* kUsage =
     "  when what remains is noise (held-out error at the noise floor, residuals white and\n"
     "  independent of the inputs) or no candidate is significant, and says what is left.\n"
     "  Several logs of one robot are explained together (effects shared, the paper's parameters\n"
-    "  per terrain). --out writes the final model file. Progress on stderr (--quiet: none).\n";
+    "  per terrain). --out writes the final model file. A line per step on stderr (--progress: also\n"
+    "  one per candidate fitted; --quiet: none).\n";
 
 // "1.23" for a channel the log has, "-" otherwise.
 std::string cell(double v) {
@@ -112,7 +113,8 @@ int run_explain(int argc, char** argv) {
       seconds += logs.back().duration_s();
     }
     for (const auto& d : logs) models.push_back(choose_model(d, a.get("--model")));
-    o.progress = a.has("--progress") || (!a.has("--quiet") && !a.has("--json")) || (a.has("--json") && a.has("--progress"));
+    o.progress = a.has("--progress") || (!a.has("--quiet") && !a.has("--json"));
+    o.progress_detail = a.has("--progress");
     const ExplainResult r = explain(logs, models, o);
     const std::string out = a.get("--out");
     if (!out.empty()) {

@@ -559,6 +559,38 @@ FitOutcome fit_joint(const Problem& pr, const std::vector<Part>& state, const Pa
   return refit_joint(pr, state, candidate, fit_candidate(pr, state, candidate, max_iter, coulomb_fit), max_iter);
 }
 
+FitOutcome research_change_times(const Problem& pr, FitOutcome o, int max_iter) {
+  // A change time was placed by the candidate's own search, before the others were refitted with
+  // it; with them refitted it may belong elsewhere (a change placed early with its factors
+  // inverted can imitate another effect over a stretch). Searched over the whole log again with
+  // the others held, then everything refitted.
+  if (!std::isfinite(o.cost)) return o;
+  // Alternately (the others refitted to each new time) until the time stays, at most three times.
+  for (int round = 0; round < 3; ++round) {
+  bool moved_any = false;
+  for (std::size_t c = 0; c < o.parts.size(); ++c) {
+    if (o.parts[c].id != kTerrainChange || !o.parts[c].entry) continue;
+    std::vector<Part> held = o.parts;
+    held.erase(held.begin() + static_cast<std::ptrdiff_t>(c));
+    FitOutcome moved = fit_candidate(pr, held, o.parts[c], 4);
+    o.sims += moved.sims;
+    if (!(moved.cost < o.cost) || std::fabs(moved.parts.back().values[0] - o.parts[c].values[0]) < 1e-9) continue;
+    std::vector<Part> again = o.parts;
+    again[c].values = moved.parts.back().values;
+    FitOutcome r = refit(pr, again, max_iter, 1);
+    r.sims += o.sims;
+    if (r.cost < o.cost) {
+      o = std::move(r);
+      moved_any = true;
+    } else {
+      o.sims = r.sims;
+    }
+  }
+  if (!moved_any) break;
+  }
+  return o;
+}
+
 FitOutcome refit_joint(const Problem& pr, const std::vector<Part>& state, const Part& candidate, FitOutcome first,
                        int max_iter) {
   if (!std::isfinite(first.cost)) return first;
@@ -589,6 +621,7 @@ FitOutcome refit_joint(const Problem& pr, const std::vector<Part>& state, const 
                std::fabs(p.values[i] - search_upper(sp)) <= 1e-3 * span;
     }
   }
+  o = research_change_times(pr, std::move(o), max_iter);
   if (at_end) {
     std::vector<Part> fresh = joint;
     for (Part& p : fresh)

@@ -105,6 +105,9 @@ FitOutcome fit_candidate(const Problem& pr, const std::vector<Part>& held, const
 // refitted jointly: how a candidate is judged once other effects are in the model.
 FitOutcome fit_joint(const Problem& pr, const std::vector<Part>& state, const Part& candidate, int max_iter,
                      const FitOutcome* coulomb_fit = nullptr);
+// Change times (terrain_change) searched over the whole log again with the other parts held at
+// o's values, then everything refitted; the better fit is returned.
+FitOutcome research_change_times(const Problem& pr, FitOutcome o, int max_iter);
 // fit_joint's second half: everything refitted from `first`, fit_candidate's result.
 FitOutcome refit_joint(const Problem& pr, const std::vector<Part>& state, const Part& candidate, FitOutcome first,
                        int max_iter);

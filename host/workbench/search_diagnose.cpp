@@ -248,7 +248,7 @@ FitResult fit(const Dataset& full, ModelChoice mc, const std::vector<std::string
     if (std::isfinite(o.cost)) parts[p] = o.parts.back();
     if (progress) std::fprintf(stderr, "fit: %s alone done (%d simulations)\n", parts[p].id.c_str(), o.sims);
   }
-  FitOutcome o = refit(pr, parts, 20);
+  FitOutcome o = research_change_times(pr, refit(pr, parts, 20), 20);
   if (progress) std::fprintf(stderr, "fit: joint fit done (%d simulations)\n", o.sims);
   // A last polish on the full log as compare runs it (10 ms rows, 25 s segments): the decimated
   // log's 50 ms steps differ from it by a little, which matters once the fit is near the noise.

@@ -269,7 +269,8 @@ struct ExplainOptions {
   int max_effects = 4;   // effects added at most
   int beam = 2;          // model structures carried per step (near ties are not settled greedily)
   int threads = 2;
-  bool progress = false;
+  bool progress = false;          // a line per step on stderr
+  bool progress_detail = false;   // and a line per candidate fitted
   std::vector<std::string> only;  // restrict the candidates (empty: the whole library)
 };
 struct ExplainStep {

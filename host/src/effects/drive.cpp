@@ -19,8 +19,9 @@ class ScrewTractionLoss final : public Effect {
   std::vector<std::pair<std::string, double>> params() const override {
     return {{"screw", static_cast<double>(screw_)}, {"loss", loss_}};
   }
-  void drive_force(const Model& model, const Vec4& omega_rpm, double, Vec3& tau_n, double*) const override {
-    tau_n -= loss_ * model.SB.col(screw_) * omega_rpm[screw_];  // eq. (7), column of screw i
+  void drive_force(const Model& model, const Vec4& omega_rpm, double sigma_scale, double, Vec3& tau_n,
+                   double*) const override {
+    tau_n -= loss_ * sigma_scale * model.SB.col(screw_) * omega_rpm[screw_];  // eq. (7), column of screw i
   }
 
  private:
@@ -43,9 +44,10 @@ class TractionSaturation final : public Effect {
   std::vector<std::pair<std::string, double>> params() const override {
     return {{"force_max_long_n", long_max_}, {"force_max_lat_n", lat_max_}, {"sharpness", p_}};
   }
-  void drive_force(const Model& model, const Vec4& omega_rpm, double, Vec3& tau_n, double*) const override {
+  void drive_force(const Model& model, const Vec4& omega_rpm, double sigma_scale, double, Vec3& tau_n,
+                   double*) const override {
     for (int i = 0; i < 4; ++i) {
-      const Vec3 f = model.SB.col(i) * omega_rpm[i];
+      const Vec3 f = sigma_scale * model.SB.col(i) * omega_rpm[i];
       const double fx = f.x() / std::pow(1.0 + std::pow(std::fabs(f.x() / long_max_), p_), 1.0 / p_);
       const double fy = f.y() / std::pow(1.0 + std::pow(std::fabs(f.y() / lat_max_), p_), 1.0 / p_);
       const double share = f.y() != 0 ? fy / f.y() : 1.0;
@@ -81,7 +83,7 @@ class ForceLag final : public Effect {
   }
   std::size_t state_size() const override { return kHeader + 4 * kSlots; }
   void reset_state(double* state) const override { std::fill(state, state + state_size(), 0.0); }
-  void drive_force(const Model&, const Vec4&, double dt_s, Vec3& tau_n, double* state) const override {
+  void drive_force(const Model&, const Vec4&, double, double dt_s, Vec3& tau_n, double* state) const override {
     double* ring = state + kHeader;
     if (state[0] == 0) {
       state[0] = 1;

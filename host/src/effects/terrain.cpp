@@ -59,8 +59,9 @@ class ResistanceOffset final : public Effect {
 };
 
 // From t_change_s on, the terrain's traction is sigma_factor times and its resistance
-// drag_factor times the model's (eqs. (6)-(7)): the extra force (sigma_factor - 1) tau_drive and
-// the extra damping (drag_factor - 1) D, the latter implicit over the step.
+// drag_factor times the model's (eqs. (6)-(7)): S of eq. (7) scaled by sigma_factor before the
+// drive effects act (a screw's force limit or dead band is the screw's, not the ground's), and
+// the extra damping (drag_factor - 1) D, implicit over the step.
 class TerrainChange final : public Effect {
  public:
   TerrainChange(double t, double ks, double kd) : t_(t), ks_(ks), kd_(kd) {}
@@ -71,17 +72,16 @@ class TerrainChange final : public Effect {
   std::vector<std::pair<std::string, double>> params() const override {
     return {{"t_change_s", t_}, {"sigma_factor", ks_}, {"drag_factor", kd_}};
   }
+  double traction_scale(double t_s) const override { return t_s < t_ ? 1.0 : ks_; }
   void body_force(const Model& model, const EffectContext& ctx, Vec3& force_n, double*) const override {
     if (ctx.t_s < t_) {
       force_n.setZero();
       return;
     }
     for (int k = 0; k < 3; ++k) {
-      const double f_drive = (ks_ - 1.0) * ctx.tau_drive_n[k];
       const double d_extra = (kd_ - 1.0) * model.D_diag[k];
-      const double v_free = ctx.zeta_free[k] + ctx.gain[k] * f_drive;
       // f = -d_extra v_end, v_end = v_free + g f  =>  f = -d_extra v_free / (1 + d_extra g)
-      force_n[k] = f_drive - d_extra * v_free / (1.0 + d_extra * ctx.gain[k]);
+      force_n[k] = -d_extra * ctx.zeta_free[k] / (1.0 + d_extra * ctx.gain[k]);
     }
   }
 

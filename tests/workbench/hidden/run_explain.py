@@ -17,7 +17,8 @@ chain.
 The logs carry only format and terrain metadata; the workbench never sees the truth.
 
 Usage: run_explain.py --auger PATH --sim-log PATH --sim-drive PATH [--suite pairs,clean,fil]
-                      [--seeds N] [--min-frac F] [--sample] [--jobs 2] [--keep DIR] [--seconds 240]
+                      [--seeds N] [--min-frac F] [--sample] [--only TEXT] [--jobs 2] [--keep DIR]
+                      [--seconds 240]
 --sample: the make-test subset (one case of a few pair classes, one clean log, one FIL log).
 Exit 0 iff every class meets --min-frac (and every clean / FIL case passes). Python 3 stdlib only.
 """
@@ -164,6 +165,7 @@ def main():
     ap.add_argument("--min-frac", type=float, default=0.8)
     ap.add_argument("--sample", action="store_true")
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--only", help="run only the classes whose name contains this text")
     ap.add_argument("--keep")
     ap.add_argument("--seconds", type=float, default=240.0)
     ap.add_argument("--timeout", type=float, default=600.0)
@@ -178,6 +180,8 @@ def main():
     if "fil" in suites:
         for key in (SAMPLE_FIL if args.sample else FIL_CASES):
             cases += [Case("fil", key, s + 1) for s in range(1 if args.sample else max(1, args.seeds // 3))]
+    if args.only:
+        cases = [c for c in cases if args.only in c.name]
     workdir = args.keep or tempfile.mkdtemp(prefix="auger-explain-")
     os.makedirs(workdir, exist_ok=True)
     t0 = time.time()
