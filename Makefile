@@ -8,6 +8,7 @@
 #   make flash PORT=/dev/ttyUSB0 [ID=n]   flash a module through Optiboot, set its id
 #   make deps        install missing Debian packages (scripts/install-deps.sh)
 #   make host        configure and build the host, simulator and tests (Release, build/)
+#   make venv        the Python environment build/venv (python/requirements.txt; auger import)
 #   make asan        the unit and protocol tests with ASan+UBSan (build-asan/)
 #   make fuzz        run the protocol parser fuzzer (FUZZ_RUNS, default unbounded: Ctrl-C)
 #   make bench-protocol   XOR byte vs CRC-16 corruption figures (docs/protocol.md)
@@ -33,7 +34,7 @@ AVR_CFLAGS := -mmcu=atmega328p -DF_CPU=16000000UL -std=c99 -Os -Wall -Wextra -We
 HOST_WARN := -Wall -Wextra -Werror -pedantic
 
 .PHONY: all deps firmware flash host asan check-protocol fuzz fuzz-smoke test test-full demo \
-        bench-protocol bench-firmware bench-host bench-robot pid-units clean \
+        bench-protocol bench-firmware bench-host bench-robot pid-units clean venv \
         board board-deps board-test install uninstall flash-all bench-board
 
 all: host
@@ -51,6 +52,11 @@ flash: firmware
 	cmake --build $(BUILD) -j $(JOBS) --target auger-module
 	AUGER_MODULE=$(BUILD)/host/tools/auger-module \
 	  scripts/flash-module.sh $(PORT) firmware/build/auger-module.hex $(ID)
+
+# One Python environment for the project (python/requirements.txt; pip runs only when that
+# file changed): `auger import` runs in it, and so do the Python tests.
+venv: deps
+	scripts/make-venv.sh $(abspath $(BUILD))/venv
 
 host: deps firmware
 	cmake -S . -B $(BUILD) -G $(CMAKE_GENERATOR) -DCMAKE_BUILD_TYPE=Release -DAUGER_SANITIZE=OFF -DAUGER_WITH_SIM=ON
@@ -99,7 +105,7 @@ fuzz-smoke: $(FUZZ_BUILD)/fuzz_parser $(FUZZ_BUILD)/corpus
 	$(FUZZ_BUILD)/fuzz_parser -runs=300000 -seed=1 -max_len=512 -print_final_stats=1 \
 	  $(FUZZ_BUILD)/smoke $(FUZZ_BUILD)/corpus 2>&1 | tail -n 3
 
-test: deps check-protocol host asan fuzz-smoke board
+test: deps check-protocol host venv asan fuzz-smoke board
 	cd $(ASAN_BUILD) && ctest --output-on-failure -L unit -j $(JOBS)
 	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) ctest --output-on-failure -LE long
 
@@ -116,7 +122,7 @@ test-full: test
 
 # The simulated robot on sand driven by augerd: a square and the helix diagonal with each
 # allocator, tracking errors printed (scripts/demo.sh; about 90 s after the build).
-demo: host
+demo: host venv
 	scripts/demo.sh $(BUILD)
 
 bench-protocol: host

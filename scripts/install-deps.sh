@@ -7,6 +7,8 @@ set -euo pipefail
 packages=(
   # toolchains and build
   build-essential cmake ninja-build pkg-config python3
+  # the Python venv of `auger import` and the Python tests (scripts/make-venv.sh)
+  python3-venv
   # firmware
   gcc-avr binutils-avr avr-libc avrdude
   # firmware-in-the-loop simulation
