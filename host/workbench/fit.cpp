@@ -20,7 +20,7 @@ int run_fit(int argc, char** argv) {
     std::fprintf(a.has("--help") ? stdout : stderr,
                  "usage: auger fit LOG --add EFFECT[,EFFECT...] [--out MODEL] [--model FILE] [--json]\n"
                  "  re-identifies sigma and D (eqs. (15)-(17)) together with the effects added, prints the\n"
-                 "  error per DOF before and after (also x noise floor), writes a model file.\n"
+                 "  error per channel before and after (also as multiples of the noise floor), writes a model file.\n"
                  "  --add paper_params re-identifies the paper's parameters alone.\n");
     return a.has("--help") ? 0 : 2;
   }

@@ -161,23 +161,6 @@ print(len(svgs))
   CHECK(tools_test::json_number(dir, b, "d['eval']['window_step']") == Approx(worst).epsilon(1e-5));
 }
 
-TEST_CASE("auger report --explain: the steps of explain, its model as the one after") {
-  const tools_test::TempDir tmp("report-explain");
-  const std::string dir = tmp.path;
-  const std::string log = dir + "/log.csv";
-  tools_test::write_text(log, tools_test::dry_friction_log());
-  const auto r = tools_test::run_auger(dir, "report " + log + " --out " + dir + "/rep --no-diagnose --explain --json");
-  INFO(r.out << r.err);
-  REQUIRE(r.code == 0);
-  CHECK(tools_test::json_eval(dir, r.out, "d['sections']") ==
-        "['summary', 'measured-vs-model', 'error', 'explain', 'before-after', 'effect']");
-  CHECK_THAT(tools_test::json_eval(dir, r.out, "d['effect_added']"), Catch::Contains("coulomb_friction"));
-  CHECK(tools_test::json_number(dir, r.out, "max(d['after']['ratio_to_noise'].values())") < 1.3);
-  const std::string html = tools_test::read_text(dir + "/rep/index.html");
-  CHECK_THAT(html, Catch::Contains("id=\"explain-step-0\"") && Catch::Contains("id=\"explain-step-1\"") &&
-                       Catch::Contains("Held-out error at each step of auger explain"));
-}
-
 TEST_CASE("auger report without gnuplot: a clear error naming the package, nothing written") {
   const tools_test::TempDir tmp("report-nognuplot");
   const std::string dir = tmp.path;
