@@ -328,7 +328,7 @@ Section ranking_section(const Findings& f, Gnuplot& gp) {
     script << "$ranking << EOD\n" << block.str() << "EOD\n"
            << "set style fill solid 0.75\nset boxwidth 0.7\nunset key\nset xrange [0.4:" << n + 0.6 << "]\n"
            << "set palette defined (0 '#1f77b4', 1 '#ff7f0e', 2 '#999999')\nset cbrange [0:2]\nunset colorbox\n"
-           << "set multiplot layout 2,1 margins 0.1,0.98,0.22,0.95 spacing 0,0.04\n"
+           << "set multiplot layout 2,1 margins 0.1,0.93,0.22,0.95 spacing 0,0.04\n"
            << "set xtics format '' scale 0\nset ylabel 'delta BIC (lower is better)'\n"
            << "plot $ranking using 1:3:5 with boxes lc palette\n"
            << "set xtics rotate by -35 font ',9' scale 0\nset ylabel 'held-out error (times the noise floor)'\n"
@@ -364,11 +364,16 @@ Section before_after_section(const Findings& f, ChartSet& charts) {
          "finding.</p>\n";
   h << "<p>Model after: <b id=\"best-effect\">" << esc(f.after_name) << "</b> ("
     << (f.have_explain ? "the model auger explain arrived at" : f.effect_given ? "--effect" : "diagnose's first candidate")
-    << ", fitted together with the paper's parameters)</p>\n<table><tr><th class=l>effect</th><th class=l>fitted "
-       "(value &plusmn; one standard uncertainty)</th></tr>\n";
-  for (const auto& e : f.after_fitted)
-    h << "<tr><td class=l>" << esc(e.effect) << "</td><td class=l>" << esc(e.description) << params_html(e) << "</td></tr>\n";
-  h << "</table>\n<table>" << channel_header(d, "model (segments of 25 s)");
+    << ", fitted together with the paper's parameters)</p>\n";
+  if (f.have_explain) {
+    h << "<p>Its fitted values: the final model in <a href=\"#explain\">the steps of auger explain</a>.</p>\n";
+  } else {
+    h << "<table><tr><th class=l>effect</th><th class=l>fitted (value &plusmn; one standard uncertainty)</th></tr>\n";
+    for (const auto& e : f.after_fitted)
+      h << "<tr><td class=l>" << esc(e.effect) << "</td><td class=l>" << esc(e.description) << params_html(e) << "</td></tr>\n";
+    h << "</table>\n";
+  }
+  h << "<table>" << channel_header(d, "model (segments of 25 s)");
   stats_rows(h, "before", "before (" + cmp.model.source + ")", cmp.segments_err, d);
   stats_rows(h, "after", "after (+ " + f.after_name + ")", f.after.segments_err, d);
   h << "</table>\n<p>The pose, measured (grey) and the model before (blue) and after (green), each re-initialised "
