@@ -165,7 +165,7 @@ int run_merge(int argc, char** argv) {
     j.end_object();
     std::printf("%s\n", j.text().c_str());
   } else {
-    std::printf("auger merge: t_robot = t_camera + %.4f s\n", al.offset_s);
+    std::printf("auger merge: t_robot = t_camera %c %.4f s\n", al.offset_s < 0 ? '-' : '+', std::fabs(al.offset_s));
     char coarse_text[48];
     std::snprintf(coarse_text, sizeof coarse_text, "%.4f s", al.coarse_offset_s);
     std::printf("  from t0_unix_s: %s\n",
