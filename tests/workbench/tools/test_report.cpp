@@ -161,26 +161,22 @@ print(len(svgs))
   CHECK(tools_test::json_number(dir, b, "d['eval']['window_step']") == Approx(worst).epsilon(1e-5));
 }
 
-TEST_CASE("auger report without gnuplot: a clear error naming the package, nothing written") {
-  const tools_test::TempDir tmp("report-nognuplot");
+TEST_CASE("auger report without gnuplot or dygraphs: a clear error naming the package, nothing written") {
+  const tools_test::TempDir tmp("report-missing");
   const std::string dir = tmp.path;
   tools_test::write_text(dir + "/log.csv", tools_test::dry_friction_log());
-  const auto r = tools_test::run_auger(dir, "report " + dir + "/log.csv --out " + dir + "/rep --no-diagnose",
-                                       "AUGER_GNUPLOT=" + dir + "/no-such-gnuplot");
-  CHECK(r.code == 2);
-  CHECK_THAT(r.err, Catch::Contains("gnuplot") && Catch::Contains("gnuplot-nox"));
-  CHECK(tools_test::read_text(dir + "/rep/index.html").empty());
-}
-
-TEST_CASE("auger report without dygraphs: a clear error naming the package, nothing written") {
-  const tools_test::TempDir tmp("report-nodygraphs");
-  const std::string dir = tmp.path;
-  tools_test::write_text(dir + "/log.csv", tools_test::dry_friction_log());
-  const auto r = tools_test::run_auger(dir, "report " + dir + "/log.csv --out " + dir + "/rep --no-diagnose",
-                                       "AUGER_DYGRAPHS_DIR=" + dir + "/no-such-dir");
-  CHECK(r.code == 2);
-  CHECK_THAT(r.err, Catch::Contains("libjs-dygraphs"));
-  CHECK(tools_test::read_text(dir + "/rep/index.html").empty());
+  struct Missing {
+    const char* env;  // pointing the tool at nothing
+    const char* package;
+  };
+  for (const Missing m : {Missing{"AUGER_GNUPLOT=", "gnuplot-nox"}, Missing{"AUGER_DYGRAPHS_DIR=", "libjs-dygraphs"}}) {
+    const auto r = tools_test::run_auger(dir, "report " + dir + "/log.csv --out " + dir + "/rep --no-diagnose",
+                                         m.env + dir + "/no-such-thing");
+    INFO(m.package << ": " << r.err);
+    CHECK(r.code == 2);
+    CHECK_THAT(r.err, Catch::Contains(m.package));
+    CHECK(tools_test::read_text(dir + "/rep/index.html").empty());
+  }
 }
 
 TEST_CASE("gnuplot strings are quoted: quotes, a backslash and a newline reach the SVG as text") {
