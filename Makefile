@@ -110,7 +110,7 @@ test: deps check-protocol host venv asan fuzz-smoke board
 	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) ctest --output-on-failure -LE long
 
 # Longer suites (docs/benchmarks.md has their times): the tests labelled `long` (flash-all into
-# four simulated modules), the parser fuzzer for 5 million inputs, the sand diagonal with the
+# four simulated modules; auger report --explain in headless Chromium with a screenshot), the parser fuzzer for 5 million inputs, the sand diagonal with the
 # firmware in the loop across the blocking thresholds, and the hidden-effect suite with 10
 # seeds per effect, at least 9 must pass (docs/workbench-suite.md).
 test-full: test

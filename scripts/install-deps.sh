@@ -21,6 +21,8 @@ packages=(
   valgrind
   # workbench reports (plots), field tools (terminal UI) and their tmux-driven tests
   gnuplot-nox libncurses-dev tmux
+  # auger report's interactive time plots (inlined into the page) and the browser that tests the page
+  libjs-dygraphs chromium
 )
 # The board (aarch64) build: a cross compiler and qemu-user to run its binaries in the tests.
 # On an arm64 machine the native compiler builds for the board and runs the binaries itself.
@@ -54,7 +56,8 @@ packages+=("${multiarch[@]}")
 missing=()
 for p in "${packages[@]}"; do
   status=$(dpkg-query -W -f='${Status}' "$p" 2>/dev/null || true)
-  [[ "$status" == "install ok installed" ]] || missing+=("$p")
+  # A plain name with two architectures installed (multiarch) answers one line per architecture.
+  [[ "$status" == *"install ok installed"* ]] || missing+=("$p")
 done
 
 if [[ ${#missing[@]} -eq 0 ]]; then

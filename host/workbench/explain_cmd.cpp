@@ -1,11 +1,13 @@
 // `auger explain LOG... [--model FILE] [--out MODEL] [--max-effects N] [--beam N] [--json]`: the
 // workbench's whole loop in one command (docs/workbench.md "explain").
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <string>
 
 #include "args.hpp"
+#include "cli_text.hpp"
 #include "commands.hpp"
 #include "workbench.hpp"
 
@@ -33,36 +35,6 @@ std::string cell(double v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, v < 10 ? "%.2f" : "%.1f", v);
   return buf;
-}
-
-void json_effects(Json& j, const char* key, const std::vector<FittedEffect>& effects) {
-  j.begin_array(key);
-  for (const auto& e : effects) {
-    j.begin_object().str("effect", e.effect).str("description", e.description);
-    j.begin_object("params");
-    for (const auto& p : e.params) j.num(p.name.c_str(), p.value);
-    j.end_object().begin_object("params_sigma");
-    for (const auto& p : e.params) j.num(p.name.c_str(), p.sigma);
-    j.end_object().begin_object("flags");
-    for (const auto& p : e.params)
-      if (!p.flag.empty()) j.str(p.name.c_str(), p.flag);
-    j.end_object().end_object();
-  }
-  j.end_array();
-}
-
-void print_effects(const std::vector<FittedEffect>& effects) {
-  for (const auto& e : effects) {
-    std::printf("  %s: %s\n", e.effect.c_str(), e.description.c_str());
-    std::printf("   ");
-    for (const auto& p : e.params) {
-      if (std::isfinite(p.sigma)) std::printf(" %s = %.4g +- %.2g %s;", p.name.c_str(), p.value, p.sigma, p.unit.c_str());
-      else std::printf(" %s = %.4g %s (held);", p.name.c_str(), p.value, p.unit.c_str());
-    }
-    std::printf("\n");
-    for (const auto& p : e.params)
-      if (!p.flag.empty()) std::printf("    FLAG %s: %s\n", p.name.c_str(), p.flag.c_str());
-  }
 }
 
 }  // namespace
@@ -112,7 +84,13 @@ int run_explain(int argc, char** argv) {
       logs.push_back(load_dataset(path));
       seconds += logs.back().duration_s();
     }
-    for (const auto& d : logs) models.push_back(choose_model(d, a.get("--model")));
+    std::vector<std::string> warnings;
+    for (const auto& d : logs) {
+      models.push_back(choose_model(d, a.get("--model")));
+      const std::string w = terrain_warning(d, models.back());
+      if (!w.empty()) warnings.push_back(logs.size() > 1 ? d.path + ": " + w : w);
+    }
+    print_warnings("explain", warnings);
     o.progress = a.has("--progress") || (!a.has("--quiet") && !a.has("--json"));
     o.progress_detail = a.has("--progress");
     const ExplainResult r = explain(logs, models, o);
@@ -155,7 +133,7 @@ int run_explain(int argc, char** argv) {
         j.end_array();
         j.channels("heldout_ratio", s.heldout_ratio, r.active).num("heldout_combined", s.heldout_combined);
         j.num("delta_bic", s.delta_bic).boolean("flagged", s.flagged);
-        json_effects(j, "fitted", s.fitted);
+        json_fitted(j, "fitted", s.fitted);
         j.begin_array("alternatives");
         for (const auto& c : s.alternatives) {
           j.begin_object().str("effect", c.fitted.effect).num("heldout_ratio", c.heldout_ratio).num("delta_bic", c.delta_bic);
@@ -166,7 +144,7 @@ int run_explain(int argc, char** argv) {
       j.end_array();
       j.begin_object("final");
       j.channels("ratio", r.final_ratio, r.active).channels("heldout_ratio", r.final_heldout, r.active);
-      json_effects(j, "fitted", r.final_fitted);
+      json_fitted(j, "fitted", r.final_fitted);
       j.begin_array("residual_tests");
       for (std::size_t i = 0; i < r.tests.size(); ++i) {
         j.begin_object().str("log", r.logs[i]).boolean("white", r.tests[i].white).boolean("independent", r.tests[i].independent);
@@ -179,6 +157,9 @@ int run_explain(int argc, char** argv) {
       json_windows(j, "where", r.where);
       j.num("structures_fitted", r.structures_tried);
       j.str("next", next);
+      j.begin_array("warnings");
+      for (const auto& w : warnings) j.str(nullptr, w);
+      j.end_array();
       j.end_object();
       std::printf("%s\n", j.text().c_str());
       return 0;
@@ -205,8 +186,8 @@ int run_explain(int argc, char** argv) {
       std::printf("\n");
       for (const auto& d : s.dropped) std::printf("      - %s dropped: it no longer pays for itself\n", d.c_str());
       for (const auto& c : s.alternatives)
-        std::printf("      near tie: %s (held-out %.2f, delta BIC %.1f); to tell apart: %s\n", c.fitted.effect.c_str(),
-                    c.heldout_ratio, c.delta_bic, c.tell_apart.c_str());
+        std::printf("      near tie: %s (held-out %s, delta BIC %.1f); the experiment that tells them apart: %s\n",
+                    c.fitted.effect.c_str(), times_noise(c.heldout_ratio).c_str(), c.delta_bic, c.tell_apart.c_str());
     }
     std::printf("Each step refits every effect chosen so far and the paper's parameters jointly with the candidate;\n"
                 "a candidate is taken when it gains more than 10 in BIC and lowers the held-out error by 2 %%, the\n"
@@ -217,15 +198,19 @@ int run_explain(int argc, char** argv) {
       if (r.active[static_cast<std::size_t>(c)])
         std::printf("  %s %s", channel_name(c), cell(r.final_ratio[static_cast<std::size_t>(c)]).c_str());
     std::printf("\n");
-    print_effects(r.final_fitted);
+    for (const auto& e : r.final_fitted) {
+      std::printf("  %s: %s\n", e.effect.c_str(), e.description.c_str());
+      print_fitted(stdout, e, "    ");
+    }
     std::printf("residual tests:");
     for (std::size_t i = 0; i < r.tests.size(); ++i)
       std::printf(" %s%s", r.tests.size() > 1 ? (r.logs[i] + ": ").c_str() : "", describe_residual_tests(r.tests[i]).c_str());
     std::printf("\n\nverdict: %s\n", r.verdict.c_str());
     if (r.verdict_kind != "noise" && !r.where.empty()) {
-      std::printf("where the model fails most (5 s windows, times the noise floor):\n");
+      std::printf("where the model fails most (5 s windows):\n");
       for (const auto& w : r.where)
-        std::printf("  t %7.1f - %7.1f s  %-7s  %.1f\n", w.t_start_s, w.t_end_s, channel_name(w.dof), w.ratio_to_noise);
+        std::printf("  t %7.1f - %7.1f s  %-7s  RMS %s = %s\n", w.t_start_s, w.t_end_s, channel_name(w.dof),
+                    with_unit(w.rms, channel_unit(w.dof), 3).c_str(), times_noise(w.ratio_to_noise).c_str());
     }
     if (!out.empty()) std::printf("model file written: %s\n", out.c_str());
     std::printf("next: %s\n", next.c_str());

@@ -511,12 +511,17 @@ ErrorStats one_step_error(const Model& model, const Dataset& data, const Channel
   return error_stats(data, p, noise);
 }
 
-std::vector<Window> window_errors(const Model& model, const Dataset& data, const ChannelValues& noise,
-                                  double window_s, const SimOptions& options) {
+SimOptions window_sim_options(const SimOptions& options, double window_s) {
   SimOptions o = options;
   o.segment_s = window_s;
   o.anchor_s = std::min(o.anchor_s, 0.2 * window_s);
   o.warm_s = std::min(o.warm_s, 0.2 * window_s);  // 1 s: 3 yaw time constants, for 5 s windows
+  return o;
+}
+
+std::vector<Window> window_errors(const Model& model, const Dataset& data, const ChannelValues& noise,
+                                  double window_s, const SimOptions& options) {
+  const SimOptions o = window_sim_options(options, window_s);
   Prediction p;
   simulate(model, data, o, p);
   std::vector<Window> out;

@@ -130,6 +130,9 @@ struct Window {
 // window shows what acts inside it, not what accumulated before). Sorted by time.
 std::vector<Window> window_errors(const Model& model, const Dataset& data, const ChannelValues& noise,
                                   double window_s = 5.0, const SimOptions& options = {});
+// The simulation window_errors runs (segments of window_s, shorter anchor and warm-up), so a
+// report can plot the error curve its windows measure.
+SimOptions window_sim_options(const SimOptions& options, double window_s = 5.0);
 // The n worst (window, channel) pairs by ratio_to_noise.
 std::vector<Window> worst_windows(const std::vector<Window>& windows, std::size_t n = 5);
 

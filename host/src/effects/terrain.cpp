@@ -117,7 +117,7 @@ void register_terrain(EffectRegistry& r) {
            return "the centre of resistance sits " + fmt(v[0]) + " m ahead of and " + fmt(v[1]) +
                   " m left of the centre, so sideways motion turns the robot: offset of the centre of resistance";
          }});
-  r.add({"terrain_change", "from t_change_s on, traction x sigma_factor and resistance x drag_factor",
+  r.add({"terrain_change", "from t_change_s on, traction times sigma_factor and resistance times drag_factor",
          {ParamSpec{"t_change_s", 0, true, "time of the change (log time)", "s", 0, 1e9, 10, false, false}.physical(0, 1e9),
           ParamSpec{"sigma_factor", 1, false, "traction after / before", "", 0.05, 20, 0.2}.physical(0.2, 5),
           ParamSpec{"drag_factor", 1, false, "resistance after / before", "", 0.05, 20, 0.2}.physical(0.2, 5)},
@@ -126,8 +126,8 @@ void register_terrain(EffectRegistry& r) {
            return std::make_shared<TerrainChange>(v[0], v[1], v[2]);
          },
          [](const std::vector<double>& v) {
-           return "at t = " + fmt(v[0]) + " s the terrain changes: traction x" + fmt(v[1]) +
-                  ", resistance x" + fmt(v[2]) + ": change of terrain";
+           return "at t = " + fmt(v[0]) + " s the terrain changes: traction " + fmt(v[1]) + " times,"
+                  " resistance " + fmt(v[2]) + " times the model's: change of terrain";
          }});
 }
 
