@@ -76,13 +76,13 @@ void json_fitted(Json& j, const char* key, const std::vector<FittedEffect>& effe
 
 RankGroup rank_group(const Candidate& c, double nominal_heldout_ratio) {
   if (!(c.heldout_ratio < nominal_heldout_ratio)) return RankGroup::kNoImprovement;
-  return c.flagged ? RankGroup::kImprovesFlagged : RankGroup::kImproves;
+  return c.implausible ? RankGroup::kImprovesImplausible : RankGroup::kImproves;
 }
 
 const char* rank_group_id(RankGroup g) {
   switch (g) {
     case RankGroup::kImproves: return "improves";
-    case RankGroup::kImprovesFlagged: return "improves_flagged";
+    case RankGroup::kImprovesImplausible: return "improves_implausible";
     case RankGroup::kNoImprovement: return "no_improvement";
   }
   return "";
@@ -91,14 +91,15 @@ const char* rank_group_id(RankGroup g) {
 const char* rank_group_words(RankGroup g) {
   switch (g) {
     case RankGroup::kImproves: return "lower the held-out error, plausible fit";
-    case RankGroup::kImprovesFlagged: return "lower the held-out error, but a fitted value is flagged (implausible or not identified)";
+    case RankGroup::kImprovesImplausible: return "lower the held-out error, but a fitted value is at or beyond its physical range";
     case RankGroup::kNoImprovement: return "do not lower the held-out error (a training-data gain that does not carry over)";
   }
   return "";
 }
 
 const char* const kRankingRule =
-    "candidates that lower the held-out error come first, plausible fits before flagged ones; "
+    "candidates that lower the held-out error come first, plausible fits before those with a value at or "
+    "beyond its physical range (a parameter flagged only as not identified does not move a candidate); "
     "within each of these groups and among the rest, lower delta BIC first";
 
 std::string typed(const std::string& path) {

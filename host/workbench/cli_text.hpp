@@ -36,9 +36,9 @@ void json_fitted(Json& j, const char* key, const std::vector<FittedEffect>& effe
 
 // diagnose's ranking (search_diagnose.cpp ranks_before), in words: the group a candidate falls
 // in, its name in the JSON, and the rule.
-enum class RankGroup { kImproves, kImprovesFlagged, kNoImprovement };
+enum class RankGroup { kImproves, kImprovesImplausible, kNoImprovement };
 RankGroup rank_group(const Candidate& c, double nominal_heldout_ratio);
-const char* rank_group_id(RankGroup g);     // "improves", "improves_flagged", "no_improvement"
+const char* rank_group_id(RankGroup g);     // "improves", "improves_implausible", "no_improvement"
 const char* rank_group_words(RankGroup g);  // a heading for the group's rows
 extern const char* const kRankingRule;
 

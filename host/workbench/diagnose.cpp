@@ -89,19 +89,18 @@ int run_diagnose(int argc, char** argv) {
         j.end_object();
         j.str("description", c.fitted.description).num("delta_bic", c.delta_bic);
         j.channels("heldout_rms", c.heldout_rms, d.active).num("heldout_ratio", c.heldout_ratio);
-        j.boolean("near_tie", c.near_tie).boolean("flagged", c.flagged);
+        j.boolean("near_tie", c.near_tie);
+        if (!c.tell_apart.empty()) j.str("tell_apart", c.tell_apart);
+        // Flags of the candidate's parameters, and (diagnose --model) of the model's effects
+        // refitted with it, as "effect.parameter".
         j.begin_object("flags");
         for (const auto& p : c.fitted.params)
           if (!p.flag.empty()) j.str(p.name.c_str(), p.flag);
         for (const auto& fe : c.refitted)
           for (const auto& p : fe.params)
             if (!p.flag.empty()) j.str((fe.effect + "." + p.name).c_str(), p.flag);
-        j.end_object();
-        if (!c.tell_apart.empty()) j.str("tell_apart", c.tell_apart);
-        j.begin_object("flags");
-        for (const auto& p : c.fitted.params)
-          if (!p.flag.empty()) j.str(p.name.c_str(), p.flag);
-        j.end_object().boolean("flagged", c.flagged);
+        j.end_object().boolean("flagged", c.flagged).boolean("implausible", c.implausible);
+        if (!c.refitted.empty()) json_fitted(j, "refitted", c.refitted);
         j.str("rank_group", rank_group_id(rank_group(c, r.nominal_heldout_ratio)));
         j.end_object();
       }

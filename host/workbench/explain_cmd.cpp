@@ -191,7 +191,7 @@ int run_explain(int argc, char** argv) {
     }
     std::printf("Each step refits every effect chosen so far and the paper's parameters jointly with the candidate;\n"
                 "a candidate is taken when it gains more than 10 in BIC and lowers the held-out error by 2 %%, the\n"
-                "lowest held-out error first, plausible fits before flagged ones.\n");
+                "lowest held-out error first (a fit with a value at or beyond its physical range counted 15 %% worse).\n");
     std::printf("\nfinal model, refitted on every segment; error as `auger compare --model` computes it (segments of\n"
                 "25 s, multiples of the noise floor):");
     for (int c = 0; c < kChannels; ++c)

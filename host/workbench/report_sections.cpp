@@ -419,7 +419,8 @@ Section explain_section(const Findings& f, ChartSet& charts) {
   h << "<p><b>Verdict:</b> " << esc(ex.verdict) << "</p>\n";
   h << "<p>Each step refits every effect chosen so far and the paper's parameters jointly with the candidate; a "
        "candidate is taken when it gains more than 10 in BIC and lowers the held-out error by 2 %, the lowest held-out "
-       "error first, plausible fits before flagged ones; an effect that no longer pays for itself is dropped. Held-out "
+       "error first (a fit with a value at or beyond its physical range counted 15 % worse); an effect that no longer "
+       "pays for itself is dropped. Held-out "
        "error per channel in multiples of the noise floor (1.00 = only noise left).</p>\n<table><tr><th>step</th>"
        "<th class=l>effect added</th>";
   for (int c = 0; c < kChannels; ++c)

@@ -72,7 +72,7 @@ TEST_CASE("diagnose's text and JSON: the ranking rule, each candidate's group, f
   REQUIRE(j.code == 0);
   CHECK_FALSE(has_bare_times_x(t.out));
   CHECK_THAT(t.out, Catch::Contains("ranking: candidates that lower the held-out error come first, plausible fits "
-                                    "before flagged ones;"));
+                                    "before those with a value at or beyond its physical range"));
   CHECK_THAT(t.out, Catch::Contains("  -- lower the held-out error, plausible fit --"));
   const std::string best = tools_test::json_eval(dir, j.out, "d['candidates'][0]['effect']");
   CHECK_THAT(lines_of(t.out).back(), Catch::StartsWith("next: auger fit " + log + " --add " + best + " "));
@@ -80,13 +80,13 @@ TEST_CASE("diagnose's text and JSON: the ranking rule, each candidate's group, f
   CHECK(tools_test::json_eval(dir, j.out,
                               "(lambda c, g: all((g[a['rank_group']], a['delta_bic'] if g[a['rank_group']] < 2 else 0) <= "
                               "(g[b['rank_group']], b['delta_bic'] if g[b['rank_group']] < 2 else 0) for a, b in "
-                              "zip(c, c[1:])))(d['candidates'], {'improves': 0, 'improves_flagged': 1, 'no_improvement': 2})") ==
+                              "zip(c, c[1:])))(d['candidates'], {'improves': 0, 'improves_implausible': 1, 'no_improvement': 2})") ==
         "True");
   CHECK_THAT(tools_test::json_eval(dir, j.out, "d['ranking_rule']"), Catch::StartsWith("candidates that lower"));
   // A candidate's group follows from its held-out error and its flags.
   CHECK(tools_test::json_eval(dir, j.out,
                               "all(c['rank_group'] == ('no_improvement' if not c['heldout_ratio'] < d['nominal_heldout_ratio'] "
-                              "else 'improves_flagged' if c['flagged'] else 'improves') and c['flagged'] == bool(c['flags']) "
+                              "else 'improves_implausible' if c['implausible'] else 'improves') and c['flagged'] == bool(c['flags']) "
                               "for c in d['candidates'])") == "True");
   // Every flagged parameter is printed as a FLAG line.
   const std::string flagged = tools_test::json_eval(
