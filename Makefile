@@ -15,6 +15,7 @@
 #   make bench-firmware   firmware cycles, edge rates, CPU load, simulation speed (docs/benchmarks.md)
 #   make bench-host       instructions and time per host controller step (callgrind)
 #   make bench-robot      speed of the whole simulated robot in lock-step
+#   make bench-explain    auger explain on 240 s and 10 min logs (wall and CPU seconds)
 # The robot's board (A64-OLinuXino, aarch64; docs/board.md):
 #   make board       augerd, auger, auger-module for aarch64 (cross on x86, native on aarch64),
 #                    in build-aarch64/ (BOARD_BUILD)
@@ -34,7 +35,7 @@ AVR_CFLAGS := -mmcu=atmega328p -DF_CPU=16000000UL -std=c99 -Os -Wall -Wextra -We
 HOST_WARN := -Wall -Wextra -Werror -pedantic
 
 .PHONY: all deps firmware flash host asan check-protocol fuzz fuzz-smoke test test-full demo \
-        bench-protocol bench-firmware bench-host bench-robot pid-units clean venv \
+        bench-protocol bench-firmware bench-host bench-robot bench-explain pid-units clean venv \
         board board-deps board-test install uninstall flash-all bench-board
 
 all: host
@@ -110,15 +111,21 @@ test: deps check-protocol host venv asan fuzz-smoke board
 	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) ctest --output-on-failure -LE long
 
 # Longer suites (docs/benchmarks.md has their times): the tests labelled `long` (flash-all into
-# four simulated modules; auger report --explain in headless Chromium with a screenshot), the parser fuzzer for 5 million inputs, the sand diagonal with the
-# firmware in the loop across the blocking thresholds, and the hidden-effect suite with 10
-# seeds per effect, at least 9 must pass (docs/workbench-suite.md).
+# four simulated modules; auger report --explain in headless Chromium with a screenshot), the
+# parser fuzzer for 5 million inputs, the sand diagonal with the firmware in the loop across the
+# blocking thresholds, the hidden-effect suite with 10 seeds per effect, at least 9 must pass, and
+# the explain suite: 7 pair classes x 5 seeds (at least 4 of 5 each), 2 clean logs, the
+# firmware-in-the-loop chain on sand and frozen grass, square / diagonal / manual
+# (docs/workbench-suite.md).
 test-full: test
 	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) ctest --output-on-failure -L long
 	$(MAKE) fuzz FUZZ_RUNS=5000000
 	$(BUILD)/tests/robot/test_robot_fil "[.full]"
 	python3 tests/workbench/hidden/run_hidden.py --auger $(BUILD)/host/auger/auger \
 	  --sim-log $(BUILD)/sim/robot/auger-sim-log --seeds 10 --min-pass 9 --jobs 2
+	python3 tests/workbench/hidden/run_explain.py --auger $(BUILD)/host/auger/auger \
+	  --sim-log $(BUILD)/sim/robot/auger-sim-log --sim-drive $(BUILD)/sim/robot/auger-sim-drive \
+	  --seeds 5 --min-frac 0.8 --jobs 2
 
 # The simulated robot on sand driven by augerd: a square and the helix diagonal with each
 # allocator, tracking errors printed (scripts/demo.sh; about 90 s after the build).
@@ -136,6 +143,9 @@ bench-host: host
 
 bench-robot: host
 	$(BUILD)/bench/robot_speed 20 2
+
+bench-explain: host
+	scripts/bench-explain.sh $(BUILD) 3
 
 # The paper's PID gains under every reading of their units (docs/firmware.md).
 pid-units: host
