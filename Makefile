@@ -8,7 +8,8 @@
 #   make flash PORT=/dev/ttyUSB0 [ID=n]   flash a module through Optiboot, set its id
 #   make deps        install missing Debian packages (scripts/install-deps.sh)
 #   make host        configure and build the host, simulator and tests (Release, build/)
-#   make venv        the Python environment build/venv (python/requirements.txt; the DDS tests)
+#   make venv        the Python environment build/venv (python/requirements.txt; auger import, the
+#                    Python tests, the DDS tests' independent ROS 2 participant)
 #   make asan        the unit and protocol tests with ASan+UBSan (build-asan/)
 #   make fuzz        run the protocol parser fuzzer (FUZZ_RUNS, default unbounded: Ctrl-C)
 #   make bench-protocol   XOR byte vs CRC-16 corruption figures (docs/protocol.md)
@@ -16,6 +17,7 @@
 #   make bench-host       instructions and time per host controller step (callgrind)
 #   make bench-robot      speed of the whole simulated robot in lock-step
 #   make bench-ros2       what augerd's ROS 2 interface costs its 100 Hz loop, under load
+#   make bench-explain    auger explain on 240 s and 10 min logs (wall and CPU seconds)
 # The robot's board (A64-OLinuXino, aarch64; docs/board.md):
 #   make board       augerd, auger, auger-module for aarch64 (cross on x86, native on aarch64),
 #                    in build-aarch64/ (BOARD_BUILD); ROS2=1: with augerd's ROS 2 interface
@@ -35,7 +37,7 @@ AVR_CFLAGS := -mmcu=atmega328p -DF_CPU=16000000UL -std=c99 -Os -Wall -Wextra -We
 HOST_WARN := -Wall -Wextra -Werror -pedantic
 
 .PHONY: all deps firmware flash host asan check-protocol fuzz fuzz-smoke test test-full demo \
-        bench-protocol bench-firmware bench-host bench-robot bench-ros2 pid-units clean venv \
+        bench-protocol bench-firmware bench-host bench-robot bench-ros2 bench-explain pid-units clean venv \
         board board-deps board-test install uninstall flash-all bench-board
 
 all: host
@@ -55,7 +57,8 @@ flash: firmware
 	  scripts/flash-module.sh $(PORT) firmware/build/auger-module.hex $(ID)
 
 # One Python environment for the project (python/requirements.txt; pip runs only when that
-# file changed): the DDS tests' independent ROS 2 participant runs in it.
+# file changed): `auger import` runs in it, the Python tests, and the DDS tests' independent ROS 2
+# participant.
 venv: deps
 	scripts/make-venv.sh $(abspath $(BUILD))/venv
 
@@ -113,15 +116,21 @@ test: deps check-protocol host venv asan fuzz-smoke board
 	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) ctest --output-on-failure -LE long
 
 # Longer suites (docs/benchmarks.md has their times): the tests labelled `long` (flash-all into
-# four simulated modules), the parser fuzzer for 5 million inputs, the sand diagonal with the
-# firmware in the loop across the blocking thresholds, and the hidden-effect suite with 10
-# seeds per effect, at least 9 must pass (docs/workbench-suite.md).
+# four simulated modules; auger report --explain in headless Chromium with a screenshot), the
+# parser fuzzer for 5 million inputs, the sand diagonal with the firmware in the loop across the
+# blocking thresholds, the hidden-effect suite with 10 seeds per effect, at least 9 must pass, and
+# the explain suite: 7 pair classes x 5 seeds (at least 4 of 5 each), 2 clean logs, the
+# firmware-in-the-loop chain on sand and frozen grass, square / diagonal / manual
+# (docs/workbench-suite.md).
 test-full: test
 	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) ctest --output-on-failure -L long
 	$(MAKE) fuzz FUZZ_RUNS=5000000
 	$(BUILD)/tests/robot/test_robot_fil "[.full]"
 	python3 tests/workbench/hidden/run_hidden.py --auger $(BUILD)/host/auger/auger \
 	  --sim-log $(BUILD)/sim/robot/auger-sim-log --seeds 10 --min-pass 9 --jobs 2
+	python3 tests/workbench/hidden/run_explain.py --auger $(BUILD)/host/auger/auger \
+	  --sim-log $(BUILD)/sim/robot/auger-sim-log --sim-drive $(BUILD)/sim/robot/auger-sim-drive \
+	  --seeds 5 --min-frac 0.8 --jobs 2
 
 # The simulated robot on sand driven by augerd: a square and the helix diagonal with each
 # allocator, tracking errors printed (scripts/demo.sh; about 90 s after the build).
@@ -142,6 +151,9 @@ bench-robot: host
 
 bench-ros2: host venv
 	scripts/bench-ros2.sh $(BUILD) 30
+
+bench-explain: host
+	scripts/bench-explain.sh $(BUILD) 3
 
 # The paper's PID gains under every reading of their units (docs/firmware.md).
 pid-units: host

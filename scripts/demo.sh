@@ -106,3 +106,17 @@ echo "The diagonal's last status lines:"
 for c in diagonal-nullspace diagonal-pinv; do
   echo "  $c: $(grep '^status' "$c/commands.out" | tail -1)"
 done
+
+# The model workbench on the demo's own sand log (augerd's log of the square with the null-space
+# allocator): how far the paper's model is from it, then `auger explain`, the loop that adds the
+# missing physics one effect at a time until what remains is noise (docs/workbench.md).
+sand_log=$(ls square-nullspace/logs/augerd-*-0.csv | head -1)
+echo
+echo "== the model workbench on augerd's own sand log ($sand_log) =="
+echo "\$ auger compare $sand_log"
+"$auger" compare "$sand_log" | sed -n '1,8p'
+echo
+echo "\$ auger explain $sand_log --out explained.toml"
+"$auger" explain "$sand_log" --out explained.toml
+echo
+echo "demo: done in $(($(date +%s) - start)) s; logs, configurations and the explained model under $work"

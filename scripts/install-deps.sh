@@ -7,20 +7,23 @@ set -euo pipefail
 packages=(
   # toolchains and build
   build-essential cmake ninja-build pkg-config python3
+  # the project's Python venv (scripts/make-venv.sh): `auger import`, the Python tests, the DDS
+  # tests' independent participant
+  python3-venv
   # firmware
   gcc-avr binutils-avr avr-libc avrdude
   # firmware-in-the-loop simulation
   simavr libsimavr-dev libelf-dev arduino-core-avr
   # host; augerd's ROS 2 interface: Eclipse Cyclone DDS and its IDL compiler idlc
   libeigen3-dev libtomlplusplus-dev libserial-dev catch2 cyclonedds-dev cyclonedds-tools
-  # the project's Python venv (scripts/make-venv.sh): the DDS tests' independent participant
-  python3-venv
   # fuzzing (libFuzzer) and sanitizers
   clang libclang-rt-14-dev
   # benchmarks (instruction counts)
   valgrind
   # workbench reports (plots), field tools (terminal UI) and their tmux-driven tests
   gnuplot-nox libncurses-dev tmux
+  # auger report's interactive time plots (inlined into the page) and the browser that tests the page
+  libjs-dygraphs chromium
 )
 # The board (aarch64) build: a cross compiler and qemu-user to run its binaries in the tests.
 # On an arm64 machine the native compiler builds for the board and runs the binaries itself.

@@ -12,7 +12,7 @@ namespace {
 std::vector<auger::cli::Subcommand> all_subcommands() {
   std::vector<auger::cli::Subcommand> all;
   for (auto group : {auger::cli::workbench_subcommands, auger::cli::operator_subcommands,
-                     auger::cli::client_subcommands})
+                     auger::cli::interop_subcommands, auger::cli::client_subcommands})
     for (const auto& s : group()) all.push_back(s);
   return all;
 }

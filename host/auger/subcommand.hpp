@@ -20,5 +20,6 @@ struct Subcommand {
 std::vector<Subcommand> client_subcommands();     // host/auger/client.cpp: augerd's sockets
 std::vector<Subcommand> workbench_subcommands();  // host/workbench/: the model workbench
 std::vector<Subcommand> operator_subcommands();   // host/operator/: field tools
+std::vector<Subcommand> interop_subcommands();    // host/interop/: import, export
 
 }  // namespace auger::cli

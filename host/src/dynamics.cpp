@@ -35,10 +35,14 @@ void DynamicsData::reset(const Model& model) {
     model.effects[k]->reset_state(effect_state.data() + model.effect_state_offset[k]);
 }
 
-void drive_force(const Model& model, DynamicsData& data, const Vec4& omega_rpm, double dt_s, Vec3& tau_n) {
-  tau_n = model.SB * omega_rpm;  // eq. (7), omega in rpm
+void drive_force(const Model& model, DynamicsData& data, const Vec4& omega_rpm, double dt_s, Vec3& tau_n,
+                 double t_s) {
+  if (!std::isfinite(t_s)) t_s = data.t_s;
+  double sigma_scale = 1.0;
+  for (const auto& e : model.effects) sigma_scale *= e->traction_scale(t_s);
+  tau_n = sigma_scale * (model.SB * omega_rpm);  // eq. (7), omega in rpm
   for (std::size_t k = 0; k < model.effects.size(); ++k)
-    model.effects[k]->drive_force(model, omega_rpm, dt_s, tau_n,
+    model.effects[k]->drive_force(model, omega_rpm, sigma_scale, dt_s, tau_n,
                                   data.effect_state.data() + model.effect_state_offset[k]);
 }
 
@@ -71,7 +75,7 @@ void dynamics_step(const Model& model, DynamicsData& data, Vec3& eta, Vec3& zeta
   const double h = dt_s / n_sub;
   EffectContext& c = data.ctx;
   for (int s = 0; s < n_sub; ++s) {
-    drive_force(model, data, omega_rpm, h, data.tau_drive_n);
+    drive_force(model, data, omega_rpm, h, data.tau_drive_n, data.t_s + s * h);
     effect_body_force(model, data, data.t_s + s * h, eta, zeta, omega_rpm, h);
     const Vec3 tau = data.tau_drive_n + data.tau_effect_n;
     // Closed-form velocity at any time inside the sub-step, for the pose integration.

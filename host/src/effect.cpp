@@ -64,6 +64,7 @@ void register_builtin_effects(EffectRegistry& r) {
   effects::register_drive(r);
   effects::register_terrain(r);
   effects::register_sensors(r);
+  effects::register_body(r);
 }
 
 const EffectRegistry& EffectRegistry::builtin() {
@@ -103,12 +104,12 @@ const std::string& ScrewDeadBand::id() const {
 std::vector<std::pair<std::string, double>> ScrewDeadBand::params() const {
   return {{"omega_dead_rpm", omega_dead_rpm_}, {"shift", shift_ ? 1.0 : 0.0}};
 }
-void ScrewDeadBand::drive_force(const Model& model, const Vec4& omega_rpm, double, Vec3& tau_n,
+void ScrewDeadBand::drive_force(const Model& model, const Vec4& omega_rpm, double sigma_scale, double, Vec3& tau_n,
                                 double*) const {
   for (int i = 0; i < 4; ++i) {
     const double w = omega_rpm[i];
-    if (std::fabs(w) < omega_dead_rpm_) tau_n -= model.SB.col(i) * w;  // eq. (7) without screw i
-    else if (shift_) tau_n -= model.SB.col(i) * std::copysign(omega_dead_rpm_, w);
+    if (std::fabs(w) < omega_dead_rpm_) tau_n -= sigma_scale * model.SB.col(i) * w;  // eq. (7) without screw i
+    else if (shift_) tau_n -= sigma_scale * model.SB.col(i) * std::copysign(omega_dead_rpm_, w);
   }
 }
 

@@ -376,19 +376,24 @@ RobotLogWriter::RobotLogWriter(std::ostream& out,
   row_.resize(csv_.columns().size());
 }
 
-void RobotLogWriter::write(const RobotSample& sample, const std::vector<double>& extra) {
-  if (extra.size() != n_extra_) throw std::invalid_argument("wrong number of extra log values");
+void robot_log_row(const RobotSample& sample, const std::vector<double>& extra, std::vector<double>& row) {
   const auto& cols = robot_columns();
+  row.resize(cols.size() + extra.size());
   for (std::size_t k = 0; k < cols.size(); ++k) {
     if (const double* f = robot_field(sample, cols[k])) {
-      row_[k] = *f;
+      row[k] = *f;
     } else {
       const auto& arr = cols[k].field == Field::status ? sample.status : sample.seq_ack;
       const auto& v = arr[static_cast<std::size_t>(cols[k].screw)];
-      row_[k] = v ? static_cast<double>(*v) : kNotMeasured;
+      row[k] = v ? static_cast<double>(*v) : kNotMeasured;
     }
   }
-  std::copy(extra.begin(), extra.end(), row_.begin() + static_cast<std::ptrdiff_t>(cols.size()));
+  std::copy(extra.begin(), extra.end(), row.begin() + static_cast<std::ptrdiff_t>(cols.size()));
+}
+
+void RobotLogWriter::write(const RobotSample& sample, const std::vector<double>& extra) {
+  if (extra.size() != n_extra_) throw std::invalid_argument("wrong number of extra log values");
+  robot_log_row(sample, extra, row_);
   csv_.write_row(row_.data(), row_.size());
 }
 

@@ -88,8 +88,22 @@ Model make_model(const RobotParams& robot, const TerrainParams& terrain,
   for (const auto& e : m.effects) {
     m.effect_state_offset.push_back(m.effect_state_size);
     m.effect_state_size += e->state_size();
+    e->inertia(m, m.M_diag);
   }
+  positive(m.M_diag[0], "the effective mass");
+  positive(m.M_diag[2], "the effective yaw inertia");
   return m;
+}
+
+double yaw_lumping(const Model& m) {
+  double moment = 0.0;
+  for (std::size_t i = 0; i < 4; ++i) {
+    const ScrewMount& s = m.screws[i];
+    // Screw i's force per rpm in the body frame is column i of S B's x and y rows.
+    moment += s.x_m * m.SB(1, static_cast<Eigen::Index>(i)) - s.y_m * m.SB(0, static_cast<Eigen::Index>(i));
+  }
+  const double lumped = m.SB.row(2).sum();
+  return std::fabs(moment) > 0 ? lumped / moment : 1.0;
 }
 
 Mat3 rotation_J(double psi) {

@@ -10,5 +10,6 @@ int run_effects(int argc, char** argv);   // effects_cmd.cpp: the effect library
 int run_identify(int argc, char** argv);  // identify.cpp
 int run_merge(int argc, char** argv);     // merge.cpp
 int run_report(int argc, char** argv);    // report.cpp
+int run_explain(int argc, char** argv);   // explain_cmd.cpp
 
 }  // namespace auger::wb

@@ -3,26 +3,40 @@
 #include <string>
 
 #include "args.hpp"
+#include "cli_text.hpp"
 #include "commands.hpp"
 #include "workbench.hpp"
 
 namespace auger::wb {
 namespace {
 
-void print_stats(const char* what, const ErrorStats& e, const Dataset& d) {
-  std::printf("  %-22s", what);
-  for (int c = 0; c < kChannels; ++c) {
-    if (!d.active[static_cast<std::size_t>(c)]) continue;
-    const double rms = e.rms[static_cast<std::size_t>(c)];
-    // A variant may not apply to a channel (the IMU-heading run has no separate IMU error).
-    if (!(rms == rms)) {
-      std::printf("  %s -", channel_name(c));
-      continue;
+// The variants as rows' columns: RMS with units, then the same as multiples of the noise floor.
+struct Variant {
+  const char* name;
+  const ErrorStats* e;
+};
+
+void print_table(const Dataset& d, const std::vector<Variant>& vs, bool ratios) {
+  char cell[64];
+  auto row = [&](const char* first, auto text_of) {
+    std::string line = "  ";
+    std::snprintf(cell, sizeof cell, "%-9s", first);
+    line += cell;
+    for (const auto& v : vs) {
+      std::snprintf(cell, sizeof cell, "  %-20s", text_of(v).c_str());
+      line += cell;
     }
-    std::printf("  %s %.4g %s (%.2fx)", channel_name(c), rms, channel_unit(c),
-                e.ratio_to_noise[static_cast<std::size_t>(c)]);
+    while (!line.empty() && line.back() == ' ') line.pop_back();
+    std::printf("%s\n", line.c_str());
+  };
+  row("channel", [](const Variant& v) { return std::string(v.name); });
+  for (int c = 0; c < kChannels; ++c) {
+    const auto cc = static_cast<std::size_t>(c);
+    if (!d.active[cc]) continue;
+    row(channel_name(c), [&](const Variant& v) {
+      return ratios ? ratio_cell(v.e->ratio_to_noise[cc]) : with_unit(v.e->rms[cc], channel_unit(c));
+    });
   }
-  std::printf("\n");
 }
 
 void json_stats(Json& j, const char* key, const ErrorStats& e, const Dataset& d) {
@@ -30,6 +44,13 @@ void json_stats(Json& j, const char* key, const ErrorStats& e, const Dataset& d)
   j.channels("rms", e.rms, d.active);
   j.channels("ratio_to_noise", e.ratio_to_noise, d.active);
   j.end_object();
+}
+
+// Worse than logs without a missing effect (docs/workbench.md "Calibration of significant").
+bool beyond_noise(const ErrorStats& e) {
+  for (double r : e.ratio_to_noise)
+    if (r > 1.3) return true;
+  return false;
 }
 
 }  // namespace
@@ -42,16 +63,27 @@ int run_compare(int argc, char** argv) {
                  "usage: auger compare LOG [--model FILE] [--json]\n"
                  "  the model run from the log's screw speeds: open loop (Table 4), re-initialised every\n"
                  "  25 s (the headline), IMU heading (Fig. 9), one step ahead; errors per DOF and as\n"
-                 "  multiples of the noise floor estimated from the log; worst 5 s windows; error by regime.\n");
+                 "  multiples of the noise floor estimated from the log; worst 5 s windows; error by regime;\n"
+                 "  the next command to run.\n");
     return a.has("--help") ? 0 : 2;
   }
   try {
     const Dataset d = load_dataset(a.positional[0]);
     const CompareResult r = compare(d, choose_model(d, a.get("--model")));
+    std::vector<std::string> warnings;
+    if (const std::string w = terrain_warning(d, r.model); !w.empty()) warnings.push_back(w);
+    const std::string model_arg = a.has("--model") ? " --model " + typed(a.get("--model")) : "";
+    const std::string next =
+        beyond_noise(r.segments_err)
+            ? "auger diagnose " + typed(d.path) + model_arg + " (which effect is missing), or auger explain " +
+                  typed(d.path) + model_arg + " (effects added until only noise is left)"
+            : "auger report " + typed(d.path) + model_arg +
+                  " --out report (the plots; the model is within 1.3 times the noise floor in every channel)";
     if (a.has("--json")) {
       Json j;
       j.begin_object();
       j.str("log", d.path).str("kind", d.gantry ? "gantry" : "robot").str("model", r.model.source);
+      j.str("terrain", r.model.terrain);
       j.num("duration_s", d.duration_s()).num("samples", static_cast<double>(d.size()));
       j.channels("noise_floor", r.noise_floor, d.active);
       json_stats(j, "open_loop", r.open_loop_err, d);
@@ -67,33 +99,46 @@ int run_compare(int argc, char** argv) {
         j.end_object();
       }
       j.end_array();
+      j.begin_array("warnings");
+      for (const auto& w : warnings) j.str(nullptr, w);
+      j.end_array();
+      j.str("next", next);
       j.end_object();
       std::printf("%s\n", j.text().c_str());
+      print_warnings("compare", warnings);
       return 0;
     }
+    print_warnings("compare", warnings);
     std::printf("log %s: %s, %.1f s, %zu samples\nmodel: %s\n", d.path.c_str(), d.gantry ? "gantry" : "robot",
                 d.duration_s(), d.size(), r.model.source.c_str());
-    std::printf("noise floor (from the data):");
+    std::printf("noise floor (estimated from the data):");
     for (int c = 0; c < kChannels; ++c)
       if (d.active[static_cast<std::size_t>(c)])
-        std::printf("  %s %.3g %s", channel_name(c), r.noise_floor[static_cast<std::size_t>(c)], channel_unit(c));
-    std::printf("\nRMS error (x noise floor):\n");
-    print_stats("open loop", r.open_loop_err, d);
-    print_stats("segments of 25 s", r.segments_err, d);
-    if (d.active[kImuPsi]) print_stats("IMU heading (Fig. 9)", r.imu_heading_err, d);
-    print_stats("one step ahead", r.one_step_err, d);
-    std::printf("worst 5 s windows:\n");
+        std::printf("  %s %s", channel_name(c), with_unit(r.noise_floor[static_cast<std::size_t>(c)], channel_unit(c), 3).c_str());
+    std::vector<Variant> vs = {{"open loop (Table 4)", &r.open_loop_err}, {"segments of 25 s", &r.segments_err}};
+    if (d.active[kImuPsi]) vs.push_back({"IMU heading (Fig. 9)", &r.imu_heading_err});
+    vs.push_back({"one step ahead", &r.one_step_err});
+    std::printf("\n\nRMS error of the model (segments of 25 s is the headline figure):\n");
+    print_table(d, vs, false);
+    std::printf("\nthe same as multiples of the noise floor (1.00 = only noise left):\n");
+    print_table(d, vs, true);
+    std::printf("\nworst 5 s windows (each simulated from its own measured start pose):\n");
     for (const auto& w : r.worst)
-      std::printf("  t %7.1f - %7.1f s  %-7s  %.3g %s  %.1fx noise\n", w.t_start_s, w.t_end_s, channel_name(w.dof),
-                  w.rms, channel_unit(w.dof), w.ratio_to_noise);
-    std::printf("error by regime (x noise floor, segments of 25 s):\n");
+      std::printf("  t %7.1f - %7.1f s  %-7s  RMS %s = %s\n", w.t_start_s, w.t_end_s, channel_name(w.dof),
+                  with_unit(w.rms, channel_unit(w.dof), 3).c_str(), times_noise(w.ratio_to_noise).c_str());
+    std::printf("\nerror by regime, as multiples of the noise floor (segments of 25 s):\n  %-9s %-22s %9s",
+                "kind", "regime", "duration");
+    for (int c = 0; c < kChannels; ++c)
+      if (d.active[static_cast<std::size_t>(c)]) std::printf("  %8s", channel_name(c));
+    std::printf("\n");
     for (const auto& g : r.regimes) {
       std::printf("  %-9s %-22s %7.1f s", g.kind.c_str(), g.label.c_str(), g.seconds);
       for (int c = 0; c < kChannels; ++c)
         if (d.active[static_cast<std::size_t>(c)])
-          std::printf("  %s %.2fx", channel_name(c), g.ratio_to_noise[static_cast<std::size_t>(c)]);
+          std::printf("  %8s", ratio_cell(g.ratio_to_noise[static_cast<std::size_t>(c)]).c_str());
       std::printf("\n");
     }
+    std::printf("\nnext: %s\n", next.c_str());
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "auger compare: %s\n", e.what());

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "args.hpp"
+#include "cli_text.hpp"
 #include "commands.hpp"
 #include "workbench.hpp"
 
@@ -18,6 +19,25 @@ std::vector<std::string> split_ids(const std::string& text) {
     if (!id.empty()) ids.push_back(id);
   return ids;
 }
+
+namespace {
+
+// What a researcher runs after this verdict.
+std::string next_command(const Dataset& d, const DiagnoseResult& r, const std::string& model) {
+  const std::string log = typed(d.path), model_arg = model.empty() ? "" : " --model " + typed(model);
+  if (r.candidates.empty() || !r.significant)
+    return "auger report " + log + model_arg + " --out report (the plots; nothing is missing)";
+  const Candidate& best = r.candidates.front();
+  const bool explained = r.verdict.rfind("nothing in the library", 0) != 0;
+  if (!explained)
+    return "auger explain " + log + model_arg + " (several effects together), then look at the windows above with "
+           "auger report " + log + model_arg + " --out report";
+  std::string s = "auger fit " + log + model_arg + " --add " + best.fitted.effect + " --out fitted.toml";
+  if (best.near_tie) s += " (or run the experiment named above to settle the near tie first)";
+  return s + "; or auger explain " + log + model_arg + " to add effects until only noise is left";
+}
+
+}  // namespace
 
 int run_diagnose(int argc, char** argv) {
   Args a;
@@ -46,10 +66,14 @@ int run_diagnose(int argc, char** argv) {
     if (a.has("--threads")) o.threads = std::max(1, std::atoi(a.get("--threads").c_str()));
     o.progress = a.has("--progress") || (!a.has("--quiet") && d.duration_s() > 300);
     const DiagnoseResult r = diagnose(d, choose_model(d, a.get("--model")), o);
+    std::vector<std::string> warnings;
+    if (const std::string w = terrain_warning(d, r.model); !w.empty()) warnings.push_back(w);
+    const std::string next = next_command(d, r, a.get("--model"));
     if (a.has("--json")) {
       Json j;
       j.begin_object();
       j.str("log", d.path).str("kind", d.gantry ? "gantry" : "robot").str("model", r.model.source);
+      j.str("terrain", r.model.terrain);
       j.channels("noise_floor", r.noise_floor, d.active);
       j.channels("nominal_rms", r.nominal.rms, d.active);
       j.channels("nominal_ratio", r.nominal.ratio_to_noise, d.active);
@@ -67,42 +91,84 @@ int run_diagnose(int argc, char** argv) {
         j.channels("heldout_rms", c.heldout_rms, d.active).num("heldout_ratio", c.heldout_ratio);
         j.boolean("near_tie", c.near_tie);
         if (!c.tell_apart.empty()) j.str("tell_apart", c.tell_apart);
+        // Flags of the candidate's parameters, and (diagnose --model) of the model's effects
+        // refitted with it, as "effect.parameter".
+        j.begin_object("flags");
+        for (const auto& p : c.fitted.params)
+          if (!p.flag.empty()) j.str(p.name.c_str(), p.flag);
+        for (const auto& fe : c.refitted)
+          for (const auto& p : fe.params)
+            if (!p.flag.empty()) j.str((fe.effect + "." + p.name).c_str(), p.flag);
+        j.end_object().boolean("flagged", c.flagged).boolean("implausible", c.implausible);
+        if (!c.refitted.empty()) json_fitted(j, "refitted", c.refitted);
+        j.str("rank_group", rank_group_id(rank_group(c, r.nominal_heldout_ratio)));
         j.end_object();
       }
       j.end_array();
+      j.str("ranking_rule", kRankingRule);
       json_windows(j, "where", r.where);
+      j.begin_array("warnings");
+      for (const auto& w : warnings) j.str(nullptr, w);
+      j.end_array();
+      j.str("next", next);
       j.end_object();
       std::printf("%s\n", j.text().c_str());
+      print_warnings("diagnose", warnings);
       return 0;
     }
+    print_warnings("diagnose", warnings);
     std::printf("log %s: %s, %.1f s; model: %s\n", d.path.c_str(), d.gantry ? "gantry" : "robot", d.duration_s(),
                 r.model.source.c_str());
-    std::printf("noise floor:");
+    std::printf("noise floor (estimated from the data):");
     for (int c = 0; c < kChannels; ++c)
       if (d.active[static_cast<std::size_t>(c)])
-        std::printf("  %s %.3g %s", channel_name(c), r.noise_floor[static_cast<std::size_t>(c)], channel_unit(c));
-    std::printf("\nnominal error (segments):");
+        std::printf("  %s %s", channel_name(c), with_unit(r.noise_floor[static_cast<std::size_t>(c)], channel_unit(c), 3).c_str());
+    std::printf("\n%s error (segments of 25 s):\n", r.refits_model ? "the model's" : "the nominal model's");
     for (int c = 0; c < kChannels; ++c)
       if (d.active[static_cast<std::size_t>(c)])
-        std::printf("  %s %.3g (%.2fx)", channel_name(c), r.nominal.rms[static_cast<std::size_t>(c)],
-                    r.nominal.ratio_to_noise[static_cast<std::size_t>(c)]);
-    std::printf("\n\n%s\n\nrank  effect                 delta_BIC  held-out (x noise)  near tie\n", r.verdict.c_str());
+        std::printf("  %-8s RMS %s = %s\n", channel_name(c),
+                    with_unit(r.nominal.rms[static_cast<std::size_t>(c)], channel_unit(c), 3).c_str(),
+                    times_noise(r.nominal.ratio_to_noise[static_cast<std::size_t>(c)]).c_str());
+    std::printf("held-out error (the segments the fits never see, RMS over channels): %.3f times the noise floor\n",
+                r.nominal_heldout_ratio);
+    std::printf("\n%s\n", r.verdict.c_str());
+    std::string rule = kRankingRule;
+    rule.replace(rule.find("; ") + 1, 1, "\n  ");
+    std::printf("\nranking: %s.\n  delta BIC: the change of the Bayesian information criterion against the %s\n"
+                "  (negative = better), with the effective sample size (n_eff %.0f of %.0f residuals).\n",
+                rule.c_str(), r.refits_model ? "model as given" : "nominal model", r.n_eff, r.n);
+    std::printf("\nrank  effect                  delta BIC   held-out error\n"
+                "                                          (times the noise floor)\n");
     int rank = 0;
+    bool first_group = true;
+    RankGroup group = RankGroup::kImproves;
     for (const auto& c : r.candidates) {
-      std::printf("%4d  %-22s %10.1f  %8.2f            %s\n", ++rank, c.fitted.effect.c_str(), c.delta_bic,
-                  c.heldout_ratio, c.near_tie ? "yes" : "");
-      if (rank <= 3) {
-        std::printf("      %s\n      ", c.fitted.description.c_str());
-        for (const auto& p : c.fitted.params)
-          std::printf(" %s = %.4g +- %.2g %s;", p.name.c_str(), p.value, p.sigma, p.unit.c_str());
-        std::printf("\n");
-        if (!c.tell_apart.empty()) std::printf("      to tell apart: %s\n", c.tell_apart.c_str());
+      const RankGroup g = rank_group(c, r.nominal_heldout_ratio);
+      if (first_group || g != group) std::printf("  -- %s --\n", rank_group_words(g));
+      first_group = false;
+      group = g;
+      ++rank;
+      std::printf("%4d  %-22s %10.1f   %8.3f%s\n", rank, c.fitted.effect.c_str(), c.delta_bic, c.heldout_ratio,
+                  c.near_tie ? "   near tie" : "");
+      if (rank <= 3 || c.flagged || c.near_tie) {
+        if (rank <= 3) std::printf("      %s\n", c.fitted.description.c_str());
+        if (rank <= 3 || c.flagged) print_fitted(stdout, c.fitted, "      ");
+        for (const auto& m : c.refitted)
+          if (any_flagged(m)) {
+            std::printf("      refitted with it: %s\n", m.effect.c_str());
+            print_fitted(stdout, m, "        ");
+          }
+        if (!c.tell_apart.empty())
+          std::printf("      cannot be told apart from its neighbour in this log; the experiment that would: %s\n",
+                      c.tell_apart.c_str());
       }
     }
-    std::printf("\nworst 5 s windows of what remains:\n");
+    std::printf("\nworst 5 s windows of what remains (%s):\n",
+                r.significant ? "after the best candidate" : "of the model as given");
     for (const auto& w : r.where)
-      std::printf("  t %7.1f - %7.1f s  %-7s  %.1fx noise\n", w.t_start_s, w.t_end_s, channel_name(w.dof),
-                  w.ratio_to_noise);
+      std::printf("  t %7.1f - %7.1f s  %-7s  RMS %s = %s\n", w.t_start_s, w.t_end_s, channel_name(w.dof),
+                  with_unit(w.rms, channel_unit(w.dof), 3).c_str(), times_noise(w.ratio_to_noise).c_str());
+    std::printf("\nnext: %s\n", next.c_str());
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "auger diagnose: %s\n", e.what());

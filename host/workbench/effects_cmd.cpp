@@ -1,5 +1,7 @@
 // `auger effects [--json]`: the effect library (docs/workbench.md has the same table).
+#include <cmath>
 #include <cstdio>
+#include <string>
 
 #include "args.hpp"
 #include "commands.hpp"
@@ -24,7 +26,8 @@ int run_effects(int argc, char** argv) {
       for (const auto& p : e.params) {
         j.begin_object().str("name", p.name).str("unit", p.unit).str("doc", p.doc);
         j.num("default", p.default_value).boolean("required", p.required).num("lower", p.lower).num("upper", p.upper);
-        j.boolean("integer", p.integer).end_object();
+        j.boolean("integer", p.integer).num("physical_lower", p.physical_lower).num("physical_upper", p.physical_upper);
+        j.end_object();
       }
       j.end_array().end_object();
     }
@@ -32,11 +35,21 @@ int run_effects(int argc, char** argv) {
     std::printf("%s\n", j.text().c_str());
     return 0;
   }
+  std::printf("The effect library: each effect's parameters with their unit and physical range (a fit outside\n"
+              "it, at its end, or with an uncertainty larger than the value is flagged by diagnose, fit, explain).\n\n");
   for (const auto& e : lib) {
     std::printf("%s%s\n    %s\n", e.id.c_str(), e.needs_imu ? "  (needs an IMU heading)" : "", e.summary.c_str());
-    for (const auto& p : e.params)
-      std::printf("    %-18s %-14s %s\n", p.name.c_str(), p.unit.empty() ? "-" : p.unit.c_str(), p.doc.c_str());
+    for (const auto& p : e.params) {
+      const std::string unit = p.unit.empty() || p.unit == "-" ? "" : " " + p.unit;
+      char range[96] = "";
+      if (std::isfinite(p.physical_lower) || std::isfinite(p.physical_upper))
+        std::snprintf(range, sizeof range, "%g to %g%s", p.physical_lower, p.physical_upper, unit.c_str());
+      else if (p.integer)
+        std::snprintf(range, sizeof range, "%g to %g (whole numbers)", p.lower, p.upper);
+      std::printf("    %-18s %-14s %-26s %s\n", p.name.c_str(), p.unit.empty() ? "-" : p.unit.c_str(), range, p.doc.c_str());
+    }
   }
+  std::printf("\nnext: auger diagnose LOG (fits every one of them to a log and ranks them)\n");
   return 0;
 }
 

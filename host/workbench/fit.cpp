@@ -5,6 +5,7 @@
 #include <string>
 
 #include "args.hpp"
+#include "cli_text.hpp"
 #include "commands.hpp"
 #include "workbench.hpp"
 
@@ -19,7 +20,7 @@ int run_fit(int argc, char** argv) {
     std::fprintf(a.has("--help") ? stdout : stderr,
                  "usage: auger fit LOG --add EFFECT[,EFFECT...] [--out MODEL] [--model FILE] [--json]\n"
                  "  re-identifies sigma and D (eqs. (15)-(17)) together with the effects added, prints the\n"
-                 "  error per DOF before and after (also x noise floor), writes a model file.\n"
+                 "  error per channel before and after (also as multiples of the noise floor), writes a model file.\n"
                  "  --add paper_params re-identifies the paper's parameters alone.\n");
     return a.has("--help") ? 0 : 2;
   }
@@ -39,6 +40,8 @@ int run_fit(int argc, char** argv) {
   try {
     const Dataset d = load_dataset(a.positional[0]);
     const FitResult r = fit(d, choose_model(d, a.get("--model")), ids, a.has("--progress"));
+    std::vector<std::string> warnings;
+    if (const std::string w = terrain_warning(d, r.before); !w.empty()) warnings.push_back(w);
     // The file must load back and give the same model (checked here, not assumed).
     const std::string out = a.get("--out");
     if (!out.empty()) {
@@ -52,44 +55,54 @@ int run_fit(int argc, char** argv) {
     } else {
       parse_model_file(r.model_toml, "(fitted model)");
     }
+    bool flagged = false, beyond = false;
+    for (const auto& e : r.effects) flagged = flagged || any_flagged(e);
+    for (double x : r.err_after.ratio_to_noise) beyond = beyond || x > 1.3;
+    const std::string log = typed(d.path), model_file = out.empty() ? "fitted.toml" : typed(out);
+    std::string next;
+    if (out.empty()) next = "auger fit " + log + " --add " + a.get("--add") + " --out fitted.toml (write the model file)";
+    else if (beyond) next = "auger diagnose " + log + " --model " + model_file + " (what is still missing)";
+    else next = "auger compare " + log + " --model " + model_file + " (the error after, as above), or load it in augerd";
+    if (flagged)
+      next = "check the flagged values above (an effect the log cannot identify: drop it or record the experiment "
+             "that excites it); then " + next;
     if (a.has("--json")) {
       Json j;
       j.begin_object().str("log", d.path);
       j.channels("noise_floor", r.noise_floor, d.active);
       j.begin_object("before").channels("rms", r.err_before.rms, d.active).channels("ratio", r.err_before.ratio_to_noise, d.active).end_object();
       j.begin_object("after").channels("rms", r.err_after.rms, d.active).channels("ratio", r.err_after.ratio_to_noise, d.active).end_object();
-      j.begin_array("effects");
-      for (const auto& e : r.effects) {
-        j.begin_object().str("effect", e.effect).str("description", e.description);
-        j.begin_object("params");
-        for (const auto& p : e.params) j.num(p.name.c_str(), p.value);
-        j.end_object().begin_object("params_sigma");
-        for (const auto& p : e.params) j.num(p.name.c_str(), p.sigma);
-        j.end_object().end_object();
-      }
-      j.end_array();
+      json_fitted(j, "effects", r.effects);
       j.str("model_file", out.empty() ? "" : out);
+      j.begin_array("warnings");
+      for (const auto& w : warnings) j.str(nullptr, w);
+      j.end_array();
+      j.str("next", next);
       j.end_object();
       std::printf("%s\n", j.text().c_str());
+      print_warnings("fit", warnings);
       return 0;
     }
+    print_warnings("fit", warnings);
     std::printf("log %s; model before: %s\n", d.path.c_str(), r.before.source.c_str());
-    std::printf("error per DOF (segments)      before                 after\n");
+    std::printf("RMS error per channel (segments of 25 s), and as a multiple of the noise floor:\n");
+    std::printf("  %-8s  %-34s  %s\n", "channel", "before", "after");
     for (int c = 0; c < kChannels; ++c) {
       const auto cc = static_cast<std::size_t>(c);
       if (!d.active[cc]) continue;
-      std::printf("  %-8s  %10.4g %-3s (%5.2fx)   %10.4g %-3s (%5.2fx)\n", channel_name(c), r.err_before.rms[cc],
-                  channel_unit(c), r.err_before.ratio_to_noise[cc], r.err_after.rms[cc], channel_unit(c),
-                  r.err_after.ratio_to_noise[cc]);
+      auto both = [&](const ErrorStats& e) {
+        return with_unit(e.rms[cc], channel_unit(c)) + " = " + ratio_cell(e.ratio_to_noise[cc]) + " times noise";
+      };
+      std::printf("  %-8s  %-34s  %s\n", channel_name(c), both(r.err_before).c_str(), both(r.err_after).c_str());
     }
-    std::printf("\nfitted:\n");
+    std::printf("\nfitted (value +- one standard uncertainty):\n");
     for (const auto& e : r.effects) {
-      std::printf("  %s: %s\n   ", e.effect.c_str(), e.description.c_str());
-      for (const auto& p : e.params) std::printf(" %s = %.5g +- %.2g %s;", p.name.c_str(), p.value, p.sigma, p.unit.c_str());
-      std::printf("\n");
+      std::printf("  %s: %s\n", e.effect.c_str(), e.description.c_str());
+      print_fitted(stdout, e, "    ");
     }
-    if (!out.empty()) std::printf("\nmodel file written: %s (auger compare LOG --model %s)\n", out.c_str(), out.c_str());
-    else std::printf("\n%s", r.model_toml.c_str());
+    if (!out.empty()) std::printf("\nmodel file written: %s\n", out.c_str());
+    else std::printf("\nthe model file (not written; --out FILE writes it):\n%s", r.model_toml.c_str());
+    std::printf("\nnext: %s\n", next.c_str());
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "auger fit: %s\n", e.what());

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "auger/log.hpp"
+#include "cli_text.hpp"
 #include "commands.hpp"
 #include "identify.hpp"
 #include "workbench.hpp"
@@ -71,6 +72,12 @@ int run_identify(int argc, char** argv) {
     return 2;
   }
 
+  // A warning about the steady velocities scattering points at an effect D absorbed.
+  bool scatter = false;
+  for (const auto& r : results) scatter = scatter || !r.warnings.empty();
+  const std::string next =
+      scatter ? "auger diagnose " + typed(files.front()) + " (the warnings above: which effect the rail run shows)"
+              : "put the values into a model file's [terrain.NAME] (docs/model.md), then auger compare LOG --model FILE";
   if (json) {
     Json j;
     j.begin_object().str("command", "identify").num("confidence", options.confidence);
@@ -95,7 +102,7 @@ int run_identify(int argc, char** argv) {
       for (const auto& w : r.warnings) j.str(nullptr, w);
       j.end_array().end_object();
     }
-    j.end_array().end_object();
+    j.end_array().str("next", next).end_object();
     std::printf("%s\n", j.text().c_str());
   } else {
     const int pct = static_cast<int>(options.confidence * 100 + 0.5);
@@ -115,6 +122,7 @@ int run_identify(int argc, char** argv) {
       std::printf("D (%s, %s): %s.\n", r.terrain.c_str(), r.axis.c_str(), r.D.ci_method.c_str());
     for (const auto& r : results)
       for (const auto& w : r.warnings) std::fprintf(stderr, "auger identify: warning: %s\n", w.c_str());
+    std::printf("\nnext: %s\n", next.c_str());
   }
   return 0;
 }

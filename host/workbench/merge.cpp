@@ -10,6 +10,7 @@
 
 #include "auger/log.hpp"
 #include "auger/measured.hpp"
+#include "cli_text.hpp"
 #include "commands.hpp"
 #include "merge.hpp"
 #include "workbench.hpp"
@@ -138,6 +139,13 @@ int run_merge(int argc, char** argv) {
     }
   }
 
+  std::string next;
+  if (al.quality == "poor")
+    next = "check that the two logs are of the same run (and --max-shift covers their clocks' difference)";
+  else if (write)
+    next = "auger compare " + typed(out_path) + " (the model against the merged log)";
+  else
+    next = "auger merge " + typed(files[0]) + " " + typed(files[1]) + " --out merged.csv (write the merged log)";
   if (json) {
     Json j;
     j.begin_object().str("command", "merge").str("robot_log", files[0]).str("camera_log", files[1]);
@@ -153,21 +161,25 @@ int run_merge(int argc, char** argv) {
     } else {
       j.num("out", kNaN);  // null: nothing written
     }
+    j.str("next", next);
     j.end_object();
     std::printf("%s\n", j.text().c_str());
   } else {
-    std::printf("auger merge: t_robot = t_camera + %.4f s\n", al.offset_s);
+    std::printf("auger merge: t_robot = t_camera %c %.4f s\n", al.offset_s < 0 ? '-' : '+', std::fabs(al.offset_s));
+    char coarse_text[48];
+    std::snprintf(coarse_text, sizeof coarse_text, "%.4f s", al.coarse_offset_s);
     std::printf("  from t0_unix_s: %s\n",
-                t0_used ? (std::to_string(al.coarse_offset_s) + " s").c_str()
+                t0_used ? coarse_text
                         : "not available (a log has no t0_unix_s), 0 assumed");
     if (al.refined)
-      std::printf("  refined by %+.4f s: IMU yaw rate vs camera heading rate r = %.3f over %.1f s, "
+      std::printf("  refined by %+.4f s: IMU yaw rate vs camera heading rate, correlation r = %.3f over %.1f s, "
                   "best r more than 1 s away %.3f\n",
                   al.offset_s - al.coarse_offset_s, al.correlation, al.overlap_s, al.second_peak);
     std::printf("  quality: %s%s%s\n", al.quality.c_str(), al.note.empty() ? "" : ": ", al.note.c_str());
     if (write)
       std::printf("  wrote %s: %zu of %zu rows with the camera pose%s\n", out_path.c_str(), filled, rows.size(),
                   replaced ? (", " + std::to_string(replaced) + " rows' own pose replaced").c_str() : "");
+    std::printf("next: %s\n", next.c_str());
   }
   if (al.quality == "poor") {
     std::fprintf(stderr, "auger merge: alignment is poor (%s); %s\n", al.note.c_str(),

@@ -1,23 +1,25 @@
-// gnuplot driver of `auger report` (report_plot.hpp).
+// gnuplot driver of `auger report` (report_plot.hpp): run without a shell (posix_spawnp with an
+// argument vector), every string in a script quoted by gp_quote.
 #include "report_plot.hpp"
 
+#include <fcntl.h>
+#include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <system_error>
+
+extern char** environ;
 
 namespace auger::wb {
 namespace {
-
-std::string quote_shell(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
 
 std::string slurp(const std::string& path) {
   std::ifstream f(path, std::ios::binary);
@@ -30,25 +32,60 @@ void replace_all(std::string& s, const std::string& from, const std::string& to)
   for (std::size_t p = s.find(from); p != std::string::npos; p = s.find(from, p + to.size())) s.replace(p, from.size(), to);
 }
 
+// Runs exe with args (no shell), stdout and stderr to files; the exit status as waitpid gives it,
+// or -1 if it could not be started.
+int run(const std::string& exe, const std::vector<std::string>& args, const std::string& out_path,
+        const std::string& err_path) {
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addopen(&fa, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
+  posix_spawn_file_actions_addopen(&fa, STDOUT_FILENO, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+  posix_spawn_file_actions_addopen(&fa, STDERR_FILENO, err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+  std::vector<std::string> argv_s{exe};
+  argv_s.insert(argv_s.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& a : argv_s) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  const int rc = posix_spawnp(&pid, exe.c_str(), &fa, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&fa);
+  if (rc != 0) return -1;
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0)
+    if (errno != EINTR) return -1;
+  return status;
+}
+
+bool succeeded(int status) { return status >= 0 && WIFEXITED(status) && WEXITSTATUS(status) == 0; }
+
 }  // namespace
+
+std::string gp_quote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) {
+    if (c == '\'') q += "''";            // the one escape inside gnuplot's single quotes
+    else if (c == '\n' || c == '\r') q += ' ';  // a script line ends at a newline
+    else q += c;
+  }
+  return q + "'";
+}
 
 Gnuplot::Gnuplot() {
   const char* env = std::getenv("AUGER_GNUPLOT");
   exe_ = env && *env ? env : "gnuplot";
-  char templ[] = "/tmp/auger-report-XXXXXX";
-  if (!mkdtemp(templ)) throw PlotError("cannot create a temporary directory for the plots");
+  std::string templ = (std::filesystem::temp_directory_path() / "auger-report-XXXXXX").string();
+  if (!mkdtemp(templ.data())) throw PlotError("cannot create a temporary directory for the plots");
   dir_ = templ;
   const std::string out = dir_ + "/version.txt";
-  const std::string cmd = quote_shell(exe_) + " --version >" + quote_shell(out) + " 2>&1";
-  const int status = std::system(cmd.c_str());
+  const int status = run(exe_, {"--version"}, out, out + ".err");
   version_ = slurp(out);
   while (!version_.empty() && (version_.back() == '\n' || version_.back() == '\r')) version_.pop_back();
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || version_.rfind("gnuplot", 0) != 0) {
-    std::string msg = "gnuplot not found or not working ('" + exe_ +
-                      " --version' failed): auger report draws its plots with gnuplot; install the Debian "
-                      "package gnuplot-nox (scripts/install-deps.sh does)";
-    std::system(("rm -rf " + quote_shell(dir_)).c_str());
-    throw PlotError(msg);
+  if (!succeeded(status) || version_.rfind("gnuplot", 0) != 0) {
+    std::error_code ec;
+    std::filesystem::remove_all(dir_, ec);
+    throw PlotError("gnuplot not found or not working ('" + exe_ +
+                    " --version' failed): auger report draws its plots with gnuplot; install the Debian "
+                    "package gnuplot-nox (scripts/install-deps.sh does)");
   }
 }
 
@@ -58,10 +95,8 @@ Gnuplot::~Gnuplot() {
     std::fprintf(stderr, "auger report: plot scripts and data kept in %s\n", dir_.c_str());
     return;
   }
-  if (!dir_.empty()) {
-    const int rc = std::system(("rm -rf " + quote_shell(dir_)).c_str());
-    (void)rc;
-  }
+  std::error_code ec;
+  if (!dir_.empty()) std::filesystem::remove_all(dir_, ec);
 }
 
 std::string Gnuplot::data(const std::string& name, const std::vector<std::vector<double>>& columns) {
@@ -79,7 +114,7 @@ std::string Gnuplot::data(const std::string& name, const std::vector<std::vector
     f << '\n';
   }
   if (!f) throw PlotError("cannot write plot data " + path);
-  return "'" + path + "'";
+  return gp_quote(path);
 }
 
 std::string Gnuplot::svg(const std::string& name, const std::string& script, int width, int height) {
@@ -90,15 +125,14 @@ std::string Gnuplot::svg(const std::string& name, const std::string& script, int
     std::ofstream gp(gp_path);
     gp << "set terminal svg size " << width << "," << height
        << " noenhanced font 'sans,11' background rgb 'white'\n"
-       << "set output '" << svg_path << "'\n"
+       << "set output " << gp_quote(svg_path) << "\n"
        << "set datafile missing NaN\nset grid\nset key outside top center horizontal\n"
        << script << "\nset output\n";
     if (!gp) throw PlotError("cannot write " + gp_path);
   }
-  const std::string cmd = quote_shell(exe_) + " " + quote_shell(gp_path) + " >/dev/null 2>" + quote_shell(err_path);
-  const int status = std::system(cmd.c_str());
+  const int status = run(exe_, {gp_path}, dir_ + "/" + id + ".out", err_path);
   std::string svg = slurp(svg_path);
-  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || svg.find("</svg>") == std::string::npos)
+  if (!succeeded(status) || svg.find("</svg>") == std::string::npos)
     throw PlotError("gnuplot failed on plot '" + name + "': " + slurp(err_path));
   // Inline: no XML prologue; ids unique across the report's plots.
   const std::size_t start = svg.find("<svg");

@@ -1,6 +1,7 @@
-// Plots for `auger report`, drawn by gnuplot (Debian gnuplot-nox, `set terminal svg`): the data
-// and the script go to a private temporary directory, gnuplot writes an SVG, and the SVG text
-// comes back ready to be inlined in the HTML (its XML prologue removed, its ids made unique).
+// Plots for `auger report` that are not time series (the path, the candidates, the effect's
+// curves), drawn by gnuplot (Debian gnuplot-nox, `set terminal svg`) run without a shell: the
+// data and the script go to a private temporary directory, gnuplot writes an SVG, and the SVG
+// text comes back ready to be inlined in the HTML (its XML prologue removed, its ids made unique).
 #pragma once
 
 #include <stdexcept>
@@ -8,6 +9,10 @@
 #include <vector>
 
 namespace auger::wb {
+
+// A string as a gnuplot single-quoted literal ('' for a quote inside; newlines become spaces),
+// for every label, title and file name put into a script.
+std::string gp_quote(const std::string& s);
 
 // gnuplot is missing or failed; the message says which and what to install.
 class PlotError : public std::runtime_error {

@@ -1,55 +1,37 @@
-// The effect search of `diagnose` and `fit` (docs/workbench.md): each candidate effect is fitted
+// The effect search's machinery (search.hpp, docs/workbench.md): each model under test is fitted
 // by simulation error over segments re-initialised from the measured pose (not by regression on
 // differentiated data), with Levenberg-Marquardt on finite-difference Jacobians, from several
-// starting points, on training segments; judged on held-out segments; ranked by BIC with an
-// effective sample size from the residuals' autocorrelation.
+// starting points, on training segments; judged on held-out segments.
+#include "search.hpp"
+
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <condition_variable>
 #include <cstdio>
-#include <map>
-#include <mutex>
-#include <numeric>
 #include <sstream>
-#include <thread>
 
 #include <Eigen/Cholesky>
-#include <Eigen/Dense>
-
-#include "workbench.hpp"
 
 namespace auger::wb {
+namespace search {
 namespace {
 
-using Segments = std::vector<std::pair<std::size_t, std::size_t>>;
-constexpr const char* kPaperParams = "paper_params";
-// A held-out error above this multiple of the noise floor is beyond what logs without a missing
-// effect give (those stay within 1.0-1.1x: docs/workbench.md "Calibration").
-constexpr double kNominalMissRatio = 1.3;
-
-// ---------------------------------------------------------------- what is fitted
-// One effect (or paper_params) in a fit: its full parameter values and which are free.
-struct Part {
-  std::string id;
-  const EffectRegistry::Entry* entry = nullptr;  // null for paper_params
-  std::vector<ParamSpec> specs;
-  std::vector<double> values;  // current full values
-  std::vector<int> free;       // indices into values that Gauss-Newton moves
-};
+constexpr const char* kCoulomb = "coulomb_friction";
+constexpr const char* kStickSlip = "stick_slip_friction";
+constexpr const char* kTerrainChange = "terrain_change";
 
 // Internal coordinates: value = typical * z, or exp(z) for log-scale parameters.
 double to_value(const ParamSpec& s, double z) { return s.log_scale ? std::exp(z) : s.typical * z; }
 double to_internal(const ParamSpec& s, double v) { return s.log_scale ? std::log(std::max(v, 1e-300)) : v / s.typical; }
 double dvalue_dz(const ParamSpec& s, double z) { return s.log_scale ? std::exp(z) : s.typical; }
 
-// The DOF a parameter belongs to, from its name's tokens (force_x_n -> x): the gantry moves one.
+// The DOF a parameter belongs to, from its name's tokens (force_x_n -> x, force_max_lat_n -> y):
+// the gantry moves one.
 int param_dof(const std::string& name) {
   std::stringstream ss(name);
   std::string tok;
   while (std::getline(ss, tok, '_')) {
-    if (tok == "x") return 0;
-    if (tok == "y") return 1;
+    if (tok == "x" || tok == "long") return 0;
+    if (tok == "y" || tok == "lat") return 1;
     if (tok == "psi") return 2;
   }
   return -1;
@@ -57,12 +39,23 @@ int param_dof(const std::string& name) {
 
 std::vector<ParamSpec> paper_specs(const Model& m, const Dataset& d) {
   const TerrainParams& t = m.terrain;
-  std::vector<ParamSpec> s = {
-      {"sigma_long", t.sigma_long, true, "eq. (7), N per rpm", "N/rpm", 1e-3, 100, t.sigma_long},
-      {"sigma_lat", t.sigma_lat, true, "eq. (7), N per rpm", "N/rpm", 1e-3, 100, t.sigma_lat},
-      {"D_x", t.D_x, true, "eq. (6)", "N/(m/s)", 1, 1e5, t.D_x},
-      {"D_y", t.D_y, true, "eq. (6)", "N/(m/s)", 1, 1e5, t.D_y},
-      {"D_psi", t.D_psi, true, "eq. (6)", "N m/(rad/s)", 0.01, 1e4, t.D_psi}};
+  // Physical ranges: within a factor of 3 of the terrain's table values (Tables 2-3 span sigma
+  // 0.09-0.81 N/rpm, D 23-560 N/(m/s) across terrains), and absolute limits for a 29 kg robot.
+  // Beyond them the log is from other ground than its metadata says, or the fit traded sigma and
+  // D against a missing effect: both scaled up together keep every steady speed and shorten every
+  // time constant, as a missing yaw time constant would.
+  auto spec = [](const char* name, double v, const char* doc, const char* unit, double lo, double hi, double abs_lo,
+                 double abs_hi) {
+    ParamSpec s{name, v, true, doc, unit, lo, hi, v};
+    const double plo = std::isfinite(v) && v > 0 ? std::max(abs_lo, v / 3.0) : abs_lo;
+    const double phi = std::isfinite(v) && v > 0 ? std::min(abs_hi, v * 3.0) : abs_hi;
+    return s.physical(plo, phi);
+  };
+  std::vector<ParamSpec> s = {spec("sigma_long", t.sigma_long, "eq. (7), N per rpm", "N/rpm", 1e-3, 100, 0.02, 3),
+                              spec("sigma_lat", t.sigma_lat, "eq. (7), N per rpm", "N/rpm", 1e-3, 100, 0.01, 2),
+                              spec("D_x", t.D_x, "eq. (6)", "N/(m/s)", 1, 1e5, 10, 5000),
+                              spec("D_y", t.D_y, "eq. (6)", "N/(m/s)", 1, 1e5, 5, 5000),
+                              spec("D_psi", t.D_psi, "eq. (6)", "N m/(rad/s)", 0.01, 1e4, 0.2, 200)};
   if (d.gantry) {
     const bool lon = d.axis == "longitudinal";
     s[lon ? 1 : 0].fitted = false;
@@ -72,11 +65,22 @@ std::vector<ParamSpec> paper_specs(const Model& m, const Dataset& d) {
   return s;
 }
 
+const Dataset& log_data(const Problem& pr, const Part& p) { return pr.data(p.log < 0 ? 0 : p.log); }
+
+bool applies(const Part& p, const LogTerm& t) {
+  if (p.log >= 0 && p.log != t.log) return false;
+  return p.entry || p.terrain.empty() || p.terrain == t.base->terrain.name;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------- parts
 Part make_part(const std::string& id, const Model& base, const Dataset& d) {
   Part p;
   p.id = id;
   if (id == kPaperParams) {
     p.specs = paper_specs(base, d);
+    p.terrain = base.terrain.name;
   } else {
     const auto& entries = EffectRegistry::builtin().entries();
     auto it = entries.find(id);
@@ -95,13 +99,26 @@ Part make_part(const std::string& id, const Model& base, const Dataset& d) {
   return p;
 }
 
-// The model with the parts applied: paper_params replaces the terrain set, effects are added
-// after the base model's own.
-Model build(const Model& base, const std::vector<Part>& parts) {
+std::vector<Part> parts_of(const Model& model, const Dataset& d) {
+  std::vector<Part> out;
+  for (const auto& e : model.effects) {
+    Part p = make_part(e->id(), model, d);
+    const auto values = e->params();
+    for (std::size_t i = 0; i < p.values.size() && i < values.size(); ++i) p.values[i] = values[i].second;
+    out.push_back(std::move(p));
+  }
+  return out;
+}
+
+Model without_effects(const Model& model) { return make_model(model.robot, model.terrain, {}); }
+
+Model build(const Model& base, const std::vector<Part>& parts, int log) {
   TerrainParams t = base.terrain;
   std::vector<std::shared_ptr<const Effect>> effects = base.effects;
   for (const Part& p : parts) {
+    if (p.log >= 0 && p.log != log) continue;
     if (!p.entry) {
+      if (!p.terrain.empty() && p.terrain != base.terrain.name) continue;
       t.sigma_long = p.values[0];
       t.sigma_lat = p.values[1];
       t.D_x = p.values[2];
@@ -114,96 +131,114 @@ Model build(const Model& base, const std::vector<Part>& parts) {
   return make_model(base.robot, t, std::move(effects));
 }
 
-// ---------------------------------------------------------------- residuals
-struct Problem {
-  const Dataset* data = nullptr;
-  const Model* base = nullptr;
-  ChannelValues noise{};
-  Segments segs;
-  std::vector<std::pair<std::size_t, int>> index;  // (sample, channel) of each residual
-  SimOptions options;
-  // Gantry: the load cell's force is a second measurement of the drive force (eq. (7) with the
-  // drive effects): a dead band, lag or saturation changes it, friction does not. Its residuals
-  // follow the pose residuals, normalised by its own noise floor.
-  std::vector<std::size_t> force_index;
-  double force_noise = kNaN;
-};
+std::vector<Part> frozen(std::vector<Part> parts) {
+  for (Part& p : parts) p.free.clear();
+  return parts;
+}
 
-void build_index(Problem& pr) {
-  pr.index.clear();
-  const Dataset& d = *pr.data;
-  for (const auto& [b, e] : pr.segs)
+// ---------------------------------------------------------------- problem
+std::size_t Problem::size() const {
+  std::size_t n = 0;
+  for (const LogTerm& t : terms) n += t.size();
+  return n;
+}
+
+const Dataset& Problem::data(int log) const {
+  for (const LogTerm& t : terms)
+    if (t.log == log) return *t.data;
+  return *terms.front().data;
+}
+
+void build_index(LogTerm& t) {
+  t.index.clear();
+  const Dataset& d = *t.data;
+  for (const auto& [b, e] : t.segs)
     for (std::size_t k = b; k < e; ++k)
       for (int c = 0; c < kChannels; ++c)
         if (d.active[static_cast<std::size_t>(c)] && std::isfinite(d.meas[k][static_cast<std::size_t>(c)]))
-          pr.index.push_back({k, c});
-  pr.force_index.clear();
-  if (!d.force_n.empty() && std::isfinite(pr.force_noise))
-    for (const auto& [b, e] : pr.segs)
+          t.index.push_back({k, c});
+  t.force_index.clear();
+  if (!d.force_n.empty() && std::isfinite(t.force_noise))
+    for (const auto& [b, e] : t.segs)
       for (std::size_t k = b; k < e; ++k)
-        if (std::isfinite(d.force_n[k])) pr.force_index.push_back(k);
+        if (std::isfinite(d.force_n[k])) t.force_index.push_back(k);
 }
 
-// Segment length of the search: 25 s, or a seventh of a short log, at least 5 s.
 double search_segment_s(const Dataset& data) { return std::clamp(data.duration_s() / 7.0, 5.0, 25.0); }
 
-// The search's problem on the decimated log `data` of `full`, over the segments `segs`.
+void split_segments(const Segments& all, Segments& train, Segments& held) {
+  train.clear();
+  held.clear();
+  for (std::size_t s = 0; s < all.size(); ++s) (s % 3 == 2 ? held : train).push_back(all[s]);
+  if (held.empty() && train.size() > 1) {
+    held.push_back(train.back());
+    train.pop_back();
+  }
+  if (held.empty()) held = train;
+}
+
+void add_log(Problem& pr, const Dataset& data, const Dataset& full, const Model& base, const ChannelValues& noise,
+             Segments segs, int log) {
+  LogTerm t;
+  t.data = &data;
+  t.base = &base;
+  t.noise = noise;
+  t.segs = std::move(segs);
+  t.log = log;
+  t.options = sim_options_for(base);
+  t.options.n_sub = 4;  // 12.5 ms sub-steps on the 50 ms steps of the decimated log
+  t.options.segment_s = 0;  // each range is one segment
+  if (!full.force_n.empty()) t.force_noise = estimate_noise(full.t_s, full.force_n);
+  build_index(t);
+  pr.terms.push_back(std::move(t));
+}
+
 Problem make_problem(const Dataset& data, const Dataset& full, const Model& base, const ChannelValues& noise,
                      Segments segs) {
   Problem pr;
-  pr.data = &data;
-  pr.base = &base;
-  pr.noise = noise;
-  pr.segs = std::move(segs);
-  pr.options = sim_options_for(base);
-  pr.options.n_sub = 4;  // 12.5 ms sub-steps on the 50 ms steps of the decimated log
-  if (!full.force_n.empty()) pr.force_noise = estimate_noise(full.t_s, full.force_n);
-  build_index(pr);
+  add_log(pr, data, full, base, noise, std::move(segs), 0);
   return pr;
 }
 
-// Noise-normalised residuals of the model with the parts applied; false if the model cannot be
-// built (a parameter outside what the effect accepts).
-bool residuals(const Problem& pr, const std::vector<Part>& parts, Eigen::VectorXd& r, Prediction& work) {
-  Model m;
-  try {
-    m = build(*pr.base, parts);
-  } catch (const std::invalid_argument&) {
-    return false;
+bool residuals(const Problem& pr, const std::vector<Part>& parts, Eigen::VectorXd& r, Workspace& work) {
+  r.resize(static_cast<Eigen::Index>(pr.size()));
+  if (work.size() != pr.terms.size()) work.resize(pr.terms.size());
+  Eigen::Index at = 0;
+  for (std::size_t ti = 0; ti < pr.terms.size(); ++ti) {
+    const LogTerm& t = pr.terms[ti];
+    Model m;
+    try {
+      std::vector<Part> mine;
+      for (const Part& p : parts)
+        if (applies(p, t)) mine.push_back(p);
+      m = build(*t.base, mine, t.log);
+    } catch (const std::invalid_argument&) {
+      return false;
+    }
+    SimOptions o = t.options;
+    o.pose_delay_s = sim_options_for(m).pose_delay_s;
+    const Dataset& d = *t.data;
+    Prediction& w = work[ti];
+    if (w.pred.size() != d.size()) w.pred.assign(d.size(), ChannelValues{kNaN, kNaN, kNaN, kNaN});
+    if (d.gantry && w.force_n.size() != d.size()) w.force_n.assign(d.size(), kNaN);
+    for (const auto& [b, e] : t.segs) simulate_range(m, d, o, w, b, e);
+    for (std::size_t i = 0; i < t.index.size(); ++i) {
+      const auto [k, c] = t.index[i];
+      const double q = w.pred[k][static_cast<std::size_t>(c)], y = d.meas[k][static_cast<std::size_t>(c)];
+      double e = std::isfinite(q) ? q - y : 0.0;
+      if (c >= kPsi) e = wrap_angle(e);
+      r[at++] = e / t.noise[static_cast<std::size_t>(c)];
+    }
+    for (std::size_t k : t.force_index) {
+      const double q = w.force_n[k];
+      r[at++] = std::isfinite(q) ? (q - d.force_n[k]) / t.force_noise : 0.0;
+    }
   }
-  SimOptions o = pr.options;
-  o.segment_s = 0;  // each range is one segment
-  for (const auto& e : m.effects)
-    if (e->id() == "pose_time_offset") o.pose_delay_s = e->params().front().second;
-  const Dataset& d = *pr.data;
-  if (work.pred.size() != d.size()) work.pred.assign(d.size(), ChannelValues{kNaN, kNaN, kNaN, kNaN});
-  if (d.gantry && work.force_n.size() != d.size()) work.force_n.assign(d.size(), kNaN);
-  for (const auto& [b, e] : pr.segs) simulate_range(m, d, o, work, b, e);
-  r.resize(static_cast<Eigen::Index>(pr.index.size() + pr.force_index.size()));
-  for (std::size_t i = 0; i < pr.force_index.size(); ++i) {
-    const std::size_t k = pr.force_index[i];
-    const double q = work.force_n[k];
-    r[static_cast<Eigen::Index>(pr.index.size() + i)] = std::isfinite(q) ? (q - d.force_n[k]) / pr.force_noise : 0.0;
-  }
-  for (std::size_t i = 0; i < pr.index.size(); ++i) {
-    const auto [k, c] = pr.index[i];
-    const double q = work.pred[k][static_cast<std::size_t>(c)], y = d.meas[k][static_cast<std::size_t>(c)];
-    double e = std::isfinite(q) ? q - y : 0.0;
-    if (c >= kPsi) e = wrap_angle(e);
-    r[static_cast<Eigen::Index>(i)] = e / pr.noise[static_cast<std::size_t>(c)];
-  }
-  return true;
+  return r.allFinite();
 }
 
 // ---------------------------------------------------------------- Levenberg-Marquardt
-struct FitOutcome {
-  std::vector<Part> parts;
-  double cost = std::numeric_limits<double>::infinity();
-  Eigen::MatrixXd JtJ;  // at the optimum, internal coordinates
-  Eigen::VectorXd r;
-  int n_params = 0;     // identifiable free parameters
-  int sims = 0;
-};
+namespace {
 
 struct FreeRef {
   int part, index;
@@ -216,11 +251,18 @@ std::vector<FreeRef> free_refs(const std::vector<Part>& parts) {
   return f;
 }
 
+// The search stays inside a parameter's physical range as well as its bounds: outside it the
+// fit trades one effect against another (sigma and D scaled up together imitate a shorter yaw
+// time constant) and the values mean nothing. A value at such a bound is flagged.
+double search_lower(const ParamSpec& s) { return std::max(s.lower, s.physical_lower); }
+double search_upper(const ParamSpec& s) { return std::min(s.upper, s.physical_upper); }
+
 void set_z(std::vector<Part>& parts, const std::vector<FreeRef>& f, const Eigen::VectorXd& z) {
   for (std::size_t j = 0; j < f.size(); ++j) {
     Part& p = parts[static_cast<std::size_t>(f[j].part)];
     const ParamSpec& s = p.specs[static_cast<std::size_t>(f[j].index)];
-    p.values[static_cast<std::size_t>(f[j].index)] = std::clamp(to_value(s, z[static_cast<Eigen::Index>(j)]), s.lower, s.upper);
+    p.values[static_cast<std::size_t>(f[j].index)] =
+        std::clamp(to_value(s, z[static_cast<Eigen::Index>(j)]), search_lower(s), search_upper(s));
   }
 }
 
@@ -234,9 +276,11 @@ Eigen::VectorXd get_z(const std::vector<Part>& parts, const std::vector<FreeRef>
   return z;
 }
 
+}  // namespace
+
 FitOutcome levenberg_marquardt(const Problem& pr, std::vector<Part> parts, int max_iter) {
   FitOutcome out;
-  Prediction work;
+  Workspace work;
   const std::vector<FreeRef> f = free_refs(parts);
   const auto P = static_cast<Eigen::Index>(f.size());
   Eigen::VectorXd z = get_z(parts, f);
@@ -248,6 +292,7 @@ FitOutcome levenberg_marquardt(const Problem& pr, std::vector<Part> parts, int m
   double cost = r.squaredNorm();
   Eigen::MatrixXd J(r.size(), P);
   double lambda = 1e-3;
+  bool have_j = false;
   for (int it = 0; it < max_iter && P > 0; ++it) {
     // Forward differences; steps of a few % of a typical value (hard effects such as dry
     // friction are piecewise smooth: a larger step sees their slope, not their kinks).
@@ -273,6 +318,7 @@ FitOutcome levenberg_marquardt(const Problem& pr, std::vector<Part> parts, int m
       }
       ++out.sims;
     }
+    have_j = true;
     const Eigen::MatrixXd A = J.transpose() * J;
     const Eigen::VectorXd g = J.transpose() * r;
     bool improved = false;
@@ -311,84 +357,105 @@ FitOutcome levenberg_marquardt(const Problem& pr, std::vector<Part> parts, int m
   out.parts = std::move(parts);
   out.cost = cost;
   out.r = std::move(r);
-  if (P > 0) out.JtJ = J.transpose() * J;
+  if (P > 0 && have_j) out.JtJ = J.transpose() * J;
   // Parameters the data cannot see (a zero Jacobian column) do not count in the BIC.
   double amax = 0;
-  for (Eigen::Index j = 0; j < P; ++j) amax = std::max(amax, out.JtJ(j, j));
-  for (Eigen::Index j = 0; j < P; ++j) out.n_params += out.JtJ(j, j) > 1e-8 * amax && amax > 0;
+  for (Eigen::Index j = 0; j < out.JtJ.rows(); ++j) amax = std::max(amax, out.JtJ(j, j));
+  for (Eigen::Index j = 0; j < out.JtJ.rows(); ++j) out.n_params += out.JtJ(j, j) > 1e-8 * amax && amax > 0;
   return out;
 }
 
-// Starting points: the typical size (with both signs where a parameter may be negative), and
-// a larger one; the default for parameters that are not searched.
+FitOutcome refit(const Problem& pr, std::vector<Part> parts, int max_iter, int restarts) {
+  FitOutcome o = levenberg_marquardt(pr, std::move(parts), max_iter);
+  for (int restart = 0; restart < restarts && std::isfinite(o.cost); ++restart) {
+    FitOutcome again = levenberg_marquardt(pr, o.parts, max_iter);
+    const bool gained = again.cost < o.cost * (1 - 1e-4);
+    again.sims += o.sims;
+    if (again.cost < o.cost) o = std::move(again);
+    else o.sims = again.sims;
+    if (!gained) break;
+  }
+  return o;
+}
+
+// ---------------------------------------------------------------- one candidate
+namespace {
+
+// Starting points of the candidate (the last part): the typical size (with both signs where a
+// parameter may be negative), and a larger one. Held parts keep their values.
 std::vector<std::vector<Part>> starts(const std::vector<Part>& parts) {
   std::vector<std::vector<Part>> out;
   for (int variant = 0; variant < 2; ++variant) {
     std::vector<Part> s = parts;
-    for (Part& p : s)
-      for (int i : p.free) {
-        const ParamSpec& sp = p.specs[static_cast<std::size_t>(i)];
-        double v;
-        if (!p.entry) v = sp.default_value;  // paper_params: start at the paper's values
-        else if (sp.log_scale) v = sp.typical * (variant == 0 ? 1.0 : 0.4);  // a limit must bite to be seen
-        else if (sp.lower < 0) v = sp.typical * (variant == 0 ? 1.0 : -1.0);
-        else v = sp.typical * (variant == 0 ? 1.0 : 0.3);
-        if (p.id == "terrain_change" && p.entry) v = variant == 0 ? 0.8 : 1.25;  // factors
-        p.values[static_cast<std::size_t>(i)] = std::clamp(v, sp.lower, sp.upper);
-      }
+    Part& p = s.back();
+    for (int i : p.free) {
+      const ParamSpec& sp = p.specs[static_cast<std::size_t>(i)];
+      double v;
+      if (!p.entry) v = sp.default_value;  // paper_params: start at the paper's values
+      else if (sp.log_scale) v = sp.typical * (variant == 0 ? 1.0 : 0.4);  // a limit must bite to be seen
+      else if (sp.lower < 0) v = sp.typical * (variant == 0 ? 1.0 : -1.0);
+      else v = sp.typical * (variant == 0 ? 1.0 : 0.3);
+      if (p.id == kTerrainChange) v = variant == 0 ? 0.8 : 1.25;  // factors
+      p.values[static_cast<std::size_t>(i)] = std::clamp(v, search_lower(sp), search_upper(sp));
+    }
     out.push_back(std::move(s));
-    if (parts.size() == 1 && !parts[0].entry) break;  // paper_params: one start
+    if (!p.entry) break;  // paper_params: one start
   }
   return out;
 }
 
-constexpr const char* kCoulomb = "coulomb_friction";
-constexpr const char* kStickSlip = "stick_slip_friction";
-
-FitOutcome fit_parts_generic(const Problem& pr, const std::vector<Part>& parts, int max_iter, const Dataset& d);
-
-// Stick-slip friction fitted alone. Its cost over (sliding level, breakaway ratio, Stribeck
-// speed) is rugged: whether a start from rest breaks away in one step or the next is a jump,
-// and from the generic starts (typical levels) LM stalls in a compromise (a long, shallow
-// decay) far from the truth. The Coulomb fit of the same log gives the scale of the levels: it
-// is a sliding level averaged with the breakaway, so the sliding level lies at 0.6-1x of it.
-// A coarse grid around it (one simulation each) picks the starts, LM refines the best few,
-// and the Coulomb optimum itself (ratio 1) is one of them, so stick-slip never fits worse than
-// the Coulomb friction it contains.
-FitOutcome fit_stick_slip(const Problem& pr, const Part& stick, int max_iter, const Dataset& d,
+// Stick-slip friction. Its cost over (sliding level, breakaway ratio, Stribeck speed) is
+// rugged: whether a start from rest breaks away in one step or the next is a jump, and from the
+// generic starts (typical levels) LM stalls in a compromise (a long, shallow decay) far from the
+// truth. The Coulomb fit of the same log gives the scale of the levels: it is a sliding level
+// averaged with the breakaway, so the sliding level lies at 0.6-1x of it. A coarse grid around
+// it (one simulation each) picks the starts, LM refines the best few, and the Coulomb optimum
+// itself (ratio 1) is one of them, so stick-slip never fits worse than the Coulomb friction it
+// contains.
+FitOutcome fit_stick_slip(const Problem& pr, const std::vector<Part>& held, const Part& stick, int max_iter,
                           const FitOutcome* coulomb_fit) {
   FitOutcome own;
   if (!coulomb_fit || !std::isfinite(coulomb_fit->cost)) {
-    own = fit_parts_generic(pr, {make_part(kCoulomb, *pr.base, d)}, max_iter, d);
+    own = fit_candidate(pr, held, make_part(kCoulomb, *pr.terms.front().base, pr.data()), max_iter);
     coulomb_fit = &own;
   }
   int sims = coulomb_fit == &own ? own.sims : 0;
-  if (!std::isfinite(coulomb_fit->cost) || coulomb_fit->parts.size() != 1 || coulomb_fit->parts[0].values.size() < 3)
-    return fit_parts_generic(pr, {stick}, max_iter, d);
-  const std::vector<double>& c = coulomb_fit->parts[0].values;  // force_x_n, force_y_n, torque_psi_nm
+  std::vector<Part> base = held;
+  base.push_back(stick);
+  if (!std::isfinite(coulomb_fit->cost) || coulomb_fit->parts.empty() || coulomb_fit->parts.back().values.size() < 3) {
+    std::vector<Part> p = base;
+    FitOutcome best;
+    for (const auto& s : starts(p)) {
+      FitOutcome o = levenberg_marquardt(pr, s, max_iter);
+      if (o.cost < best.cost) best = std::move(o);
+    }
+    return best;
+  }
+  const std::vector<double>& c = coulomb_fit->parts.back().values;  // force_x_n, force_y_n, torque_psi_nm
   auto with = [&](double level_factor, double ratio, double v_s) {
-    Part p = stick;
-    for (int k = 0; k < 3; ++k) p.values[static_cast<std::size_t>(k)] = level_factor * c[static_cast<std::size_t>(k)];
-    p.values[3] = ratio;
-    p.values[4] = v_s;
+    std::vector<Part> p = base;
+    Part& s = p.back();
+    for (int k = 0; k < 3; ++k) s.values[static_cast<std::size_t>(k)] = level_factor * c[static_cast<std::size_t>(k)];
+    s.values[3] = ratio;
+    s.values[4] = v_s;
     return p;
   };
-  std::vector<std::pair<double, Part>> grid;
-  Prediction work;
+  std::vector<std::pair<double, std::vector<Part>>> grid;
+  Workspace work;
   Eigen::VectorXd r;
   for (double f : {1.0, 0.85, 0.7})
     for (double ratio : {1.3, 1.7, 2.2})
       for (double v_s : {0.001, 0.0025, 0.006}) {
-        Part p = with(f, ratio, v_s);
+        std::vector<Part> p = with(f, ratio, v_s);
         ++sims;
-        if (residuals(pr, {p}, r, work)) grid.push_back({r.squaredNorm(), std::move(p)});
+        if (residuals(pr, p, r, work)) grid.push_back({r.squaredNorm(), std::move(p)});
       }
   std::sort(grid.begin(), grid.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-  std::vector<Part> seeds{with(1.0, 1.0, 0.0025)};  // the Coulomb optimum
+  std::vector<std::vector<Part>> seeds{with(1.0, 1.0, 0.0025)};  // the Coulomb optimum
   for (std::size_t i = 0; i < grid.size() && i < 2; ++i) seeds.push_back(grid[i].second);
   FitOutcome best;
-  for (const Part& s : seeds) {
-    FitOutcome o = levenberg_marquardt(pr, {s}, max_iter);
+  for (const auto& s : seeds) {
+    FitOutcome o = levenberg_marquardt(pr, s, max_iter);
     sims += o.sims;
     if (o.cost < best.cost) best = std::move(o);
     if (best.r.size() && best.cost < 1.3 * static_cast<double>(best.r.size())) break;  // at the noise
@@ -397,86 +464,178 @@ FitOutcome fit_stick_slip(const Problem& pr, const Part& stick, int max_iter, co
   return best;
 }
 
-// The best fit of parts. coulomb_fit: the Coulomb friction fit of the same problem if known
-// (stick-slip starts from it; fitted here otherwise).
-FitOutcome fit_parts(const Problem& pr, const std::vector<Part>& parts, int max_iter, const Dataset& d,
-                     const FitOutcome* coulomb_fit = nullptr) {
-  if (parts.size() == 1 && parts[0].id == kStickSlip && parts[0].entry && parts[0].values.size() == 5)
-    return fit_stick_slip(pr, parts[0], max_iter, d, coulomb_fit);
-  return fit_parts_generic(pr, parts, max_iter, d);
-}
+}  // namespace
 
-// The best fit of parts over all integer choices (e.g. which screw), time grids (a change
-// time) and starting points.
-FitOutcome fit_parts_generic(const Problem& pr, const std::vector<Part>& parts, int max_iter, const Dataset& d) {
-  // Expand integer parameters (gantry: only the two screws of the module).
+FitOutcome fit_candidate(const Problem& pr, const std::vector<Part>& held_in, const Part& candidate, int max_iter,
+                         const FitOutcome* coulomb_fit) {
+  const std::vector<Part> held = frozen(held_in);
+  if (candidate.id == kStickSlip && candidate.entry && candidate.values.size() == 5)
+    return fit_stick_slip(pr, held, candidate, max_iter, coulomb_fit);
+  std::vector<Part> parts = held;
+  parts.push_back(candidate);
+  const std::size_t c = parts.size() - 1;
+  const Dataset& d = log_data(pr, candidate);
+  // Integer parameters (which screw) are enumerated (gantry: only the two screws of the module).
   std::vector<std::vector<Part>> variants{parts};
-  for (std::size_t p = 0; p < parts.size(); ++p)
-    for (std::size_t i = 0; i < parts[p].specs.size(); ++i) {
-      const ParamSpec& s = parts[p].specs[i];
-      if (!s.integer) continue;
-      const int hi = d.gantry && s.name == "screw" ? 1 : static_cast<int>(s.upper);
-      std::vector<std::vector<Part>> next;
-      for (const auto& v : variants)
-        for (int x = static_cast<int>(s.lower); x <= hi; ++x) {
-          auto w = v;
-          w[p].values[i] = x;
-          next.push_back(std::move(w));
-        }
-      variants = std::move(next);
-    }
-  // A change time is searched on a grid over the log, then refined around the best.
-  for (std::size_t p = 0; p < parts.size(); ++p)
-    if (parts[p].id == "terrain_change") {
-      std::vector<std::vector<Part>> next;
-      const double t0 = d.t_s.front(), T = d.duration_s();
-      for (const auto& v : variants)
-        for (int g = 1; g <= 9; ++g) {
-          auto w = v;
-          w[p].values[0] = t0 + T * g / 10.0;
-          next.push_back(std::move(w));
-        }
-      variants = std::move(next);
-    }
-  FitOutcome best;
+  for (std::size_t i = 0; i < candidate.specs.size(); ++i) {
+    const ParamSpec& s = candidate.specs[i];
+    if (!s.integer) continue;
+    const int hi = d.gantry && s.name == "screw" ? 1 : static_cast<int>(s.upper);
+    std::vector<std::vector<Part>> next;
+    for (const auto& v : variants)
+      for (int x = static_cast<int>(s.lower); x <= hi; ++x) {
+        auto w = v;
+        w[c].values[i] = x;
+        next.push_back(std::move(w));
+      }
+    variants = std::move(next);
+  }
+  // A change time is searched over the whole log first, on a grid of about 2.5 % of its length
+  // (a local search from a few starts settled in local minima: a change placed 10 s early with
+  // the factors inverted fits a stretch of the log), then refined around the two best times.
+  const bool change = candidate.id == kTerrainChange;
+  if (change) {
+    std::vector<std::vector<Part>> next;
+    const double t0 = d.t_s.front(), T = d.duration_s();
+    for (const auto& v : variants)
+      for (int g = 1; g < 40; ++g) {
+        auto w = v;
+        w[c].values[0] = t0 + T * g / 40.0;
+        next.push_back(std::move(w));
+      }
+    variants = std::move(next);
+  }
   const bool grid = variants.size() > 4;
+  std::vector<FitOutcome> tried;
+  int sims = 0;
+  FitOutcome best;
   for (const auto& v : variants)
     for (const auto& s : starts(v)) {
-      FitOutcome o = levenberg_marquardt(pr, s, grid ? 4 : max_iter);
-      o.sims += best.sims;
+      FitOutcome o = levenberg_marquardt(pr, s, grid ? (change ? 2 : 4) : max_iter);
+      sims += o.sims;
+      if (change && std::isfinite(o.cost)) tried.push_back(o);
+      const bool at_noise = o.r.size() && o.cost < 1.3 * static_cast<double>(o.r.size());
       if (o.cost < best.cost) best = std::move(o);
-      else best.sims = o.sims;
       if (grid) break;  // one start per grid point
       // At the noise already (mean squared normalised residual near 1): another start cannot do
-      // better than noise, so it is skipped (half the time of diagnose).
-      if (best.r.size() && best.cost < 1.3 * static_cast<double>(best.r.size())) break;
+      // better than noise, so it is skipped.
+      if (at_noise) break;
     }
-  if (grid && std::isfinite(best.cost)) {
-    // Refine the best grid point: neighbouring change times, then a full fit.
-    for (std::size_t p = 0; p < parts.size(); ++p)
-      if (parts[p].id == "terrain_change") {
-        // Halving steps down to 0.1 s around the best time so far.
-        for (double step = d.duration_s() / 20.0; step >= 0.1; step /= 2) {
-          const double tc = best.parts[p].values[0];
-          for (double t : {tc - step, tc + step}) {
-            auto w = best.parts;
-            w[p].values[0] = t;
-            FitOutcome o = levenberg_marquardt(pr, w, 4);
-            o.sims += best.sims;
-            if (o.cost < best.cost) best = std::move(o);
-            else best.sims = o.sims;
-          }
+  if (change && !tried.empty()) {
+    // Refine the two best grid times that are not neighbours: halving steps down to 0.1 s.
+    std::sort(tried.begin(), tried.end(), [](const FitOutcome& a, const FitOutcome& b) { return a.cost < b.cost; });
+    std::vector<FitOutcome> seeds{tried.front()};
+    const double spacing = d.duration_s() / 40.0;
+    for (const FitOutcome& o : tried)
+      if (std::fabs(o.parts[c].values[0] - seeds.front().parts[c].values[0]) > 1.5 * spacing) {
+        seeds.push_back(o);
+        break;
+      }
+    for (FitOutcome s : seeds) {
+      for (double step = spacing / 2; step >= 0.1; step /= 2) {
+        const double tc = s.parts[c].values[0];
+        for (double t : {tc - step, tc + step}) {
+          auto w = s.parts;
+          w[c].values[0] = t;
+          FitOutcome o = levenberg_marquardt(pr, w, 2);
+          sims += o.sims;
+          if (o.cost < s.cost) s = std::move(o);
         }
       }
+      if (s.cost < best.cost) best = std::move(s);
+    }
+  }
+  if (grid && std::isfinite(best.cost)) {
     FitOutcome o = levenberg_marquardt(pr, best.parts, max_iter);
-    o.sims += best.sims;
+    sims += o.sims;
     if (o.cost <= best.cost) best = std::move(o);
   }
+  best.sims = sims;
   return best;
 }
 
-// ---------------------------------------------------------------- segments and statistics
-// Segments of about segment_s, each starting at a measured pose.
+FitOutcome fit_joint(const Problem& pr, const std::vector<Part>& state, const Part& candidate, int max_iter,
+                     const FitOutcome* coulomb_fit) {
+  return refit_joint(pr, state, candidate, fit_candidate(pr, state, candidate, max_iter, coulomb_fit), max_iter);
+}
+
+FitOutcome research_change_times(const Problem& pr, FitOutcome o, int max_iter) {
+  // A change time was placed by the candidate's own search, before the others were refitted with
+  // it; with them refitted it may belong elsewhere (a change placed early with its factors
+  // inverted can imitate another effect over a stretch). Searched over the whole log again with
+  // the others held, then everything refitted.
+  if (!std::isfinite(o.cost)) return o;
+  // Alternately (the others refitted to each new time) until the time stays, at most three times.
+  for (int round = 0; round < 3; ++round) {
+  bool moved_any = false;
+  for (std::size_t c = 0; c < o.parts.size(); ++c) {
+    if (o.parts[c].id != kTerrainChange || !o.parts[c].entry) continue;
+    std::vector<Part> held = o.parts;
+    held.erase(held.begin() + static_cast<std::ptrdiff_t>(c));
+    FitOutcome moved = fit_candidate(pr, held, o.parts[c], 4);
+    o.sims += moved.sims;
+    if (!(moved.cost < o.cost) || std::fabs(moved.parts.back().values[0] - o.parts[c].values[0]) < 1e-9) continue;
+    std::vector<Part> again = o.parts;
+    again[c].values = moved.parts.back().values;
+    FitOutcome r = refit(pr, again, max_iter, 1);
+    r.sims += o.sims;
+    if (r.cost < o.cost) {
+      o = std::move(r);
+      moved_any = true;
+    } else {
+      o.sims = r.sims;
+    }
+  }
+  if (!moved_any) break;
+  }
+  return o;
+}
+
+FitOutcome refit_joint(const Problem& pr, const std::vector<Part>& state, const Part& candidate, FitOutcome first,
+                       int max_iter) {
+  if (!std::isfinite(first.cost)) return first;
+  // Everything free again, except integer choices and change times, which stay where the
+  // candidate's own search put them.
+  std::vector<Part> joint = first.parts;
+  for (std::size_t p = 0; p < joint.size(); ++p) {
+    const Part& original = p + 1 < joint.size() ? state[p] : candidate;
+    joint[p].free = original.free;
+  }
+  FitOutcome o = refit(pr, joint, max_iter, 1);
+  o.sims += first.sims;
+  if (!(o.cost <= first.cost)) {
+    first.sims = o.sims;
+    o = std::move(first);
+  }
+  // A state whose paper parameters sit at the end of their physical range has taken up an
+  // effect it lacked (sigma and D scaled up together shorten every time constant, as a yaw
+  // time constant would): the structure with one more effect is also tried from the paper's
+  // own values, where that effect can take its share back.
+  bool at_end = false;
+  for (const Part& p : o.parts) {
+    if (p.entry) continue;
+    for (std::size_t i = 0; i < p.values.size(); ++i) {
+      const ParamSpec& sp = p.specs[i];
+      const double span = search_upper(sp) - search_lower(sp);
+      at_end = at_end || std::fabs(p.values[i] - search_lower(sp)) <= 1e-3 * span ||
+               std::fabs(p.values[i] - search_upper(sp)) <= 1e-3 * span;
+    }
+  }
+  o = research_change_times(pr, std::move(o), max_iter);
+  if (at_end) {
+    std::vector<Part> fresh = joint;
+    for (Part& p : fresh)
+      if (!p.entry)
+        for (std::size_t i = 0; i < p.values.size(); ++i) p.values[i] = p.specs[i].default_value;
+    FitOutcome again = refit(pr, fresh, max_iter, 1);
+    again.sims += o.sims;
+    if (again.cost < o.cost) return again;
+    o.sims = again.sims;
+  }
+  return o;
+}
+
+// ---------------------------------------------------------------- statistics
 Segments make_segments(const Dataset& d, double segment_s) {
   Segments s;
   std::size_t b = d.size();
@@ -497,25 +656,30 @@ Segments make_segments(const Dataset& d, double segment_s) {
   return s;
 }
 
-// Lag-1 autocorrelation of residuals, within each (segment, channel) run.
 double lag1_autocorrelation(const Problem& pr, const Eigen::VectorXd& r) {
   double num = 0, den = 0;
-  std::array<long, kChannels> last;
-  last.fill(-1);
-  std::size_t seg_of_last[kChannels] = {0, 0, 0, 0};
-  std::size_t seg = 0;
-  for (std::size_t i = 0; i < pr.index.size(); ++i) {
-    const auto [k, c] = pr.index[i];
-    while (seg + 1 < pr.segs.size() && k >= pr.segs[seg].second) ++seg;
-    const double v = r[static_cast<Eigen::Index>(i)];
-    den += v * v;
-    const auto cc = static_cast<std::size_t>(c);
-    if (last[cc] >= 0 && seg_of_last[cc] == seg) num += v * r[last[cc]];
-    last[cc] = static_cast<long>(i);
-    seg_of_last[cc] = seg;
+  Eigen::Index at = 0;
+  for (const LogTerm& t : pr.terms) {
+    std::array<long, kChannels> last;
+    last.fill(-1);
+    std::size_t seg_of_last[kChannels] = {0, 0, 0, 0};
+    std::size_t seg = 0;
+    for (std::size_t i = 0; i < t.index.size(); ++i) {
+      const auto [k, c] = t.index[i];
+      while (seg + 1 < t.segs.size() && k >= t.segs[seg].second) ++seg;
+      const double v = r[at + static_cast<Eigen::Index>(i)];
+      den += v * v;
+      const auto cc = static_cast<std::size_t>(c);
+      if (last[cc] >= 0 && seg_of_last[cc] == seg) num += v * r[at + last[cc]];
+      last[cc] = static_cast<long>(i);
+      seg_of_last[cc] = seg;
+    }
+    at += static_cast<Eigen::Index>(t.size());
   }
   return den > 0 ? std::clamp(num / den, 0.0, 0.999) : 0.0;
 }
+
+double effective_n(double n, double rho) { return std::clamp(n * (1 - rho) / (1 + rho), std::min(n, 10.0), n); }
 
 double combined_ratio(const ErrorStats& e, const Dataset& d) {
   double s = 0;
@@ -545,33 +709,81 @@ std::vector<FitParam> fit_params(const FitOutcome& o, double s2_scale) {
   std::vector<FitParam> out;
   const std::vector<FreeRef> f = free_refs(o.parts);
   Eigen::MatrixXd cov;
-  if (!f.empty() && o.JtJ.size()) {
+  if (!f.empty() && o.JtJ.rows() == static_cast<Eigen::Index>(f.size())) {
     Eigen::MatrixXd A = o.JtJ;
     for (Eigen::Index j = 0; j < A.rows(); ++j) A(j, j) += 1e-12 * std::max(1.0, A(j, j));
     cov = A.inverse() * s2_scale;
   }
   for (std::size_t p = 0; p < o.parts.size(); ++p) {
     const Part& part = o.parts[p];
+    std::vector<FitParam> mine;
     for (std::size_t i = 0; i < part.specs.size(); ++i) {
-      FitParam fp{part.specs[i].name, part.values[i], kNaN, part.specs[i].unit};
+      FitParam fp{part.specs[i].name, part.values[i], kNaN, part.specs[i].unit, ""};
       for (std::size_t j = 0; j < f.size(); ++j)
         if (f[j].part == static_cast<int>(p) && f[j].index == static_cast<int>(i) && cov.size()) {
           const double v = cov(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(j));
           const double z = to_internal(part.specs[i], part.values[i]);
           fp.sigma = std::sqrt(std::max(v, 0.0)) * dvalue_dz(part.specs[i], z);
         }
-      out.push_back(fp);
+      mine.push_back(fp);
     }
+    flag_params(mine, part);
+    out.insert(out.end(), mine.begin(), mine.end());
   }
   return out;
+}
+
+void flag_params(std::vector<FitParam>& params, const Part& part) {
+  for (std::size_t i = 0; i < params.size() && i < part.specs.size(); ++i) {
+    const ParamSpec& s = part.specs[i];
+    FitParam& p = params[i];
+    p.flag.clear();
+    const bool searched = std::find(part.free.begin(), part.free.end(), static_cast<int>(i)) != part.free.end();
+    if (!s.fitted || s.integer) continue;
+    char buf[200];
+    if (!searched) continue;  // held at its default: nothing was fitted
+    // At the end of the physical range where it is stricter than the effect's own bounds (those
+    // are definitions: a breakaway ratio of 1 is Coulomb friction, a force limit of 1e6 N none).
+    const double pspan = s.physical_upper - s.physical_lower;
+    auto near = [&](double bound) {
+      const double tol = s.log_scale ? 1e-3 * std::fabs(bound) : 1e-3 * (std::isfinite(pspan) ? pspan : std::fabs(s.typical));
+      return std::fabs(p.value - bound) <= tol;
+    };
+    const bool at_lo = s.physical_lower > s.lower && near(s.physical_lower);
+    const bool at_hi = s.physical_upper < s.upper && near(s.physical_upper);
+    if (p.value < s.physical_lower || p.value > s.physical_upper) {
+      std::snprintf(buf, sizeof buf, "outside the physical range %g..%g %s", s.physical_lower, s.physical_upper,
+                    s.unit.c_str());
+      p.flag = buf;
+    } else if (at_lo || at_hi) {
+      std::snprintf(buf, sizeof buf, "at the end of its physical range, %g %s", at_lo ? s.physical_lower : s.physical_upper,
+                    s.unit.c_str());
+      p.flag = buf;
+    } else if (searched && std::isfinite(p.sigma) && p.sigma > std::fabs(p.value) && p.sigma > 0.5 * std::fabs(s.typical)) {
+      // (A value near zero known to a small fraction of its typical size is identified: it is zero.)
+      p.flag = "uncertainty larger than the value: not identified by this log";
+    }
+  }
+}
+
+bool any_implausible(const std::vector<FitParam>& params) {
+  for (const FitParam& p : params)
+    if (p.flag.rfind("outside", 0) == 0 || p.flag.rfind("at the end", 0) == 0) return true;
+  return false;
+}
+
+bool any_flag(const std::vector<FitParam>& params) {
+  for (const FitParam& p : params)
+    if (!p.flag.empty()) return true;
+  return false;
 }
 
 std::string describe(const Part& p, const Model& base) {
   if (!p.entry) {
     char buf[300];
     std::snprintf(buf, sizeof buf,
-                  "the paper's own parameters re-identified: sigma_long %.3g (was %.3g), sigma_lat %.3g (was %.3g), "
-                  "D_x %.4g (was %.4g), D_y %.4g (was %.4g), D_psi %.3g (was %.3g)",
+                  "the paper's own parameters re-identified: sigma_long %.3g N/rpm (was %.3g), sigma_lat %.3g N/rpm "
+                  "(was %.3g), D_x %.4g N/(m/s) (was %.4g), D_y %.4g N/(m/s) (was %.4g), D_psi %.3g N m/(rad/s) (was %.3g)",
                   p.values[0], base.terrain.sigma_long, p.values[1], base.terrain.sigma_lat, p.values[2],
                   base.terrain.D_x, p.values[3], base.terrain.D_y, p.values[4], base.terrain.D_psi);
     return buf;
@@ -579,7 +791,6 @@ std::string describe(const Part& p, const Model& base) {
   return p.entry->describe ? p.entry->describe(p.values) : p.entry->doc;
 }
 
-// Which experiment separates two effects that explain a log equally well.
 std::string tell_apart(const std::string& a, const std::string& b) {
   auto is = [&](const char* x, const char* y) { return (a == x && b == y) || (a == y && b == x); };
   auto any = [&](std::initializer_list<const char*> xs) {
@@ -590,9 +801,10 @@ std::string tell_apart(const std::string& a, const std::string& b) {
   if (is("force_lag", "pose_time_offset"))
     return "steps of screw speed with the camera running: a force lag rounds the start of each motion, a "
            "time offset shifts starts and stops alike by the same time";
-  if (any({"coulomb_friction", "stick_slip_friction", "screw_dead_band"}))
+  if (any({"coulomb_friction", "stick_slip_friction", "screw_dead_band", "screw_blocking"}))
     return "slow moves with all screws at one low speed, then with one pair fast and one slow: a dead band "
-           "depends on each screw's speed, dry friction on the body's motion; a breakaway shows in starts from rest";
+           "depends on each screw's speed, dry friction on the body's motion, blocking on a screw standing "
+           "still while the others push; a breakaway shows in starts from rest";
   if (is("imu_heading_bias", "imu_heading_drift"))
     return "a longer log or two logs minutes apart: a drift grows with time, a bias stays";
   if (any({kPaperParams, "quadratic_drag", "traction_saturation", "terrain_change"}))
@@ -600,23 +812,26 @@ std::string tell_apart(const std::string& a, const std::string& b) {
            "and saturation flatten the fast end, a terrain change shows as a step in time";
   if (any({"terrain_slope", "resistance_offset"}))
     return "the same path driven at two headings: a slope depends on the heading, a resistance offset does not";
+  if (any({"yaw_time_constant", "force_lag", "rigid_body_coupling"}))
+    return "quick turns on the spot, then quick turns while driving forward: a yaw time constant shapes every "
+           "turn, a force lag every start, the Coriolis coupling only turns made while moving";
   return "a log that excites both: vary speed, direction and heading";
 }
 
-// Candidates of the library for this log.
-std::vector<std::string> candidate_ids(const Dataset& d, const DiagnoseOptions& o) {
+std::vector<std::string> candidate_ids(const Dataset& d, const std::vector<std::string>& only) {
   std::vector<std::string> ids;
   for (const auto& le : effect_library()) {
-    if (!o.only.empty() && std::find(o.only.begin(), o.only.end(), le.id) == o.only.end()) continue;
+    if (!only.empty() && std::find(only.begin(), only.end(), le.id) == only.end()) continue;
     if (le.needs_imu && !d.active[kImuPsi]) continue;
-    if (d.gantry && (le.needs_imu || le.id == "resistance_offset")) continue;
+    if (d.gantry && (le.needs_imu || le.yaw_only)) continue;
     ids.push_back(le.id);
   }
   return ids;
 }
 
-}  // namespace
+}  // namespace search
 
+// ---------------------------------------------------------------- decimation
 Dataset decimate_for_search(const Dataset& d, double max_dt_s) {
   // Keep every row with a pose and enough others that no step is longer than max_dt_s; a kept
   // row's omega is the time-weighted mean of the rows it stands for (each row's omega is the
@@ -629,7 +844,7 @@ Dataset decimate_for_search(const Dataset& d, double max_dt_s) {
   c.meas.clear();
   c.force_n.clear();
   Vec4 acc = Vec4::Zero();
-  double acc_t = 0;
+  double acc_t = 0, last_pose_s = -1e300;
   for (std::size_t k = 0; k < d.size(); ++k) {
     const double dt = k ? d.t_s[k] - d.t_s[k - 1] : 0.0;
     acc += dt * d.omega_rpm[k];
@@ -637,9 +852,11 @@ Dataset decimate_for_search(const Dataset& d, double max_dt_s) {
     const auto& m = d.meas[k];
     const bool pose = std::isfinite(m[kX]) && std::isfinite(m[kY]) && std::isfinite(m[kPsi]);
     const bool due = c.t_s.empty() || k + 1 == d.size() || (k + 1 < d.size() && d.t_s[k + 1] - c.t_s.back() > max_dt_s + 1e-9);
-    // Dense poses (a 100 Hz gantry encoder) are thinned to the same max_dt_s.
-    const bool spaced = c.t_s.empty() || d.t_s[k] - c.t_s.back() >= max_dt_s - 1e-9;
+    // Dense poses (a 100 Hz gantry encoder) are thinned to the same max_dt_s; sparser ones are all
+    // kept, whatever their phase against the rows kept in between.
+    const bool spaced = d.t_s[k] - last_pose_s >= max_dt_s - 1e-9;
     if (!((pose && spaced) || due)) continue;
+    if (pose && spaced) last_pose_s = d.t_s[k];
     c.t_s.push_back(d.t_s[k]);
     c.omega_rpm.push_back(acc_t > 0 ? Vec4(acc / acc_t) : d.omega_rpm[k]);
     c.meas.push_back(m);
@@ -655,14 +872,19 @@ std::vector<LibraryEffect> effect_library() {
   std::vector<LibraryEffect> out;
   {
     LibraryEffect p;
-    p.id = kPaperParams;
+    p.id = search::kPaperParams;
     p.summary = "re-identification of the paper's own parameters sigma_long, sigma_lat, D_x, D_y, D_psi "
                 "(eqs. (15)-(17)); written to the model file's [terrain.NAME], not as an [[effect]]";
     RobotParams rp;
-    p.params = paper_specs(make_model(rp, {"sand", 0.812, 0.247, 560.33, 320.08, 11.46}), Dataset{});
+    p.params = search::make_part(search::kPaperParams, make_model(rp, {"sand", 0.812, 0.247, 560.33, 320.08, 11.46}),
+                                 Dataset{})
+                   .specs;
     for (const auto& s : p.params) p.units.push_back(s.unit);
     out.push_back(p);
   }
+  // Effects a rail (one module, yaw held) cannot show: the centre of resistance, the yaw
+  // inertia, turning couplings, a blocked screw's moment.
+  static const char* yaw_only[] = {"resistance_offset", "yaw_time_constant", "rigid_body_coupling", "screw_blocking"};
   for (const auto& [id, e] : EffectRegistry::builtin().entries()) {
     LibraryEffect le;
     le.id = id;
@@ -670,285 +892,10 @@ std::vector<LibraryEffect> effect_library() {
     le.params = e.params;
     for (const auto& s : e.params) le.units.push_back(s.unit);
     le.needs_imu = e.needs_imu;
+    le.yaw_only = std::find(std::begin(yaw_only), std::end(yaw_only), id) != std::end(yaw_only);
     out.push_back(le);
   }
   return out;
-}
-
-// ---------------------------------------------------------------- diagnose
-DiagnoseResult diagnose(const Dataset& full, ModelChoice mc, const DiagnoseOptions& opt) {
-  DiagnoseResult res;
-  res.model = std::move(mc);
-  const Model& base = res.model.model;
-  res.noise_floor = estimate_noise_floor(full);
-  const Dataset data = decimate_for_search(full);
-  for (int c = 0; c < kChannels; ++c)
-    if (data.active[static_cast<std::size_t>(c)] && !std::isfinite(res.noise_floor[static_cast<std::size_t>(c)]))
-      throw std::runtime_error(std::string("cannot estimate the noise floor of ") + channel_name(c) +
-                               ": too few consecutive measurements");
-
-  // Training and held-out segments interleaved (every third held out), so that something that
-  // starts at some time (a terrain change) is in both.
-  const Segments all = make_segments(data, search_segment_s(data));
-  Segments train, held;
-  for (std::size_t s = 0; s < all.size(); ++s) (s % 3 == 2 ? held : train).push_back(all[s]);
-  if (held.empty() && train.size() > 1) {
-    held.push_back(train.back());
-    train.pop_back();
-  }
-  if (held.empty()) held = train;
-
-  Problem pr = make_problem(data, full, base, res.noise_floor, train);
-
-  {
-    Prediction p;  // as compare reports it
-    simulate(base, full, sim_options_for(base), p);
-    res.nominal = error_stats(full, p, res.noise_floor);
-  }
-  res.nominal_heldout_ratio = combined_ratio(segments_error(base, data, held, res.noise_floor), data);
-  Eigen::VectorXd r0;
-  Prediction work;
-  residuals(pr, {}, r0, work);
-  const double cost0 = r0.squaredNorm();
-  const double n = static_cast<double>(r0.size());
-  res.n = n;
-
-  std::vector<std::string> ids = candidate_ids(data, opt);
-  // Stick-slip starts from the Coulomb fit (fit_stick_slip): fitted last, so the Coulomb fit is
-  // done (or nearly) when a thread reaches it and the threads rarely wait.
-  std::stable_partition(ids.begin(), ids.end(), [](const std::string& id) { return id != kStickSlip; });
-  const auto coulomb_at = std::find(ids.begin(), ids.end(), kCoulomb);
-  const std::size_t coulomb_i = static_cast<std::size_t>(coulomb_at - ids.begin());
-  std::vector<FitOutcome> outcomes(ids.size());
-  std::vector<char> fitted(ids.size(), 0);
-  std::condition_variable fitted_cv;
-  std::atomic<std::size_t> next{0};
-  std::mutex print;
-  std::size_t done = 0;
-  auto worker = [&]() {
-    for (std::size_t i; (i = next++) < ids.size();) {
-      const FitOutcome* coulomb_fit = nullptr;
-      if (ids[i] == kStickSlip && coulomb_i < ids.size()) {
-        std::unique_lock<std::mutex> lock(print);
-        fitted_cv.wait(lock, [&] { return fitted[coulomb_i] != 0; });
-        coulomb_fit = &outcomes[coulomb_i];  // not written again once fitted
-      }
-      FitOutcome o = fit_parts(pr, {make_part(ids[i], base, data)}, 20, data, coulomb_fit);
-      std::lock_guard<std::mutex> lock(print);
-      ++done;
-      if (opt.progress)
-        std::fprintf(stderr, "diagnose: %zu/%zu %s fitted (%d simulations)\n", done, ids.size(), ids[i].c_str(), o.sims);
-      outcomes[i] = std::move(o);
-      fitted[i] = 1;
-      fitted_cv.notify_all();
-    }
-  };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < std::max(1, opt.threads); ++t) pool.emplace_back(worker);
-  worker();
-  for (auto& t : pool) t.join();
-
-  // n_eff from the best candidate's residuals (what is left is closest to the noise there).
-  std::size_t best_i = 0;
-  for (std::size_t i = 0; i < outcomes.size(); ++i)
-    if (outcomes[i].cost < outcomes[best_i].cost) best_i = i;
-  const double rho = outcomes.empty() || !std::isfinite(outcomes[best_i].cost)
-                         ? lag1_autocorrelation(pr, r0)
-                         : lag1_autocorrelation(pr, outcomes[best_i].r);
-  res.n_eff = std::clamp(n * (1 - rho) / (1 + rho), std::min(n, 10.0), n);
-  const double scale = n / res.n_eff;
-
-  for (std::size_t i = 0; i < outcomes.size(); ++i) {
-    const FitOutcome& o = outcomes[i];
-    if (!std::isfinite(o.cost)) continue;
-    Candidate c;
-    c.fitted.effect = ids[i];
-    const double s2 = o.cost / std::max(1.0, n - o.n_params);
-    c.fitted.params = fit_params(o, s2 * scale);
-    c.fitted.description = describe(o.parts[0], base);
-    c.train_cost = o.cost;
-    // BIC with the effective sample size: n_eff ln(RSS / n) + k ln(n_eff), against the nominal.
-    c.delta_bic = res.n_eff * std::log(std::max(o.cost, 1e-300) / std::max(cost0, 1e-300)) +
-                  o.n_params * std::log(res.n_eff);
-    const Model m = build(base, o.parts);
-    const ErrorStats he = segments_error(m, data, held, res.noise_floor);
-    c.heldout_rms = he.rms;
-    c.heldout_ratio = combined_ratio(he, data);
-    res.candidates.push_back(std::move(c));
-  }
-  // Rank: candidates that also improve the held-out part first, then by delta BIC.
-  std::sort(res.candidates.begin(), res.candidates.end(), [&](const Candidate& a, const Candidate& b) {
-    const bool ga = a.heldout_ratio < res.nominal_heldout_ratio, gb = b.heldout_ratio < res.nominal_heldout_ratio;
-    if (ga != gb) return ga;
-    return a.delta_bic < b.delta_bic;
-  });
-  // Near ties: neighbours whose held-out errors are within 10 % and BIC gains within 10 %, or
-  // whose held-out errors are within 2 %.
-  for (std::size_t i = 0; i + 1 < res.candidates.size(); ++i) {
-    Candidate& a = res.candidates[i];
-    Candidate& b = res.candidates[i + 1];
-      const bool held_close = std::fabs(a.heldout_ratio - b.heldout_ratio) <= 0.1 * std::max(a.heldout_ratio, 1e-9);
-    const bool bic_close = std::fabs(a.delta_bic - b.delta_bic) <= std::max(10.0, 0.1 * std::fabs(a.delta_bic));
-    // Held-out errors within 2 % cannot be told apart on new data, whatever the training BIC says.
-    const bool held_same = std::fabs(a.heldout_ratio - b.heldout_ratio) <= 0.02 * std::max(a.heldout_ratio, 1e-9);
-    if (((held_close && bic_close) || held_same) && a.delta_bic < -10 && b.delta_bic < -10) {
-      a.near_tie = b.near_tie = true;
-      if (a.tell_apart.empty()) a.tell_apart = tell_apart(a.fitted.effect, b.fitted.effect);
-      b.tell_apart = tell_apart(a.fitted.effect, b.fitted.effect);
-    }
-  }
-  // Significant: beyond what logs with no missing effect produce (docs/workbench.md,
-  // "Calibration"): the nominal model misses clearly on held-out data and the best candidate
-  // removes a clear share of that on held-out data, with a clear BIC gain.
-  const Candidate* best = res.candidates.empty() ? nullptr : &res.candidates.front();
-  const double nominal_excess = res.nominal_heldout_ratio;
-  res.significant = best && (nominal_excess > kNominalMissRatio ||
-                             (nominal_excess > 1.1 && best->delta_bic < -20 &&
-                              best->heldout_ratio < res.nominal_heldout_ratio * 0.9));
-  // Explained: the best candidate leaves at most 1.5x the noise, or removes 80 % of the excess.
-  const bool explained = best && res.significant &&
-                         (best->heldout_ratio < 1.5 ||
-                          res.nominal_heldout_ratio - best->heldout_ratio > 0.8 * (res.nominal_heldout_ratio - 1.0));
-  Model remaining_model = base;
-  if (res.significant && explained) {
-    // The best candidate's model, rebuilt from its fitted values.
-    std::vector<Part> parts{make_part(best->fitted.effect, base, data)};
-    for (std::size_t i = 0; i < parts[0].values.size(); ++i) parts[0].values[i] = best->fitted.params[i].value;
-    remaining_model = build(base, parts);
-  }
-  res.where = worst_windows(window_errors(remaining_model, full, res.noise_floor, 5.0, sim_options_for(remaining_model)), 5);
-  char buf[600];
-  if (!best || !res.significant) {
-    std::snprintf(buf, sizeof buf,
-                  "no missing effect: the nominal model is within %.2fx the noise floor on held-out data and no "
-                  "library effect improves it beyond what logs without a missing effect show",
-                  res.nominal_heldout_ratio);
-  } else if (!explained) {
-    std::snprintf(buf, sizeof buf,
-                  "nothing in the library explains what remains: the best candidate (%s) leaves %.2fx the noise "
-                  "floor on held-out data (nominal %.2fx); the model fails most at t = %.1f-%.1f s in %s",
-                  best->fitted.effect.c_str(), best->heldout_ratio, res.nominal_heldout_ratio,
-                  res.where.empty() ? 0.0 : res.where[0].t_start_s, res.where.empty() ? 0.0 : res.where[0].t_end_s,
-                  res.where.empty() ? "-" : channel_name(res.where[0].dof));
-  } else {
-    std::snprintf(buf, sizeof buf, "most likely missing: %s (held-out error %.2fx the noise floor, nominal %.2fx)%s",
-                  best->fitted.description.c_str(), best->heldout_ratio, res.nominal_heldout_ratio,
-                  best->near_tie ? "; near tie with the next candidate, see tell_apart" : "");
-  }
-  res.verdict = buf;
-  return res;
-}
-
-// ---------------------------------------------------------------- fit
-FitResult fit(const Dataset& full, ModelChoice mc, const std::vector<std::string>& ids, bool progress) {
-  FitResult res;
-  res.before = mc;
-  const Model& base = mc.model;
-  res.noise_floor = estimate_noise_floor(full);
-  const Dataset data = decimate_for_search(full);
-  Problem pr = make_problem(data, full, base, res.noise_floor, make_segments(data, search_segment_s(data)));
-  std::vector<Part> parts{make_part(kPaperParams, base, data)};
-  for (const auto& id : ids)
-    if (id != kPaperParams) parts.push_back(make_part(id, base, data));
-  // First each effect alone from the paper's parameters (so its start is sensible), then all
-  // together with the paper's parameters, eqs. (15)-(17).
-  for (std::size_t p = 1; p < parts.size(); ++p) {
-    FitOutcome o = fit_parts(pr, {parts[p]}, 12, data);
-    if (std::isfinite(o.cost)) parts[p] = o.parts[0];
-    if (progress) std::fprintf(stderr, "fit: %s alone done (%d simulations)\n", parts[p].id.c_str(), o.sims);
-  }
-  // Joint fit: integer choices and change times stay where the single fits put them.
-  std::vector<Part> joint = parts;
-  for (auto& p : joint)
-    for (auto& s : p.specs)
-      if (s.integer) s.fitted = false;
-  FitOutcome o = levenberg_marquardt(pr, joint, 20);
-  // Restarts with a fresh damping while they still gain (a stalled LM step is often a poor
-  // finite-difference direction, not the optimum).
-  for (int restart = 0; restart < 3 && std::isfinite(o.cost); ++restart) {
-    FitOutcome again = levenberg_marquardt(pr, o.parts, 20);
-    const bool gained = again.cost < o.cost * (1 - 1e-4);
-    again.sims += o.sims;
-    if (again.cost < o.cost) o = std::move(again);
-    if (!gained) break;
-  }
-  if (progress) std::fprintf(stderr, "fit: joint fit done (%d simulations)\n", o.sims);
-  // A last polish on the full log as compare runs it (10 ms rows, 25 s segments): the decimated
-  // log's 50 ms steps differ from it by a little, which matters once the fit is near the noise.
-  if (std::isfinite(o.cost) && full.size() != data.size()) {
-    Problem pf = pr;
-    pf.data = &full;
-    pf.segs = make_segments(full, 25.0);
-    pf.options.n_sub = SimOptions{}.n_sub;
-    build_index(pf);  // force_noise as pr's: both from the full log
-    FitOutcome polished = levenberg_marquardt(pf, o.parts, 6);
-    if (progress) std::fprintf(stderr, "fit: polished on the full log (%d simulations)\n", polished.sims);
-    if (std::isfinite(polished.cost)) {
-      // Keep the decimated fit's statistics (same parameters, n_eff below from its residuals).
-      o.parts = polished.parts;
-      Eigen::VectorXd r;
-      Prediction work;
-      if (residuals(pr, o.parts, r, work)) {
-        o.r = r;
-        o.cost = r.squaredNorm();
-      }
-    }
-  }
-  if (!std::isfinite(o.cost)) throw std::runtime_error("the fit failed: no parameter set gives a valid model");
-  const double n = static_cast<double>(o.r.size());
-  const double rho = lag1_autocorrelation(pr, o.r);
-  const double n_eff = std::clamp(n * (1 - rho) / (1 + rho), std::min(n, 10.0), n);
-  const std::vector<FitParam> all_params = fit_params(o, o.cost / std::max(1.0, n - o.n_params) * n / n_eff);
-  std::size_t k = 0;
-  for (const Part& p : o.parts) {
-    FittedEffect fe;
-    fe.effect = p.id;
-    for (std::size_t i = 0; i < p.specs.size(); ++i) fe.params.push_back(all_params[k++]);
-    fe.description = describe(p, base);
-    res.effects.push_back(fe);
-  }
-  res.after = mc;
-  res.after.model = build(base, o.parts);
-  res.after.source = "fitted from " + data.path;
-  // Reported as compare reports it (segments of 25 s), so the two commands agree.
-  Prediction p;
-  simulate(base, full, sim_options_for(base), p);
-  res.err_before = error_stats(full, p, res.noise_floor);
-  simulate(res.after.model, full, sim_options_for(res.after.model), p);
-  res.err_after = error_stats(full, p, res.noise_floor);
-  res.model_toml = model_to_toml(res.after.model, data, res.effects);
-  return res;
-}
-
-// ---------------------------------------------------------------- model file
-std::string model_to_toml(const Model& m, const Dataset& d, const std::vector<FittedEffect>& effects) {
-  std::ostringstream o;
-  o.precision(10);
-  o << "# Written by auger fit from " << d.path << " (docs/workbench.md). Schema: docs/model.md.\n";
-  o << "schema = 1\nomega_unit = \"rpm\"\nframe = \"rep103\"\n\n";
-  const RobotParams& r = m.robot;
-  if (d.gantry) {
-    o << "[gantry]\nmass_kg = " << r.m_kg << "\n\n";
-  } else {
-    o << "[robot]\nr_s_m = " << r.r_s_m << "\nphi_deg = " << r.phi_rad * 180 / kPi << "\nl_x_m = " << r.l_x_m
-      << "\nl_y_m = " << r.l_y_m << "\nalpha_deg = " << r.alpha_rad * 180 / kPi << "\nm_kg = " << r.m_kg
-      << "\nI_z_kgm2 = " << r.I_z_kgm2 << "\nomega_max_rpm = " << r.omega_max_rpm << "\n\n";
-  }
-  const TerrainParams& t = m.terrain;
-  o << "# paper_params (eqs. (15)-(17)), re-identified\n";
-  o << "[terrain." << (t.name.empty() ? "sand" : t.name) << "]\nsigma_long = " << t.sigma_long
-    << "\nsigma_lat = " << t.sigma_lat << "\nD_x = " << t.D_x << "\nD_y = " << t.D_y << "\n";
-  if (!d.gantry) o << "D_psi = " << t.D_psi << "\n";
-  for (const auto& e : m.effects) {
-    std::string words;
-    for (const auto& fe : effects)
-      if (fe.effect == e->id()) words = fe.description;
-    o << "\n";
-    if (!words.empty()) o << "# " << words << "\n";
-    o << "[[effect]]\nid = \"" << e->id() << "\"\n";
-    for (const auto& [name, value] : e->params()) o << name << " = " << value << "\n";
-  }
-  return o.str();
 }
 
 }  // namespace auger::wb

@@ -89,6 +89,7 @@ Dataset load_dataset(const std::string& path) {
       last = w;
       d.omega_rpm.push_back(w);
       d.meas.push_back({s.x_m, s.y_m, s.psi_rad, s.imu_psi_rad});
+      d.imu_r_radps.push_back(s.imu_r_radps);
     }
   }
   if (d.t_s.size() < 3) throw LogError(path, 1, 1, "the log has fewer than 3 samples");
@@ -201,7 +202,76 @@ double estimate_noise(const std::vector<double>& t_s, const std::vector<double>&
   return std::max(1.4826 * *mid, 1e-9);  // MAD of a normal
 }
 
-ChannelValues estimate_noise_floor(const Dataset& data) {
+NoiseColour camera_noise_colour(const Dataset& d, const ChannelValues& white) {
+  // A tracking camera's error is often coloured (it wanders over a fraction of a second), and
+  // the sample-to-sample estimate above sees only its fast part. The IMU heading is a second,
+  // independent heading: while the robot does not turn (so a time offset between the two does
+  // not matter), camera psi minus IMU heading, its mean and trend removed per 25 s stretch (an
+  // IMU bias or drift), has the variance of both sensors' whole errors. Less the IMU's own
+  // (white) noise, that is the camera's whole heading noise; its ratio to the fast part is the
+  // colour factor, taken to hold for x and y too (one pose solver makes all three).
+  NoiseColour nc;
+  if (d.gantry || !d.active[kPsi] || !d.active[kImuPsi] || !finite(white[kPsi]) || !finite(white[kImuPsi])) return nc;
+  const bool have_r = d.imu_r_radps.size() == d.size();
+  std::vector<double> t, diff;
+  double sum = 0;
+  std::size_t n = 0;
+  auto flush = [&]() {
+    if (diff.size() >= 40) {
+      // Least-squares line through the stretch, removed.
+      double mt = 0, md = 0;
+      for (std::size_t i = 0; i < diff.size(); ++i) {
+        mt += t[i];
+        md += diff[i];
+      }
+      mt /= static_cast<double>(diff.size());
+      md /= static_cast<double>(diff.size());
+      double stt = 0, std_ = 0;
+      for (std::size_t i = 0; i < diff.size(); ++i) {
+        stt += (t[i] - mt) * (t[i] - mt);
+        std_ += (t[i] - mt) * (diff[i] - md);
+      }
+      const double slope = stt > 0 ? std_ / stt : 0.0;
+      for (std::size_t i = 0; i < diff.size(); ++i) {
+        const double e = diff[i] - md - slope * (t[i] - mt);
+        sum += e * e;
+        ++n;
+      }
+    }
+    t.clear();
+    diff.clear();
+  };
+  // Samples grouped by 60 s of log time (not by contiguous stretch: the mean of a short stretch
+  // would take away much of a slow noise's variance).
+  long group = -1;
+  for (std::size_t k = 0; k < d.size(); ++k) {
+    const auto& m = d.meas[k];
+    if (!finite(m[kPsi]) || !finite(m[kImuPsi])) continue;
+    // Not turning: the IMU's rate below 0.01 rad/s (or, without it, the screws' yaw pattern, their
+    // mean speed, below 0.5 rpm: eq. (10)'s yaw row is the same for every screw).
+    const bool still = have_r && finite(d.imu_r_radps[k]) ? std::fabs(d.imu_r_radps[k]) < 0.01
+                                                          : std::fabs(d.omega_rpm[k].mean()) < 0.5;
+    if (!still) continue;
+    const long g = static_cast<long>(std::floor((d.t_s[k] - d.t_s.front()) / 60.0));
+    if (g != group) {
+      flush();
+      group = g;
+    }
+    t.push_back(d.t_s[k]);
+    diff.push_back(wrap_angle(m[kPsi] - m[kImuPsi]));
+  }
+  flush();
+  nc.samples = n;
+  if (n < 200) return nc;
+  const double whole2 = sum / static_cast<double>(n) - white[kImuPsi] * white[kImuPsi];
+  if (!(whole2 > 0)) return nc;
+  nc.factor = std::sqrt(whole2) / white[kPsi];
+  // Within what white noise gives (the estimate's own spread is a few %): not coloured.
+  nc.applied = nc.factor > 1.25;
+  return nc;
+}
+
+ChannelValues estimate_noise_floor(const Dataset& data, NoiseColour* colour) {
   ChannelValues out{kNaN, kNaN, kNaN, kNaN};
   std::vector<double> v(data.size());
   for (int c = 0; c < kChannels; ++c) {
@@ -209,6 +279,10 @@ ChannelValues estimate_noise_floor(const Dataset& data) {
     for (std::size_t k = 0; k < data.size(); ++k) v[k] = data.meas[k][static_cast<std::size_t>(c)];
     out[static_cast<std::size_t>(c)] = estimate_noise(data.t_s, v, c >= kPsi);
   }
+  const NoiseColour nc = camera_noise_colour(data, out);
+  if (nc.applied)
+    for (int c : {kX, kY, kPsi}) out[static_cast<std::size_t>(c)] *= nc.factor;
+  if (colour) *colour = nc;
   return out;
 }
 
@@ -437,12 +511,17 @@ ErrorStats one_step_error(const Model& model, const Dataset& data, const Channel
   return error_stats(data, p, noise);
 }
 
-std::vector<Window> window_errors(const Model& model, const Dataset& data, const ChannelValues& noise,
-                                  double window_s, const SimOptions& options) {
+SimOptions window_sim_options(const SimOptions& options, double window_s) {
   SimOptions o = options;
   o.segment_s = window_s;
   o.anchor_s = std::min(o.anchor_s, 0.2 * window_s);
   o.warm_s = std::min(o.warm_s, 0.2 * window_s);  // 1 s: 3 yaw time constants, for 5 s windows
+  return o;
+}
+
+std::vector<Window> window_errors(const Model& model, const Dataset& data, const ChannelValues& noise,
+                                  double window_s, const SimOptions& options) {
+  const SimOptions o = window_sim_options(options, window_s);
   Prediction p;
   simulate(model, data, o, p);
   std::vector<Window> out;

@@ -44,6 +44,7 @@ struct Dataset {
   std::vector<ChannelValues> meas;    // x_m, y_m, psi_rad, imu_psi_rad; NaN = not measured
   std::array<bool, kChannels> active{};  // channels with at least a few measurements
   std::vector<double> force_n;        // gantry: the measured traction force along the rail (else empty)
+  std::vector<double> imu_r_radps;    // robot: the IMU's yaw rate (NaN = not measured)
   std::size_t size() const { return t_s.size(); }
   double duration_s() const { return t_s.empty() ? 0 : t_s.back() - t_s.front(); }
 };
@@ -63,10 +64,19 @@ struct ModelChoice {
 };
 ModelChoice choose_model(const Dataset& data, const std::string& model_path = "");
 
+// Coloured camera noise (docs/workbench.md "Noise floor"): the camera heading against the IMU
+// heading while the robot does not turn gives the camera's whole heading noise; factor is its
+// ratio to the sample-to-sample estimate, applied to x, y and psi when above 1.25.
+struct NoiseColour {
+  double factor = 1.0;
+  std::size_t samples = 0;  // camera/IMU pairs compared (fewer than 200: not estimated)
+  bool applied = false;
+};
+NoiseColour camera_noise_colour(const Dataset& data, const ChannelValues& white);
 // Measurement noise per channel, from the data itself: the robust spread (MAD) of each
-// measured sample's deviation from the straight line through its measured neighbours,
-// scaled for the neighbours' weights. NaN for a channel without data.
-ChannelValues estimate_noise_floor(const Dataset& data);
+// measured sample's deviation from the cubic through its measured neighbours, scaled for the
+// neighbours' weights, times the camera's colour factor. NaN for a channel without data.
+ChannelValues estimate_noise_floor(const Dataset& data, NoiseColour* colour = nullptr);
 // The same estimator on one series (NaN = not measured); angles wrapped when is_angle.
 double estimate_noise(const std::vector<double>& t_s, const std::vector<double>& values, bool is_angle = false);
 
@@ -120,6 +130,9 @@ struct Window {
 // window shows what acts inside it, not what accumulated before). Sorted by time.
 std::vector<Window> window_errors(const Model& model, const Dataset& data, const ChannelValues& noise,
                                   double window_s = 5.0, const SimOptions& options = {});
+// The simulation window_errors runs (segments of window_s, shorter anchor and warm-up), so a
+// report can plot the error curve its windows measure.
+SimOptions window_sim_options(const SimOptions& options, double window_s = 5.0);
 // The n worst (window, channel) pairs by ratio_to_noise.
 std::vector<Window> worst_windows(const std::vector<Window>& windows, std::size_t n = 5);
 
@@ -161,6 +174,9 @@ struct FitParam {
   double value = 0;
   double sigma = kNaN;  // 1-sigma uncertainty (Gauss-Newton, scaled by n_eff)
   std::string unit;
+  // Why the value is not to be trusted ("" if plausible): outside the parameter's physical
+  // range, at a search bound, or an uncertainty larger than the value.
+  std::string flag;
 };
 struct FittedEffect {
   std::string effect;               // identifier, docs/workbench.md
@@ -176,6 +192,9 @@ struct Candidate {
   double heldout_ratio = 0;     // RMS over channels of heldout_rms / noise
   bool near_tie = false;
   std::string tell_apart;       // the experiment that separates it from its near tie
+  bool flagged = false;         // a parameter (its own or a refitted one) is flagged
+  bool implausible = false;     // ... outside or at the end of its physical range (ranks after plausible fits)
+  std::vector<FittedEffect> refitted;  // diagnose --model: the model's effects, refitted with it
 };
 
 struct DiagnoseOptions {
@@ -194,7 +213,10 @@ struct DiagnoseResult {
   bool significant = false;
   std::string verdict;                // plain words
   std::vector<Window> where;          // worst windows of what remains after the best candidate
+  bool refits_model = false;          // the model had effects: refitted jointly with each candidate
 };
+// Marks neighbours in a ranking that cannot be told apart, with the experiment that would.
+void mark_near_ties(std::vector<Candidate>& ranked);
 DiagnoseResult diagnose(const Dataset& data, ModelChoice model, const DiagnoseOptions& options = {});
 
 // The log as the search simulates it: rows with a pose plus enough others for steps of at most
@@ -220,8 +242,75 @@ struct LibraryEffect {
   std::vector<ParamSpec> params;  // as in the registry
   std::vector<std::string> units;
   bool needs_imu = false;
+  bool yaw_only = false;  // shows only with the robot's yaw and several screws (not on a gantry rail)
 };
 std::vector<LibraryEffect> effect_library();
+
+// ---- residual tests (residual_tests.cpp): what a model leaves, white and independent of the
+// inputs? (MATLAB's `resid` for an output-error model: the simulation error over segments of
+// 25 s, each segment's mean removed.)
+struct ChannelResidualTest {
+  int channel = 0;
+  std::size_t n = 0;            // residuals tested (fewer than 50: not tested)
+  std::vector<double> acf;      // lags 1..max_lag
+  double whiteness_q = 0, whiteness_limit = 0;  // Ljung-Box Q and its 1 % limit
+  bool white = true;
+  double independence_z = 0, independence_limit = 0;  // largest |correlation| sqrt(n) with an input
+  int worst_input = 0, worst_lag = 0;  // input: drive force x, y, yaw torque (eq. (7)); lag in samples
+  bool independent = true;
+};
+struct ResidualTests {
+  int max_lag = 10;
+  std::vector<ChannelResidualTest> channels;
+  bool white = true, independent = true;
+};
+ResidualTests residual_tests(const Model& model, const Dataset& data, const ChannelValues& noise, int max_lag = 10);
+std::string describe_residual_tests(const ResidualTests& t);  // plain words, "" never
+
+// ---- explain (explain.cpp): the loop compare -> diagnose -> fit -> diagnose ... in one command.
+struct ExplainOptions {
+  int max_effects = 4;   // effects added at most
+  int beam = 2;          // model structures carried per step (near ties are not settled greedily)
+  int threads = 2;
+  bool progress = false;          // a line per step on stderr
+  bool progress_detail = false;   // and a line per candidate fitted
+  std::vector<std::string> only;  // restrict the candidates (empty: the whole library)
+};
+struct ExplainStep {
+  int index = 0;
+  std::string added;                  // effect added at this step ("" for step 0: the model as given)
+  std::vector<std::string> dropped;   // effects the backward check removed at this step
+  std::vector<std::string> effects;   // the model's effects after the step, in the order added
+  std::vector<FittedEffect> fitted;   // every part after the step (paper_params first), jointly fitted
+  ChannelValues heldout_ratio{kNaN, kNaN, kNaN, kNaN};  // per channel, times the noise floor
+  double heldout_combined = kNaN;     // RMS over channels
+  double delta_bic = 0;               // against the step before
+  bool flagged = false;               // an implausible or unidentified parameter
+  bool implausible = false;           // a value outside or at the end of its physical range
+  std::vector<Candidate> alternatives;  // candidates this step nearly chose instead (near ties)
+};
+struct ExplainResult {
+  std::vector<std::string> logs;
+  std::vector<ChannelValues> noise_floor;  // per log
+  std::array<bool, kChannels> active{};    // channels any log measures
+  std::vector<ExplainStep> steps;          // the path of the final model, step 0 first
+  std::vector<std::string> effects;        // ids in the order added
+  ChannelValues final_ratio{kNaN, kNaN, kNaN, kNaN};    // as compare --model computes it, all logs
+  ChannelValues final_heldout{kNaN, kNaN, kNaN, kNaN};  // the last step's held-out ratio
+  std::vector<FittedEffect> final_fitted;  // refitted on every segment, polished on the full logs
+  std::vector<ResidualTests> tests;        // per log, of the final model
+  std::string verdict_kind;  // "noise", "near_noise", "unexplained", "max_effects"
+  std::string verdict;
+  std::vector<Window> where;       // worst windows left (first log)
+  std::vector<RegimeRow> regimes;  // the regimes with the largest error left (first log)
+  int structures_tried = 0;        // joint fits run
+  std::vector<ModelChoice> final_models;  // per log
+  std::string model_toml;
+};
+// logs and models: one model choice per log (its terrain); effects are shared, the paper's
+// parameters are shared per terrain.
+ExplainResult explain(const std::vector<Dataset>& logs, const std::vector<ModelChoice>& models,
+                      const ExplainOptions& options = {});
 
 // Writes a model file (TOML, docs/model.md) for a model and its fitted effects.
 std::string model_to_toml(const Model& model, const Dataset& data, const std::vector<FittedEffect>& effects);

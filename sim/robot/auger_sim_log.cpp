@@ -15,17 +15,21 @@ namespace {
 
 void usage(std::FILE* f) {
   std::fprintf(f,
-               "usage: auger-sim-log --out FILE [--effect ID[:name=value,...]] [--seed N]\n"
+               "usage: auger-sim-log --out FILE [--effect ID[:name=value,...]]... [--seed N]\n"
                "       [--trajectory single-dof|manual] [--seconds S] [--terrain NAME]\n"
                "       [--gantry longitudinal|lateral] [--model FILE]\n"
                "       [--pose-noise-m S] [--psi-noise-rad S] [--pose-rate-hz F]\n"
                "       [--imu-psi-noise-rad S] [--imu-r-noise-radps S]\n"
                "       [--gantry-position-noise-m S] [--gantry-force-noise-n S]\n"
-               "       [--truth-out FILE] [--list-effects]\n"
-               "A robot log (gantry log with --gantry) of the simulated truth with one hidden effect\n"
-               "(default none), driven open loop by ideal screws; metadata only format and terrain\n"
+               "       [--physical-base [--blocking-rpm X]] [--truth-out FILE] [--list-effects]\n"
+               "A robot log (gantry log with --gantry) of the simulated truth with hidden effects\n"
+               "(--effect again for each; default none; a gantry log takes one), driven open loop by\n"
+               "ideal screws; metadata only format and terrain\n"
                "(gantry: also axis, mass_kg). --truth-out writes the true pose and where the effect\n"
-               "acts; a summary (effect size, resolved parameters) goes to stderr as one JSON line.\n");
+               "acts; a summary (effect size, resolved parameters) goes to stderr as one JSON line.\n"
+               "--physical-base: the robot's base physics is the physical robot's (Coriolis terms,\n"
+               "the real lever arms' yaw time constant, blocking of screws slower than --blocking-rpm\n"
+               "on sand, default 1.5), not the paper's linear model.\n");
 }
 
 double number(const char* opt, const char* text) {
@@ -57,7 +61,9 @@ int main(int argc, char** argv) {
       if (a == "--out") out_path = val();
       else if (a == "--truth-out") truth_path = val();
       else if (a == "--model") model_path = val();
-      else if (a == "--effect") cfg.effect = auger::sim::parse_effect_spec(val());
+      else if (a == "--effect") cfg.effects.push_back(auger::sim::parse_effect_spec(val()));
+      else if (a == "--physical-base") cfg.physical_base = true;
+      else if (a == "--blocking-rpm") cfg.blocking_rpm = number("--blocking-rpm", val());
       else if (a == "--seed") cfg.seed = static_cast<std::uint64_t>(number("--seed", val()));
       else if (a == "--seconds") cfg.seconds = number("--seconds", val());
       else if (a == "--terrain") { cfg.terrain = val(); terrain_given = true; }
@@ -118,8 +124,10 @@ int main(int argc, char** argv) {
       if (!tr) { std::fprintf(stderr, "auger-sim-log: writing %s failed\n", truth_path.c_str()); return 1; }
     }
     const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
-    std::fprintf(stderr, "{\"effect\": \"%s\", \"effect_rms\": [%.6g, %.6g, %.6g], \"rows\": %zu, \"wall_s\": %.3f",
-                 cfg.effect.id.c_str(), res.effect_rms[0], res.effect_rms[1], res.effect_rms[2], res.truth.size(), wall_s);
+    std::string ids;
+    for (const auto& e : cfg.effects) ids += (ids.empty() ? "\"" : ", \"") + e.id + "\"";
+    std::fprintf(stderr, "{\"effects\": [%s], \"effect_rms\": [%.6g, %.6g, %.6g], \"rows\": %zu, \"wall_s\": %.3f",
+                 ids.c_str(), res.effect_rms[0], res.effect_rms[1], res.effect_rms[2], res.truth.size(), wall_s);
     for (std::size_t i = 0; i < res.notes.size(); ++i) std::fprintf(stderr, "%s\"%s\"", i ? ", " : ", \"notes\": [", res.notes[i].c_str());
     std::fprintf(stderr, "%s}\n", res.notes.empty() ? "" : "]");
   } catch (const std::exception& ex) {

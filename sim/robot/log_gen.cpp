@@ -242,6 +242,20 @@ void apply_robot_effect(const EffectSpec& e, double seconds, TruthParams& tp, Mo
   }
 }
 
+// The effects to apply ("none" entries dropped).
+std::vector<EffectSpec> active_effects(const LogGenConfig& cfg) {
+  std::vector<EffectSpec> out;
+  for (const EffectSpec& e : cfg.effects)
+    if (e.id != "none") out.push_back(e);
+  return out;
+}
+
+const EffectSpec* find_effect(const std::vector<EffectSpec>& effects, const std::string& id) {
+  for (const EffectSpec& e : effects)
+    if (e.id == id) return &e;
+  return nullptr;
+}
+
 double wrap(double a) { return wrap_angle(a); }
 
 }  // namespace
@@ -284,20 +298,30 @@ EffectSpec parse_effect_spec(const std::string& text) {
 }
 
 LogGenResult generate_robot_log(const Model& nominal, const LogGenConfig& cfg, std::ostream& out) {
-  const EffectInfo& info = info_of(cfg.effect.id);
-  if (!info.robot) throw std::invalid_argument("effect " + cfg.effect.id + " applies to gantry logs only");
+  const std::vector<EffectSpec> effects = active_effects(cfg);
+  for (const EffectSpec& e : effects) {
+    if (!info_of(e.id).robot) throw std::invalid_argument("effect " + e.id + " applies to gantry logs only");
+    for (const EffectSpec& o : effects)
+      if (&o != &e && o.id == e.id) throw std::invalid_argument("effect " + e.id + " given twice");
+  }
   if (!(cfg.seconds > 0)) throw std::invalid_argument("--seconds must be > 0");
   const auto n_ticks = static_cast<std::size_t>(std::lround(cfg.seconds / kTick_s)) + 1;
 
   // Base truth = the nominal linear model (docs/robot-sim.md "Base truth of the log generator").
+  // The physical base: the robot the firmware-in-the-loop chain drives (TruthParams' defaults).
   TruthParams base;
-  base.coriolis = false;
-  base.nominal_yaw_time_constant = true;
+  base.coriolis = cfg.physical_base;
+  base.nominal_yaw_time_constant = !cfg.physical_base;
   base.substep_s = 0.001;  // no stiff dry force in the base: 1 ms RK4 is exact to ~1e-9
+  if (cfg.physical_base && cfg.blocking_rpm > 0 && cfg.terrain == "sand") {
+    base.blocking.on = true;
+    base.blocking.omega_block_rpm = cfg.blocking_rpm;
+  }
   TruthParams tp = base;
   Model truth_model = nominal;
-  apply_robot_effect(cfg.effect, cfg.seconds, tp, truth_model);
-  if (tp.friction.on) tp.substep_s = 0.0005;
+  for (const EffectSpec& e : effects) apply_robot_effect(e, cfg.seconds, tp, truth_model);
+  if (tp.friction.on || tp.blocking.on) tp.substep_s = 0.0005;
+  const EffectSpec* patch_spec = find_effect(effects, "soft_patch");
 
   CommandScript script(nominal, cfg);
   const std::vector<Vec4> cmd = script.make(n_ticks);
@@ -356,7 +380,7 @@ LogGenResult generate_robot_log(const Model& nominal, const LogGenConfig& cfg, s
     // between 30 and 70 % of the run, the one the robot's footprint (about 0.35 m around the
     // centre) covers for the shortest time; ties go to the one nearest at_frac of the run.
     const Pass probe = run(base, nominal, false);
-    const double frac = std::clamp(param(cfg.effect, "at_frac"), 0.0, 1.0);
+    const double frac = std::clamp(param(*patch_spec, "at_frac"), 0.0, 1.0);
     const std::size_t n = probe.rows.size();
     const double reach_m = tp.soft_patch.radius_m + 0.35;
     std::size_t best = n / 2;
@@ -384,34 +408,40 @@ LogGenResult generate_robot_log(const Model& nominal, const LogGenConfig& cfg, s
                   tp.soft_patch.x_m, tp.soft_patch.y_m, tp.soft_patch.radius_m, probe.rows[best].t_s);
     res.notes.push_back(note);
   }
-  const bool physical = !(cfg.effect.id == "none" || cfg.effect.id == "pose_time_offset" ||
-                          cfg.effect.id == "imu_heading_bias" || cfg.effect.id == "imu_heading_drift");
+  bool physical = false;
+  for (const EffectSpec& e : effects)
+    physical = physical || !(e.id == "pose_time_offset" || e.id == "imu_heading_bias" || e.id == "imu_heading_drift");
   Pass ps = run(tp, truth_model, physical);
   res.effect_rms = ps.rms;
 
-  // Where the effect acts.
+  // Where the effects act (any of them).
   const auto screws = nominal.screws;
   for (TruthRow& r : ps.rows) {
-    if (tp.soft_patch.on) {
-      const double c = std::cos(r.eta[2]), s = std::sin(r.eta[2]);
-      for (const auto& sc : screws) {
-        const double xw = r.eta[0] + c * sc.x_m - s * sc.y_m, yw = r.eta[1] + s * sc.x_m + c * sc.y_m;
-        if (std::hypot(xw - tp.soft_patch.x_m, yw - tp.soft_patch.y_m) < tp.soft_patch.radius_m) r.acting = true;
+    for (const EffectSpec& e : effects) {
+      if (e.id == "soft_patch") {
+        const double c = std::cos(r.eta[2]), s = std::sin(r.eta[2]);
+        for (const auto& sc : screws) {
+          const double xw = r.eta[0] + c * sc.x_m - s * sc.y_m, yw = r.eta[1] + s * sc.x_m + c * sc.y_m;
+          if (std::hypot(xw - tp.soft_patch.x_m, yw - tp.soft_patch.y_m) < tp.soft_patch.radius_m) r.acting = true;
+        }
+      } else if (e.id == "terrain_change") {
+        r.acting = r.acting || r.t_s >= tp.terrain_change.t_s;
+      } else if (e.id == "screw_traction_loss") {
+        r.acting = r.acting || r.t_s >= tp.loss.t_on_s;
+      } else {
+        r.acting = true;
       }
-    } else if (tp.terrain_change.on) {
-      r.acting = r.t_s >= tp.terrain_change.t_s;
-    } else if (tp.loss.on) {
-      r.acting = r.t_s >= tp.loss.t_on_s;
-    } else {
-      r.acting = cfg.effect.id != "none";
     }
   }
 
   // Sensors. The camera: white Gaussian noise, one frame per 1 / pose_rate_hz; with a time
   // offset its frame stamped t shows the pose at t - dt (linear interpolation between rows).
-  const double dt_off = cfg.effect.id == "pose_time_offset" ? param(cfg.effect, "dt_s") : 0.0;
-  const double bias = cfg.effect.id == "imu_heading_bias" ? param(cfg.effect, "bias_rad") : 0.0;
-  const double drift = cfg.effect.id == "imu_heading_drift" ? param(cfg.effect, "drift_radps") : 0.0;
+  const EffectSpec* offset_spec = find_effect(effects, "pose_time_offset");
+  const EffectSpec* bias_spec = find_effect(effects, "imu_heading_bias");
+  const EffectSpec* drift_spec = find_effect(effects, "imu_heading_drift");
+  const double dt_off = offset_spec ? param(*offset_spec, "dt_s") : 0.0;
+  const double bias = bias_spec ? param(*bias_spec, "bias_rad") : 0.0;
+  const double drift = drift_spec ? param(*drift_spec, "drift_radps") : 0.0;
   std::mt19937_64 rng(cfg.seed * 2654435761ULL + 11);
   std::normal_distribution<double> n01(0.0, 1.0);
   const auto stride = std::max<std::size_t>(1, static_cast<std::size_t>(std::lround(1.0 / (cfg.pose_rate_hz * kTick_s))));
@@ -449,12 +479,13 @@ LogGenResult generate_robot_log(const Model& nominal, const LogGenConfig& cfg, s
 
 LogGenResult generate_gantry_log(const TerrainParams& terrain, double mass_kg, const LogGenConfig& cfg,
                                  std::ostream& out) {
-  const EffectInfo& info = info_of(cfg.effect.id);
-  if (!info.gantry) throw std::invalid_argument("effect " + cfg.effect.id + " applies to robot logs only");
+  const std::vector<EffectSpec> effects = active_effects(cfg);
+  if (effects.size() > 1) throw std::invalid_argument("a gantry log takes one hidden effect");
+  const EffectSpec e = effects.empty() ? EffectSpec{} : effects.front();
+  if (!info_of(e.id).gantry) throw std::invalid_argument("effect " + e.id + " applies to robot logs only");
   if (!(cfg.seconds > 0)) throw std::invalid_argument("--seconds must be > 0");
   if (!(mass_kg > 0)) throw std::invalid_argument("gantry mass must be > 0");
   const bool lateral = cfg.gantry == GantryAxis::lateral;
-  const EffectSpec& e = cfg.effect;
   const std::string& id = e.id;
   // eqs. (11)-(14): m x'' = -D u + sigma B omega, B_x = [-1, -1], B_y = [-1, 1].
   double sigma = lateral ? terrain.sigma_lat : terrain.sigma_long;

@@ -1,6 +1,6 @@
 // Batch log generator (docs/robot-sim.md "auger-sim-log"): the true robot (or one screw module on
 // the identification gantry) driven open loop by ideal speed-controlled screws along a scripted
-// trajectory, with one hidden effect, written as a robot or gantry log (LOG-FORMAT.md) whose only
+// trajectory, with hidden effects, written as a robot or gantry log (LOG-FORMAT.md) whose only
 // metadata are format and terrain (gantry: also axis and mass_kg, which the format requires).
 // The truth (pose, velocity, where the effect acts) goes to a separate file the tests read and
 // the workbench never sees.
@@ -42,7 +42,15 @@ struct LogGenConfig {
   double seconds = 150.0;
   Trajectory trajectory = Trajectory::manual;
   GantryAxis gantry = GantryAxis::none;
-  EffectSpec effect;
+  // Hidden effects, applied together (none: the truth is the nominal model). A gantry log takes
+  // at most one.
+  std::vector<EffectSpec> effects;
+  // The robot's base physics (robot logs): false, the nominal linear model (no Coriolis terms,
+  // the model's yaw time constant, no blocking); true, the physical robot the firmware-in-the-loop
+  // chain drives (Coriolis terms, the real lever arms' yaw time constant, blocking of screws
+  // slower than blocking_rpm on sand).
+  bool physical_base = false;
+  double blocking_rpm = 1.5;
   // Camera (robot) or ToF sensor (gantry): white Gaussian noise, so the tests know what they
   // injected. The robot's pose comes at pose_rate_hz (other rows empty).
   Vec3 pose_noise = Vec3(0.003, 0.003, 0.005);  // m, m, rad

@@ -124,6 +124,7 @@ void Scheduler::tick() {
 
   Vec4 cmd = Vec4::Zero();
   bool enabled = false;
+  const bool commanding = controller_ || source_;
   if (controller_) {
     SensorInput in;
     in.has_imu_psi = in.has_imu_r = true;
@@ -138,6 +139,10 @@ void Scheduler::tick() {
     const auto& sp = controller_->step(t, tel, in);
     for (int i = 0; i < 4; ++i) cmd[i] = sp[static_cast<std::size_t>(i)];
     enabled = controller_->enabled();
+  } else if (source_) {
+    enabled = source_(t, cmd);
+  }
+  if (commanding) {
     if (sim_) {
       for (int i = 0; i < 4; ++i) {
         ModuleLink& l = *links_[static_cast<std::size_t>(i)];
@@ -154,7 +159,8 @@ void Scheduler::tick() {
         simmod_uart_send(sim_, i, buf, n);
       }
     } else {
-      for (int i = 0; i < 4; ++i) target_rpm_[i] = std::clamp(cmd[i], -cfg_.omega_max_rpm, cfg_.omega_max_rpm);
+      for (int i = 0; i < 4; ++i)
+        target_rpm_[i] = enabled ? std::clamp(cmd[i], -cfg_.omega_max_rpm, cfg_.omega_max_rpm) : 0.0;
     }
   }
   if (sink_) sink_(t, &imu, got_pose ? &pose : nullptr);
@@ -164,7 +170,7 @@ void Scheduler::tick() {
     r.t_s = t;
     for (std::size_t i = 0; i < 4; ++i) {
       r.omega_rpm[i] = cfg_.log_truth ? omega_true_[static_cast<int>(i)] : tel[i].omega_rpm;
-      if (controller_) r.cmd_rpm[i] = cmd[static_cast<int>(i)];
+      if (commanding) r.cmd_rpm[i] = cmd[static_cast<int>(i)];
       if (sim_ && links_[i]->have_last) {
         const proto_telemetry_t& tm = links_[i]->last;
         r.current_a[i] = tm.current_ma / 1000.0;

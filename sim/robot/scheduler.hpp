@@ -67,6 +67,10 @@ class Scheduler {
   // The host controller (not owned; may be null: then no setpoints are sent, e.g. when augerd
   // drives the modules through their ptys).
   void set_controller(Controller* controller) { controller_ = controller; }
+  // Without a controller, setpoints from a function of time (open-loop driving, as augerd's `vel`
+  // does); returns whether the screws are enabled.
+  using CommandSource = std::function<bool(double t_s, Vec4& cmd_rpm)>;
+  void set_command_source(CommandSource source) { source_ = std::move(source); }
   // Robot log destination (not owned); metadata `format` and `terrain` only.
   void set_log(std::ostream* out);
   // Called once per control period with the readings delivered in it (null if none).
@@ -97,6 +101,7 @@ class Scheduler {
   Imu imu_;
   Camera camera_;
   Controller* controller_ = nullptr;
+  CommandSource source_;
   SensorSink sink_;
   simmod_t* sim_ = nullptr;
   struct ModuleLink;  // protocol parser and latest telemetry

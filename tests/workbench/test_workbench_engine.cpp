@@ -4,6 +4,7 @@
 // recovered when the data was made with it.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <sstream>
@@ -366,4 +367,142 @@ TEST_CASE("gantry: one DOF through the same machinery; the load cell separates a
   CHECK(dr.candidates[0].fitted.params[0].value == Approx(2.5).epsilon(0.1));
   CHECK(dr.significant);
   CHECK_FALSE(diagnose(none, choose_model(none), opt).significant);
+}
+
+// ---- explain (issue 12), residual tests, coloured noise, flags ----
+
+namespace {
+
+const EffectRegistry::Entry& entry(const char* id) { return EffectRegistry::builtin().entries().at(id); }
+
+ModelChoice with_effects(std::vector<std::shared_ptr<const Effect>> effects) {
+  ModelChoice mc = nominal();
+  mc.model = make_model(RobotParams{}, kSand, std::move(effects));
+  return mc;
+}
+
+}  // namespace
+
+TEST_CASE("explain: two effects at once are both named, jointly fitted, and the error falls to the noise") {
+  SynthOptions o;
+  o.seconds = 90;
+  const Model truth = make_model(RobotParams{}, kSand,
+                                 {entry("screw_dead_band").make({2.0, 1}), entry("resistance_offset").make({0.03, 0.0})});
+  ExplainOptions eo;
+  eo.only = {"screw_dead_band", "resistance_offset", "coulomb_friction", "quadratic_drag"};
+  const ExplainResult r = explain({synth(truth, o)}, {nominal()}, eo);
+  INFO(r.verdict);
+  REQUIRE(r.steps.size() >= 3);
+  CHECK(std::find(r.effects.begin(), r.effects.end(), "screw_dead_band") != r.effects.end());
+  CHECK(std::find(r.effects.begin(), r.effects.end(), "resistance_offset") != r.effects.end());
+  CHECK(r.effects.size() == 2);
+  // The held-out error falls at every step and ends at the noise.
+  for (std::size_t i = 1; i < r.steps.size(); ++i) CHECK(r.steps[i].heldout_combined < r.steps[i - 1].heldout_combined);
+  for (int c = 0; c < kChannels; ++c) CHECK(r.final_ratio[static_cast<std::size_t>(c)] < 1.15);
+  CHECK(r.verdict_kind == "noise");
+  // The model file reads back to the model explain judged (same doubles).
+  const Model back = build_model(parse_model_file(r.model_toml, "explained"), "sand");
+  REQUIRE(back.effects.size() == r.final_models.front().model.effects.size());
+  for (std::size_t e = 0; e < back.effects.size(); ++e) {
+    const auto a = back.effects[e]->params(), b = r.final_models.front().model.effects[e]->params();
+    for (std::size_t i = 0; i < a.size(); ++i) CHECK(a[i].second == b[i].second);
+  }
+  CHECK(back.terrain.D_x == r.final_models.front().model.terrain.D_x);
+}
+
+TEST_CASE("explain: a clean log adds nothing; an effect that does not pay for itself is dropped") {
+  SynthOptions o;
+  o.seconds = 70;
+  o.seed = 5;
+  ExplainOptions eo;
+  eo.only = {"coulomb_friction", "quadratic_drag", "terrain_slope"};
+  const ExplainResult clean = explain({synth(nominal().model, o)}, {nominal()}, eo);
+  CHECK(clean.effects.empty());
+  CHECK(clean.verdict_kind == "noise");
+  // A model file that carries a dry friction the log does not have: the backward check (or the
+  // first step) takes it out rather than keeping it at zero cost.
+  const ModelChoice given = with_effects({entry("quadratic_drag").make({2000, 2000, 0})});
+  const Model truth = make_model(RobotParams{}, kSand, {std::make_shared<CoulombFriction>(Vec3(8, 5, 0.3))});
+  const ExplainResult r = explain({synth(truth, o)}, {given}, eo);
+  INFO(r.verdict);
+  CHECK(std::find(r.effects.begin(), r.effects.end(), "coulomb_friction") != r.effects.end());
+  CHECK(std::find(r.effects.begin(), r.effects.end(), "quadratic_drag") == r.effects.end());
+  bool dropped = false;
+  for (const auto& s : r.steps)
+    for (const auto& d : s.dropped) dropped = dropped || d == "quadratic_drag";
+  CHECK(dropped);
+}
+
+TEST_CASE("diagnose --model refits the model's effects jointly with each candidate") {
+  SynthOptions o;
+  o.seconds = 70;
+  const Model truth = make_model(RobotParams{}, kSand,
+                                 {entry("screw_dead_band").make({2.0, 1}), std::make_shared<CoulombFriction>(Vec3(6, 4, 0.2))});
+  // The model has the dead band at a wrong value: held fixed, a second effect cannot help.
+  const ModelChoice given = with_effects({entry("screw_dead_band").make({0.8, 1})});
+  DiagnoseOptions opt;
+  opt.only = {"coulomb_friction", "quadratic_drag"};
+  const DiagnoseResult r = diagnose(synth(truth, o), given, opt);
+  REQUIRE(!r.candidates.empty());
+  CHECK(r.refits_model);
+  CHECK(r.candidates[0].fitted.effect == "coulomb_friction");
+  REQUIRE(r.candidates[0].refitted.size() == 1);
+  CHECK(r.candidates[0].refitted[0].params[0].value == Approx(2.0).epsilon(0.1));  // refitted, not held
+  CHECK(r.candidates[0].heldout_ratio < 1.2);
+}
+
+TEST_CASE("residual tests: white residuals pass; a missing effect leaves residuals that follow the inputs") {
+  SynthOptions o;
+  o.seconds = 70;
+  const Dataset clean = synth(nominal().model, o);
+  const ResidualTests ok = residual_tests(nominal().model, clean, estimate_noise_floor(clean));
+  CHECK(ok.white);
+  CHECK(ok.independent);
+  const Model truth = make_model(RobotParams{}, kSand, {entry("quadratic_drag").make({3000, 3000, 0})});
+  const Dataset d = synth(truth, o);
+  const ResidualTests bad = residual_tests(nominal().model, d, estimate_noise_floor(d));
+  CHECK_FALSE(bad.white);
+  CHECK_FALSE(bad.independent);
+  CHECK(describe_residual_tests(bad).find("not white") != std::string::npos);
+}
+
+TEST_CASE("noise floor: a camera's coloured noise is found against the IMU heading; white noise is left alone") {
+  SynthOptions o;
+  o.seconds = 120;
+  o.psi_noise_rad = 1e-9;  // the camera's noise is added below, coloured
+  o.pose_noise_m = 1e-9;
+  Dataset d = synth(nominal().model, o);
+  NoiseColour white_colour;
+  estimate_noise_floor(synth(nominal().model, SynthOptions{}), &white_colour);
+  CHECK_FALSE(white_colour.applied);
+  CHECK(white_colour.factor == Approx(1.0).margin(0.2));
+  // First-order Gauss-Markov noise, 0.3 s correlation, stationary std 3 mm / 5 mrad.
+  std::mt19937 rng(3);
+  std::normal_distribution<double> n01(0, 1);
+  Vec3 g = Vec3::Zero();
+  const double a = std::exp(-0.05 / 0.3), b = std::sqrt(1 - a * a);
+  for (auto& m : d.meas) {
+    if (!std::isfinite(m[kX])) continue;
+    g = a * g + b * Vec3(0.003 * n01(rng), 0.003 * n01(rng), 0.005 * n01(rng));
+    m[kX] += g.x();
+    m[kY] += g.y();
+    m[kPsi] = wrap_angle(m[kPsi] + g.z());
+  }
+  NoiseColour c;
+  const ChannelValues floor = estimate_noise_floor(d, &c);
+  CHECK(c.applied);
+  CHECK(floor[kPsi] == Approx(0.005).epsilon(0.25));
+  CHECK(floor[kX] == Approx(0.003).epsilon(0.25));
+}
+
+TEST_CASE("every effect parameter states a physical range, inside its bounds") {
+  for (const auto& le : effect_library())
+    for (const auto& p : le.params) {
+      INFO(le.id << "." << p.name);
+      CHECK(std::isfinite(p.physical_lower));
+      CHECK(std::isfinite(p.physical_upper));
+      CHECK(p.physical_lower < p.physical_upper);
+      CHECK(p.physical_lower >= p.lower);
+      CHECK(p.physical_upper <= p.upper);
+    }
 }

@@ -4,6 +4,7 @@
 // the pose is integrated with RK4 sub-steps using that exact velocity.
 #pragma once
 
+#include <limits>
 #include <vector>
 
 #include "auger/effect.hpp"
@@ -28,8 +29,10 @@ struct DynamicsData {
   Vec3 tau_effect_n = Vec3::Zero();  // last sub-step's effect body forces
 };
 
-// eq. (7) with the drive effects: the body force of the screw speeds.
-void drive_force(const Model& model, DynamicsData& data, const Vec4& omega_rpm, double dt_s, Vec3& tau_n);
+// eq. (7) with the drive effects: the body force of the screw speeds over a step starting at t_s
+// (NaN: data.t_s), with the ground's traction there (Effect::traction_scale).
+void drive_force(const Model& model, DynamicsData& data, const Vec4& omega_rpm, double dt_s, Vec3& tau_n,
+                 double t_s = std::numeric_limits<double>::quiet_NaN());
 
 // eq. (6)'s added body forces: the model's effects for the state (eta, zeta) over a step of dt_s
 // starting at t_s, with omega_rpm and data.tau_drive_n held; the sum lands in data.tau_effect_n.

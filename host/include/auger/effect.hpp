@@ -5,6 +5,7 @@
 #pragma once
 
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <stdexcept>
@@ -63,9 +64,15 @@ class Effect {
   virtual std::size_t state_size() const { return 0; }
   virtual void reset_state(double* /*state*/) const {}
 
-  // eq. (7): tau_n holds S B omega on entry; change it in place.
-  virtual void drive_force(const Model& /*model*/, const Vec4& /*omega_rpm*/, double /*dt_s*/,
-                           Vec3& /*tau_n*/, double* /*state*/) const {}
+  // eq. (7): tau_n holds sigma_scale S B omega on entry; change it in place. sigma_scale is the
+  // traction of the ground under the robot now relative to the model's S (traction_scale()):
+  // an effect that works on S B omega uses it, so that a change of terrain changes the
+  // traction before a saturation or a dead band acts on it.
+  virtual void drive_force(const Model& /*model*/, const Vec4& /*omega_rpm*/, double /*sigma_scale*/,
+                           double /*dt_s*/, Vec3& /*tau_n*/, double* /*state*/) const {}
+  // The ground's traction at t_s relative to the model's S (1: as the model says); the product
+  // over the effects scales eq. (7) before the drive effects act.
+  virtual double traction_scale(double /*t_s*/) const { return 1.0; }
   // eq. (6): body force (body frame) over the coming step, returned in force_n.
   virtual void body_force(const Model& /*model*/, const EffectContext& /*ctx*/, Vec3& force_n,
                           double* /*state*/) const {
@@ -74,6 +81,9 @@ class Effect {
   // What the sensors report for the state (eta, zeta).
   virtual void sensors(const Model& /*model*/, const Vec3& /*eta*/, const Vec3& /*zeta*/,
                        SensorValues& /*values*/) const {}
+  // eq. (8): the inertia of the linear dynamics, changed in place (M_diag holds m, m, I_z and
+  // model.D_diag is set when make_model calls this).
+  virtual void inertia(const Model& /*model*/, Vec3& /*M_diag*/) const {}
 };
 
 // A parameter a factory accepts; required parameters have no default.
@@ -91,6 +101,15 @@ struct ParamSpec {
   bool integer = false;  // enumerated lower..upper by the search, not fitted by Gauss-Newton
   bool fitted = true;    // false: kept at the default while fitting
   bool log_scale = false;  // positive, fitted in log (spans decades, e.g. a force limit)
+  // The physically plausible range for this robot (a 29 kg, 0.6 m robot on soil, screws of at
+  // most 23 rpm): a fit outside it, or at a search bound, is flagged by the workbench.
+  double physical_lower = -std::numeric_limits<double>::infinity();
+  double physical_upper = std::numeric_limits<double>::infinity();
+  ParamSpec& physical(double lower_value, double upper_value) {
+    physical_lower = lower_value;
+    physical_upper = upper_value;
+    return *this;
+  }
 };
 
 struct EffectParamValue {
@@ -164,7 +183,7 @@ class ScrewDeadBand final : public Effect {
   explicit ScrewDeadBand(double omega_dead_rpm, bool shift = false);
   const std::string& id() const override;
   std::vector<std::pair<std::string, double>> params() const override;
-  void drive_force(const Model& model, const Vec4& omega_rpm, double dt_s, Vec3& tau_n,
+  void drive_force(const Model& model, const Vec4& omega_rpm, double sigma_scale, double dt_s, Vec3& tau_n,
                    double* state) const override;
 
  private:

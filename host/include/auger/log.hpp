@@ -138,6 +138,9 @@ struct RobotSample {
 
 // All robot-log column names in the order the writer uses.
 const std::vector<std::string>& robot_log_columns();
+// A sample as the values of robot_log_columns() followed by extra (the row RobotLogWriter
+// writes; RobotLogMcapWriter writes the same). row is resized, so a reused one never allocates.
+void robot_log_row(const RobotSample& sample, const std::vector<double>& extra, std::vector<double>& row);
 
 class RobotLogReader {
  public:

@@ -103,6 +103,14 @@ Vec3 kinematic_body_velocity(const Model& model, const Vec4& omega_rpm);
 // eq. (3): screw speeds in rpm for a body velocity, no slip.
 Vec4 kinematic_screw_speeds_rpm(const Model& model, const Vec3& zeta);
 
+// The yaw row of eq. (10)'s B is an empirical lump (-l_x sin(alpha) per screw), not the lever
+// arm of the screw forces: the model's yaw equation is the real one scaled down. This is that
+// scale, the model's yaw torque over the real moment of the same screw forces at their contact
+// points, for the pure-yaw pattern omega = [1 1 1 1] (about 1/17 with the paper's values). An
+// effect that applies a force at a contact point turns its real moment into the model's yaw
+// units with it.
+double yaw_lumping(const Model& model);
+
 // eq. (7), nominal: tau = S B omega with omega in rpm (MODEL-NOTES decision).
 inline Vec3 nominal_drive_force(const Model& model, const Vec4& omega_rpm) {
   return model.SB * omega_rpm;

@@ -19,8 +19,9 @@ class ScrewTractionLoss final : public Effect {
   std::vector<std::pair<std::string, double>> params() const override {
     return {{"screw", static_cast<double>(screw_)}, {"loss", loss_}};
   }
-  void drive_force(const Model& model, const Vec4& omega_rpm, double, Vec3& tau_n, double*) const override {
-    tau_n -= loss_ * model.SB.col(screw_) * omega_rpm[screw_];  // eq. (7), column of screw i
+  void drive_force(const Model& model, const Vec4& omega_rpm, double sigma_scale, double, Vec3& tau_n,
+                   double*) const override {
+    tau_n -= loss_ * sigma_scale * model.SB.col(screw_) * omega_rpm[screw_];  // eq. (7), column of screw i
   }
 
  private:
@@ -43,9 +44,10 @@ class TractionSaturation final : public Effect {
   std::vector<std::pair<std::string, double>> params() const override {
     return {{"force_max_long_n", long_max_}, {"force_max_lat_n", lat_max_}, {"sharpness", p_}};
   }
-  void drive_force(const Model& model, const Vec4& omega_rpm, double, Vec3& tau_n, double*) const override {
+  void drive_force(const Model& model, const Vec4& omega_rpm, double sigma_scale, double, Vec3& tau_n,
+                   double*) const override {
     for (int i = 0; i < 4; ++i) {
-      const Vec3 f = model.SB.col(i) * omega_rpm[i];
+      const Vec3 f = sigma_scale * model.SB.col(i) * omega_rpm[i];
       const double fx = f.x() / std::pow(1.0 + std::pow(std::fabs(f.x() / long_max_), p_), 1.0 / p_);
       const double fy = f.y() / std::pow(1.0 + std::pow(std::fabs(f.y() / lat_max_), p_), 1.0 / p_);
       const double share = f.y() != 0 ? fy / f.y() : 1.0;
@@ -81,7 +83,7 @@ class ForceLag final : public Effect {
   }
   std::size_t state_size() const override { return kHeader + 4 * kSlots; }
   void reset_state(double* state) const override { std::fill(state, state + state_size(), 0.0); }
-  void drive_force(const Model&, const Vec4&, double dt_s, Vec3& tau_n, double* state) const override {
+  void drive_force(const Model&, const Vec4&, double, double dt_s, Vec3& tau_n, double* state) const override {
     double* ring = state + kHeader;
     if (state[0] == 0) {
       state[0] = 1;
@@ -141,9 +143,9 @@ void register_drive(EffectRegistry& r) {
     if (!(v >= 0) || !std::isfinite(v)) throw std::invalid_argument(std::string(name) + " must be >= 0");
   };
   r.add({"screw_dead_band", "a screw slower than omega_dead_rpm gives no force",
-         {{"omega_dead_rpm", 0, true, "dead band half-width", "rpm", 0, 23, 1.0},
-          {"shift", 1, false, "1: a dead zone (force of |omega| - omega_dead_rpm), 0: full force above it", "", 0, 1, 1,
-           false, false}},
+         {ParamSpec{"omega_dead_rpm", 0, true, "dead band half-width", "rpm", 0, 23, 1.0}.physical(0.1, 6),
+          ParamSpec{"shift", 1, false, "1: a dead zone (force of |omega| - omega_dead_rpm), 0: full force above it", "", 0, 1, 1,
+           false, false}.physical(0, 1)},
          [non_negative](const std::vector<double>& v) {
            non_negative(v[0], "omega_dead_rpm");
            if (!(v[1] == 0 || v[1] == 1)) throw std::invalid_argument("shift must be 0 or 1");
@@ -154,8 +156,8 @@ void register_drive(EffectRegistry& r) {
          }});
   r.add({"screw_traction_loss", "screw `screw` (0 front-right, 1 rear-right, 2 rear-left, 3 front-left) "
                                 "transmits only (1 - loss) of its force",
-         {{"screw", 0, true, "screw index (MODEL-NOTES table)", "", 0, 3, 1, true},
-          {"loss", 0, true, "lost fraction of its force", "", 0, 1, 0.2}},
+         {ParamSpec{"screw", 0, true, "screw index (MODEL-NOTES table)", "", 0, 3, 1, true}.physical(0, 3),
+          ParamSpec{"loss", 0, true, "lost fraction of its force", "", 0, 1, 0.2}.physical(0.05, 1)},
          [](const std::vector<double>& v) {
            if (!(v[0] == 0 || v[0] == 1 || v[0] == 2 || v[0] == 3))
              throw std::invalid_argument("screw must be 0, 1, 2 or 3");
@@ -169,9 +171,9 @@ void register_drive(EffectRegistry& r) {
                   " % of its force: loss of traction of one screw";
          }});
   r.add({"traction_saturation", "each screw's longitudinal / lateral force saturates smoothly towards +-force_max",
-         {{"force_max_long_n", 1e6, false, "per-screw longitudinal limit", "N", 0.05, 1e6, 8, false, true, true},
-          {"force_max_lat_n", 1e6, false, "per-screw lateral limit", "N", 0.05, 1e6, 2.5, false, true, true},
-          {"sharpness", 4, false, "p of f / (1 + |f / f_max|^p)^(1/p): 2 gradual, 20 a clip", "", 1, 30, 4, false, true, true}},
+         {ParamSpec{"force_max_long_n", 1e6, false, "per-screw longitudinal limit", "N", 0.05, 1e6, 8, false, true, true}.physical(2, 100),
+          ParamSpec{"force_max_lat_n", 1e6, false, "per-screw lateral limit", "N", 0.05, 1e6, 2.5, false, true, true}.physical(0.5, 50),
+          ParamSpec{"sharpness", 4, false, "p of f / (1 + |f / f_max|^p)^(1/p): 2 gradual, 20 a clip", "", 1, 30, 4, false, true, true}.physical(1, 30)},
          [](const std::vector<double>& v) {
            if (!(v[0] > 0 && v[1] > 0)) throw std::invalid_argument("force limits must be > 0");
            if (!(v[2] >= 1 && v[2] <= 100)) throw std::invalid_argument("sharpness must be in [1, 100]");
@@ -182,8 +184,8 @@ void register_drive(EffectRegistry& r) {
                   " N across the robot: saturation of the traction force";
          }});
   r.add({"force_lag", "the drive force follows S B omega after a dead time delay_s with a first-order lag tau_s",
-         {{"tau_s", 0, true, "time constant", "s", 0, 3, 0.1},
-          {"delay_s", 0, false, "dead time before the force starts to build up", "s", 0, 0.2, 0.03}},
+         {ParamSpec{"tau_s", 0, true, "time constant", "s", 0, 3, 0.1}.physical(0.005, 1.0),
+          ParamSpec{"delay_s", 0, false, "dead time before the force starts to build up", "s", 0, 0.2, 0.03}.physical(0, 0.2)},
          [non_negative](const std::vector<double>& v) {
            non_negative(v[0], "tau_s");
            if (!(v[1] >= 0 && v[1] <= 0.2)) throw std::invalid_argument("delay_s must be in [0, 0.2]");

@@ -14,6 +14,7 @@ void register_friction(EffectRegistry& r);      // friction.cpp: coulomb_frictio
 void register_drive(EffectRegistry& r);         // drive.cpp: screw_dead_band, screw_traction_loss, traction_saturation, force_lag
 void register_terrain(EffectRegistry& r);       // terrain.cpp: terrain_slope, resistance_offset, terrain_change
 void register_sensors(EffectRegistry& r);       // sensors.cpp: imu_heading_bias, imu_heading_drift, pose_time_offset
+void register_body(EffectRegistry& r);          // body.cpp: rigid_body_coupling, yaw_time_constant, screw_blocking
 
 // Number formatting for describe() texts: "15", "0.12", "3.4e-05".
 std::string fmt(double value);

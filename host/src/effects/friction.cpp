@@ -102,9 +102,9 @@ class QuadraticDrag final : public Effect {
 
 void register_friction(EffectRegistry& r) {
   r.add({"coulomb_friction", "dry friction per DOF, hard sign form, stiction = sliding level",
-         {{"force_x_n", 0, false, "longitudinal level", "N", 0, 500, 10},
-          {"force_y_n", 0, false, "lateral level", "N", 0, 500, 10},
-          {"torque_psi_nm", 0, false, "yaw level", "N m", 0, 50, 0.5}},
+         {ParamSpec{"force_x_n", 0, false, "longitudinal level", "N", 0, 500, 10}.physical(0, 60),
+          ParamSpec{"force_y_n", 0, false, "lateral level", "N", 0, 500, 10}.physical(0, 30),
+          ParamSpec{"torque_psi_nm", 0, false, "yaw level", "N m", 0, 50, 0.5}.physical(0, 1.5)},
          [](const std::vector<double>& v) {
            check_non_negative(v[0], "force_x_n");
            check_non_negative(v[1], "force_y_n");
@@ -114,12 +114,12 @@ void register_friction(EffectRegistry& r) {
          [](const std::vector<double>& v) { return dry_words(v, "dry (Coulomb) friction"); }});
   r.add({"stick_slip_friction",
          "dry friction per DOF with a Stribeck breakaway: breakaway_ratio times the sliding level at rest",
-         {{"force_x_n", 0, false, "sliding level, longitudinal", "N", 0, 500, 10},
-          {"force_y_n", 0, false, "sliding level, lateral", "N", 0, 500, 10},
-          {"torque_psi_nm", 0, false, "sliding level, yaw", "N m", 0, 50, 0.5},
-          {"breakaway_ratio", 1.5, false, "breakaway (static) / sliding level", "", 1, 5, 1.3},
-          {"stribeck_mps", 0.005, false, "sliding speed over which the breakaway excess decays (m/s; in yaw at the contacts, r hypot(l_x, l_y))", "m/s",
-           1e-4, 0.2, 0.005, false, true, true}},
+         {ParamSpec{"force_x_n", 0, false, "sliding level, longitudinal", "N", 0, 500, 10}.physical(0, 60),
+          ParamSpec{"force_y_n", 0, false, "sliding level, lateral", "N", 0, 500, 10}.physical(0, 30),
+          ParamSpec{"torque_psi_nm", 0, false, "sliding level, yaw", "N m", 0, 50, 0.5}.physical(0, 1.5),
+          ParamSpec{"breakaway_ratio", 1.5, false, "breakaway (static) / sliding level", "", 1, 5, 1.3}.physical(1, 5),
+          ParamSpec{"stribeck_mps", 0.005, false, "sliding speed over which the breakaway excess decays (m/s; in yaw at the contacts, r hypot(l_x, l_y))", "m/s",
+           1e-4, 0.2, 0.005, false, true, true}.physical(1e-4, 0.05)},
          [](const std::vector<double>& v) {
            check_non_negative(v[0], "force_x_n");
            check_non_negative(v[1], "force_y_n");
@@ -133,9 +133,9 @@ void register_friction(EffectRegistry& r) {
                                    fmt(v[4] * 1000) + " mm/s");
          }});
   r.add({"quadratic_drag", "a resistance -c v |v| per DOF on top of the linear D of eq. (6)",
-         {{"c_x_nspm2", 0, false, "longitudinal coefficient", "N/(m/s)^2", 0, 1e5, 500},
-          {"c_y_nspm2", 0, false, "lateral coefficient", "N/(m/s)^2", 0, 1e5, 500},
-          {"c_psi_nmspr2", 0, false, "yaw coefficient", "N m/(rad/s)^2", 0, 1e4, 10}},
+         {ParamSpec{"c_x_nspm2", 0, false, "longitudinal coefficient", "N/(m/s)^2", 0, 1e5, 500}.physical(0, 5000),
+          ParamSpec{"c_y_nspm2", 0, false, "lateral coefficient", "N/(m/s)^2", 0, 1e5, 500}.physical(0, 5000),
+          ParamSpec{"c_psi_nmspr2", 0, false, "yaw coefficient", "N m/(rad/s)^2", 0, 1e4, 10}.physical(0, 20)},
          [](const std::vector<double>& v) {
            check_non_negative(v[0], "c_x_nspm2");
            check_non_negative(v[1], "c_y_nspm2");

@@ -48,7 +48,7 @@ class PoseTimeOffset final : public Effect {
 
 void register_sensors(EffectRegistry& r) {
   EffectRegistry::Entry bias{"imu_heading_bias", "the IMU reports psi + bias_rad",
-                             {{"bias_rad", 0, true, "constant heading bias", "rad", -3.2, 3.2, 0.02}},
+                             {ParamSpec{"bias_rad", 0, true, "constant heading bias", "rad", -3.2, 3.2, 0.02}.physical(-3.15, 3.15)},
                              [](const std::vector<double>& v) {
                                if (!std::isfinite(v[0])) throw std::invalid_argument("bias_rad must be finite");
                                return std::make_shared<ImuHeadingBias>(v[0]);
@@ -60,8 +60,8 @@ void register_sensors(EffectRegistry& r) {
                              true};
   r.add(std::move(bias));
   EffectRegistry::Entry drift{"imu_heading_drift", "the IMU reports psi + bias_rad + drift_radps t_s",
-                              {{"bias_rad", 0, false, "heading bias at t = 0", "rad", -3.2, 3.2, 0.02},
-                               {"drift_radps", 0, false, "heading drift rate", "rad/s", -0.1, 0.1, 2e-4}},
+                              {ParamSpec{"bias_rad", 0, false, "heading bias at t = 0", "rad", -3.2, 3.2, 0.02}.physical(-3.15, 3.15),
+                               ParamSpec{"drift_radps", 0, false, "heading drift rate", "rad/s", -0.1, 0.1, 2e-4}.physical(-0.01, 0.01)},
                               [](const std::vector<double>& v) {
                                 if (!std::isfinite(v[0]) || !std::isfinite(v[1]))
                                   throw std::invalid_argument("bias_rad and drift_radps must be finite");
@@ -74,7 +74,7 @@ void register_sensors(EffectRegistry& r) {
                               true};
   r.add(std::move(drift));
   r.add({"pose_time_offset", "pose rows show the robot offset_s earlier than their t_s (latency)",
-         {{"offset_s", 0, true, "pose latency relative to the screw speeds", "s", -1, 1, 0.05}},
+         {ParamSpec{"offset_s", 0, true, "pose latency relative to the screw speeds", "s", -1, 1, 0.05}.physical(-1, 1)},
          [](const std::vector<double>& v) {
            if (!(std::fabs(v[0]) <= 5)) throw std::invalid_argument("offset_s must be within +-5 s");
            return std::make_shared<PoseTimeOffset>(v[0]);

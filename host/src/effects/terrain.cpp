@@ -59,8 +59,9 @@ class ResistanceOffset final : public Effect {
 };
 
 // From t_change_s on, the terrain's traction is sigma_factor times and its resistance
-// drag_factor times the model's (eqs. (6)-(7)): the extra force (sigma_factor - 1) tau_drive and
-// the extra damping (drag_factor - 1) D, the latter implicit over the step.
+// drag_factor times the model's (eqs. (6)-(7)): S of eq. (7) scaled by sigma_factor before the
+// drive effects act (a screw's force limit or dead band is the screw's, not the ground's), and
+// the extra damping (drag_factor - 1) D, implicit over the step.
 class TerrainChange final : public Effect {
  public:
   TerrainChange(double t, double ks, double kd) : t_(t), ks_(ks), kd_(kd) {}
@@ -71,17 +72,16 @@ class TerrainChange final : public Effect {
   std::vector<std::pair<std::string, double>> params() const override {
     return {{"t_change_s", t_}, {"sigma_factor", ks_}, {"drag_factor", kd_}};
   }
+  double traction_scale(double t_s) const override { return t_s < t_ ? 1.0 : ks_; }
   void body_force(const Model& model, const EffectContext& ctx, Vec3& force_n, double*) const override {
     if (ctx.t_s < t_) {
       force_n.setZero();
       return;
     }
     for (int k = 0; k < 3; ++k) {
-      const double f_drive = (ks_ - 1.0) * ctx.tau_drive_n[k];
       const double d_extra = (kd_ - 1.0) * model.D_diag[k];
-      const double v_free = ctx.zeta_free[k] + ctx.gain[k] * f_drive;
       // f = -d_extra v_end, v_end = v_free + g f  =>  f = -d_extra v_free / (1 + d_extra g)
-      force_n[k] = f_drive - d_extra * v_free / (1.0 + d_extra * ctx.gain[k]);
+      force_n[k] = -d_extra * ctx.zeta_free[k] / (1.0 + d_extra * ctx.gain[k]);
     }
   }
 
@@ -93,8 +93,8 @@ class TerrainChange final : public Effect {
 
 void register_terrain(EffectRegistry& r) {
   r.add({"terrain_slope", "a plane inclined along world x and y: gravity in the world frame",
-         {{"incline_x_rad", 0, false, "rise towards world +x", "rad", -0.6, 0.6, 0.02},
-          {"incline_y_rad", 0, false, "rise towards world +y", "rad", -0.6, 0.6, 0.02}},
+         {ParamSpec{"incline_x_rad", 0, false, "rise towards world +x", "rad", -0.6, 0.6, 0.02}.physical(-0.35, 0.35),
+          ParamSpec{"incline_y_rad", 0, false, "rise towards world +y", "rad", -0.6, 0.6, 0.02}.physical(-0.35, 0.35)},
          [](const std::vector<double>& v) {
            if (!(std::fabs(v[0]) < 1.5 && std::fabs(v[1]) < 1.5)) throw std::invalid_argument("inclines must be in (-1.5, 1.5) rad");
            return std::make_shared<TerrainSlope>(v[0], v[1]);
@@ -107,8 +107,8 @@ void register_terrain(EffectRegistry& r) {
                   " N on the 29 kg robot): terrain slope";
          }});
   r.add({"resistance_offset", "the resistance -D zeta acts at (offset_x_m, offset_y_m) from the centre",
-         {{"offset_x_m", 0, false, "ahead of the centre", "m", -1, 1, 0.05},
-          {"offset_y_m", 0, false, "left of the centre", "m", -1, 1, 0.05}},
+         {ParamSpec{"offset_x_m", 0, false, "ahead of the centre", "m", -1, 1, 0.05}.physical(-0.2, 0.2),
+          ParamSpec{"offset_y_m", 0, false, "left of the centre", "m", -1, 1, 0.05}.physical(-0.35, 0.35)},
          [](const std::vector<double>& v) {
            if (!(std::isfinite(v[0]) && std::isfinite(v[1]))) throw std::invalid_argument("offsets must be finite");
            return std::make_shared<ResistanceOffset>(v[0], v[1]);
@@ -117,17 +117,17 @@ void register_terrain(EffectRegistry& r) {
            return "the centre of resistance sits " + fmt(v[0]) + " m ahead of and " + fmt(v[1]) +
                   " m left of the centre, so sideways motion turns the robot: offset of the centre of resistance";
          }});
-  r.add({"terrain_change", "from t_change_s on, traction x sigma_factor and resistance x drag_factor",
-         {{"t_change_s", 0, true, "time of the change (log time)", "s", 0, 1e9, 10, false, false},
-          {"sigma_factor", 1, false, "traction after / before", "", 0.05, 20, 0.2},
-          {"drag_factor", 1, false, "resistance after / before", "", 0.05, 20, 0.2}},
+  r.add({"terrain_change", "from t_change_s on, traction times sigma_factor and resistance times drag_factor",
+         {ParamSpec{"t_change_s", 0, true, "time of the change (log time)", "s", 0, 1e9, 10, false, false}.physical(0, 1e9),
+          ParamSpec{"sigma_factor", 1, false, "traction after / before", "", 0.05, 20, 0.2}.physical(0.2, 5),
+          ParamSpec{"drag_factor", 1, false, "resistance after / before", "", 0.05, 20, 0.2}.physical(0.2, 5)},
          [](const std::vector<double>& v) {
            if (!(v[1] > 0 && v[2] > 0)) throw std::invalid_argument("factors must be > 0");
            return std::make_shared<TerrainChange>(v[0], v[1], v[2]);
          },
          [](const std::vector<double>& v) {
-           return "at t = " + fmt(v[0]) + " s the terrain changes: traction x" + fmt(v[1]) +
-                  ", resistance x" + fmt(v[2]) + ": change of terrain";
+           return "at t = " + fmt(v[0]) + " s the terrain changes: traction " + fmt(v[1]) + " times,"
+                  " resistance " + fmt(v[2]) + " times the model's: change of terrain";
          }});
 }
 

@@ -31,7 +31,7 @@ struct Generated {
 Generated robot_log(const std::string& effect, Trajectory traj = Trajectory::manual, double seconds = 60.0,
                     std::uint64_t seed = 5) {
   LogGenConfig cfg;
-  cfg.effect = parse_effect_spec(effect);
+  cfg.effects = {parse_effect_spec(effect)};
   cfg.trajectory = traj;
   cfg.seconds = seconds;
   cfg.seed = seed;
@@ -87,7 +87,7 @@ TEST_CASE("sim-log: metadata is only what the formats require", "[unit][simlog]"
   LogGenConfig cfg;
   cfg.gantry = GantryAxis::lateral;
   cfg.seconds = 20;
-  cfg.effect = parse_effect_spec("coulomb_friction:force_y_n=3");
+  cfg.effects = {parse_effect_spec("coulomb_friction:force_y_n=3")};
   const ModelFile gf = load_model_file(AUGER_GANTRY_MODEL_FILE);
   std::ostringstream out;
   generate_gantry_log(gf.find_terrain("sand")->params, *gf.gantry_mass_kg, cfg, out);
@@ -172,7 +172,7 @@ TEST_CASE("sim-log: every effect changes the log", "[unit][simlog]") {
     LogGenConfig cfg;
     cfg.gantry = GantryAxis::longitudinal;
     cfg.seconds = 60;
-    cfg.effect = parse_effect_spec(effect);
+    cfg.effects = {parse_effect_spec(effect)};
     std::ostringstream out;
     return generate_gantry_log(gf.find_terrain("sand")->params, *gf.gantry_mass_kg, cfg, out);
   };
@@ -237,4 +237,32 @@ TEST_CASE("sim-log: bad effect specifications name what is wrong", "[unit][simlo
   CHECK_THROWS_WITH(parse_effect_spec("force_lag:tau=0.1"), Catch::Contains("no parameter 'tau'"));
   CHECK_THROWS_WITH(parse_effect_spec("force_lag:tau_s=abc"), Catch::Contains("tau_s = 'abc' is not a number"));
   CHECK(parse_effect_spec("force_lag:tau_s=0.2,damping=0.9").params.at("damping") == 0.9);
+}
+
+TEST_CASE("sim-log: several effects act together; a gantry log takes one; the physical base is not the model",
+          "[unit][simlog]") {
+  auto run = [](std::vector<std::string> effects, bool physical = false) {
+    LogGenConfig cfg;
+    for (const auto& e : effects) cfg.effects.push_back(parse_effect_spec(e));
+    cfg.seconds = 40;
+    cfg.seed = 9;
+    cfg.physical_base = physical;
+    std::ostringstream out;
+    return generate_robot_log(robot_model(), cfg, out);
+  };
+  auto final_pose = [](const LogGenResult& r) { return r.truth.back().eta; };
+  const auto none = run({}), a = run({"quadratic_drag"}), b = run({"resistance_offset"});
+  const auto both = run({"quadratic_drag", "resistance_offset"});
+  // Each alone moves the robot elsewhere; together differs from either alone.
+  CHECK((final_pose(both) - final_pose(a)).norm() > 1e-3);
+  CHECK((final_pose(both) - final_pose(b)).norm() > 1e-3);
+  CHECK((final_pose(a) - final_pose(none)).norm() > 1e-3);
+  CHECK_THROWS_WITH(run({"quadratic_drag", "quadratic_drag"}), Catch::Contains("given twice"));
+  // The physical robot (Coriolis, real yaw time constant, blocking) moves otherwise than the model.
+  CHECK((final_pose(run({}, true)) - final_pose(none)).norm() > 5e-3);
+  LogGenConfig g;
+  g.gantry = GantryAxis::longitudinal;
+  g.effects = {parse_effect_spec("quadratic_drag"), parse_effect_spec("force_lag")};
+  std::ostringstream out;
+  CHECK_THROWS_WITH(generate_gantry_log(robot_model().terrain, 16.0, g, out), Catch::Contains("one hidden effect"));
 }

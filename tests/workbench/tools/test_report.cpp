@@ -1,73 +1,41 @@
-// auger report: the page for a generated log has every section, valid inline SVG drawn by
-// gnuplot, no external reference, the same numbers as `auger compare --json`, and a clear
-// error when gnuplot is missing.
+// auger report: the page for a generated log has every section, the interactive time plots and
+// the SVG plots, no external reference, the same numbers as `auger compare --json`; in headless
+// Chromium it loads without a console error, its time plots zoom together, the worst windows'
+// numbers are the RMS of the curve drawn under them, and every candidate is charted. Clear
+// errors when gnuplot or dygraphs is missing; gnuplot strings quoted.
 #include <catch2/catch.hpp>
 
 #include <cmath>
-#include <random>
-#include <sstream>
+#include <string>
 
-#include "auger/dynamics.hpp"
-#include "auger/model.hpp"
+#include "friction_log.hpp"
+#include "report_plot.hpp"
 #include "tools_fixtures.hpp"
-
-namespace {
-
-// 80 s of manual-style driving of the nominal sand model (the paper's Table 3) with a constant
-// extra force along x that the nominal model does not have, pose at 20 Hz with 3 mm / 5 mrad
-// noise, IMU heading every row.
-std::string generated_log() {
-  using namespace auger;
-  const Model m = make_model(RobotParams{}, TerrainParams{"sand", 0.812, 0.247, 560.33, 320.08, 11.46});
-  DynamicsData data(m);
-  std::mt19937_64 rng(11);
-  std::normal_distribution<double> n01(0, 1);
-  Vec3 eta = Vec3::Zero(), zeta = Vec3::Zero();
-  std::ostringstream os;
-  os.precision(10);
-  os << "# format: auger-robot-log v1\n# terrain: sand\n"
-     << "t_s,omega_rpm_0,omega_rpm_1,omega_rpm_2,omega_rpm_3,x_m,y_m,psi_rad,imu_psi_rad\n";
-  const double dt = 0.01;
-  for (int k = 0; k < 8000; ++k) {
-    const double t = k * dt;
-    // Forward, sideways, turning, combined: 10 s each, twice.
-    const int phase = static_cast<int>(t / 10) % 4;
-    const Vec3 body = phase == 0 ? Vec3(0.05, 0, 0) : phase == 1 ? Vec3(0, 0.06, 0)
-                    : phase == 2 ? Vec3(0, 0, 0.15) : Vec3(0.03, -0.03, -0.1);
-    const Vec4 omega = kinematic_screw_speeds_rpm(m, body);
-    if (k % 5 == 0) {
-      os << t << ',' << omega[0] << ',' << omega[1] << ',' << omega[2] << ',' << omega[3] << ','
-         << eta.x() + 0.003 * n01(rng) << ',' << eta.y() + 0.003 * n01(rng) << ','
-         << wrap_angle(eta.z() + 0.005 * n01(rng)) << ',' << wrap_angle(eta.z() + 0.005 * n01(rng)) << '\n';
-    } else {
-      os << t << ',' << omega[0] << ',' << omega[1] << ',' << omega[2] << ',' << omega[3] << ",,,,"
-         << wrap_angle(eta.z() + 0.005 * n01(rng)) << '\n';
-    }
-    dynamics_step(m, data, eta, zeta, omega, dt);
-    zeta.x() -= 0.01 * 12.0 / 29.0 * (zeta.x() > 0 ? 1 : zeta.x() < 0 ? -1 : 0);  // 12 N dry friction along x
-  }
-  return os.str();
-}
-
-}  // namespace
 
 TEST_CASE("auger report: sections, valid inline SVG, nothing external, numbers of compare --json") {
   const tools_test::TempDir tmp("report");
   const std::string dir = tmp.path;
   const std::string log = dir + "/log.csv";
-  tools_test::write_text(log, generated_log());
+  tools_test::write_text(log, tools_test::dry_friction_log());
   const auto r = tools_test::run_auger(dir, "report " + log + " --out " + dir + "/rep --json");
   INFO(r.out << r.err);
   REQUIRE(r.code == 0);
   CHECK(tools_test::json_eval(dir, r.out, "d['sections']") ==
-        "['summary', 'measured-vs-model', 'error', 'ranking', 'before-after']");
-  CHECK(tools_test::json_number(dir, r.out, "d['plots']") == 5);
+        "['summary', 'measured-vs-model', 'error', 'ranking', 'before-after', 'effect']");
+  CHECK(tools_test::json_number(dir, r.out, "d['plots']") == 2);  // the path, the candidates
+  // x, y, psi, imu_psi: measured vs model, error, pose before/after, error before/after; then
+  // the effect's curves (friction: force against speed and steady speed, at least along x).
+  const double charts = tools_test::json_number(dir, r.out, "d['charts']");
+  CHECK(charts >= 16 + 2);
+  CHECK_THAT(tools_test::json_eval(dir, r.out, "d['next']"), Catch::StartsWith("auger fit "));
   const std::string html = tools_test::read_text(dir + "/rep/index.html");
   REQUIRE(!html.empty());
 
-  // Valid SVG (each inline <svg> parses as XML and holds drawn paths) and nothing that loads
-  // from elsewhere: no src/link/script/import, hrefs only to the page's own anchors and ids,
-  // "http" only in XML namespace names.
+  // Valid SVG (each inline <svg> parses as XML and holds drawn paths); nothing that loads from
+  // elsewhere: no src/link/import/frame, scripts only inline, hrefs only to the page's own
+  // anchors, "http" only in XML namespace names and in the scripts' licence comments (the
+  // browser check below sees any request the scripts would make); no duplicate id; every
+  // candidate of the ranking table named in the ranking chart.
   const std::string check = dir + "/check.py";
   tools_test::write_text(check, R"PY(
 import re, sys, xml.etree.ElementTree as ET
@@ -77,16 +45,24 @@ for s in svgs:
     root = ET.fromstring(s)
     assert root.tag.endswith('svg'), root.tag
     assert len(root.findall('.//{http://www.w3.org/2000/svg}path')) > 5
-low = h.lower()
-for bad in ('src=', '<link', '<script', '@import', '<iframe', '<object', '<embed'):
+scripts = re.findall(r'<script\b[^>]*>', h)
+assert len(scripts) == 4 and all('src' not in s for s in scripts), scripts
+body = re.sub(r'<script\b.*?</script>', '', h, flags=re.S)
+low = body.lower()
+for bad in ('src=', '<link', '@import', '<iframe', '<object', '<embed'):
     assert bad not in low, bad
-for m in re.finditer(r'href=["\']([^"\']*)', h):
+for m in re.finditer(r'href=["\']([^"\']*)', body):
     assert m.group(1).startswith('#'), m.group(1)
-stripped = re.sub(r'xmlns(:\w+)?="http://www\.w3\.org/[^"]*"', '', h)
+stripped = re.sub(r'xmlns(:\w+)?="http://www\.w3\.org/[^"]*"', '', body)
 assert 'http:' not in stripped and 'https:' not in stripped
-assert not re.search(r'url\((?!#)', h), 'url() to something other than an id of the page'
-ids = re.findall(r'\bid=["\']([^"\']+)', h)
+assert not re.search(r'url\((?!#)', body), 'url() to something other than an id of the page'
+ids = re.findall(r'\bid=["\']([^"\']+)', body)
 assert len(ids) == len(set(ids)), 'duplicate ids'
+names = re.findall(r'id="candidate-\d+">([^<]+)<', h)
+ranking_svg = svgs[1]
+texts = set(t.strip() for t in re.findall(r'<text\b[^>]*>(.*?)</text>', ranking_svg, re.S))
+missing = [n for n in names if n not in ''.join(texts)]
+assert len(names) >= 14 and not missing, (len(names), missing)
 print(len(svgs))
 )PY");
   {
@@ -95,10 +71,11 @@ print(len(svgs))
     const int rc = std::system(cmd.c_str());
     INFO(tools_test::read_text(dir + "/check.out"));
     CHECK(rc == 0);
-    CHECK(tools_test::read_text(dir + "/check.out") == "5\n");
+    CHECK(tools_test::read_text(dir + "/check.out") == "2\n");
   }
   for (const char* section : {"id=\"summary\"", "id=\"measured-vs-model\"", "id=\"error\"", "id=\"ranking\"",
-                              "id=\"before-after\"", "Produced by GNUPLOT"})
+                              "id=\"before-after\"", "id=\"effect\"", "Produced by GNUPLOT", "Ranking rule:",
+                              "Force against speed, x"})
     CHECK_THAT(html, Catch::Contains(section));
 
   // The page's numbers are compare's.
@@ -135,15 +112,81 @@ print(len(svgs))
   CHECK(compared == 24);
   // The segments' x error is well above the noise (the dry friction the model lacks).
   CHECK(std::stod(cell("segments-ratio-x")) > 3);
+
+  // In a real browser: no console error or exception, no request outside the page; every chart
+  // drawn with data; the time plots' x-axes linked (zooming one zooms all); and the worst
+  // window's number is what the curve under its band shows: the RMS of the 5 s-window error
+  // curve over the window, and the step line's height there.
+  const std::string js = R"JS(JSON.stringify((() => {
+    const C = window.augerCharts, T = window.augerGroups.time, ids = Object.keys(C);
+    const title = id => document.getElementById(id).parentElement.querySelector('.chart-title').textContent;
+    T[0].updateOptions({dateWindow: [20, 30]});
+    const linked = T.filter(g => Math.abs(g.xAxisRange()[0] - 20) < 1e-9 && Math.abs(g.xAxisRange()[1] - 30) < 1e-9).length;
+    T[0].resetZoom();
+    const t0 = parseFloat(document.getElementById('worst-1-t_start_s').textContent);
+    const row = document.getElementById('worst-1-t_start_s').parentElement;
+    const dof = row.children[3].textContent.split(' ')[0];
+    const g = C[ids.find(i => title(i) === dof + ': error in noise floors')];
+    const labels = g.getLabels(), ce = labels.indexOf('error, re-initialised every 5 s'),
+          cs = labels.indexOf('RMS of each 5 s window');
+    const t1 = parseFloat(row.children[2].textContent);
+    let ss = 0, n = 0, step = null;
+    for (let r = 0; r < g.numRows(); ++r) {
+      const t = g.getValue(r, 0);
+      if (t < t0 - 1e-9 || t > t1 + 1e-9) continue;
+      const e = g.getValue(r, ce);
+      if (e !== null && !isNaN(e)) { ss += e * e; ++n; }
+      if (step === null) step = g.getValue(r, cs);
+    }
+    return {charts: ids.length, empty: ids.filter(i => C[i].numRows() < 2).length, time: T.length, linked: linked,
+            canvases: document.querySelectorAll('.chart canvas').length, window_rms: Math.sqrt(ss / n),
+            window_rows: n, window_step: step};
+  })()))JS";
+  const std::string bout = dir + "/browser.json";
+  const std::string bcmd = "python3 " + tools_test::shell_quote(AUGER_BROWSER_CHECK) + " " +
+                           tools_test::shell_quote(dir + "/rep/index.html") + " --eval " + tools_test::shell_quote(js) +
+                           " >" + tools_test::shell_quote(bout) + " 2>&1";
+  const int brc = std::system(bcmd.c_str());
+  const std::string b = tools_test::read_text(bout);
+  INFO(b);
+  REQUIRE(brc == 0);  // no console error, no exception, no outside request
+  CHECK(tools_test::json_number(dir, b, "d['eval']['charts']") == charts);
+  CHECK(tools_test::json_number(dir, b, "d['eval']['empty']") == 0);
+  CHECK(tools_test::json_number(dir, b, "d['eval']['time']") == 16);
+  CHECK(tools_test::json_number(dir, b, "d['eval']['linked']") == 16);
+  CHECK(tools_test::json_number(dir, b, "d['eval']['canvases']") >= charts);
+  const double worst = std::stod(tools_test::json_eval(dir, cmp.out, "d['worst'][0]['ratio_to_noise']"));
+  CHECK(tools_test::json_number(dir, b, "d['eval']['window_rows']") >= 90);  // 5 s of 20 Hz poses
+  CHECK(tools_test::json_number(dir, b, "d['eval']['window_rms']") == Approx(worst).epsilon(1e-4));
+  CHECK(tools_test::json_number(dir, b, "d['eval']['window_step']") == Approx(worst).epsilon(1e-5));
 }
 
-TEST_CASE("auger report without gnuplot: a clear error naming the package, nothing written") {
-  const tools_test::TempDir tmp("report-nognuplot");
+TEST_CASE("auger report without gnuplot or dygraphs: a clear error naming the package, nothing written") {
+  const tools_test::TempDir tmp("report-missing");
   const std::string dir = tmp.path;
-  tools_test::write_text(dir + "/log.csv", generated_log());
-  const auto r = tools_test::run_auger(dir, "report " + dir + "/log.csv --out " + dir + "/rep --no-diagnose",
-                                       "AUGER_GNUPLOT=" + dir + "/no-such-gnuplot");
-  CHECK(r.code == 2);
-  CHECK_THAT(r.err, Catch::Contains("gnuplot") && Catch::Contains("gnuplot-nox"));
-  CHECK(tools_test::read_text(dir + "/rep/index.html").empty());
+  tools_test::write_text(dir + "/log.csv", tools_test::dry_friction_log());
+  struct Missing {
+    const char* env;  // pointing the tool at nothing
+    const char* package;
+  };
+  for (const Missing m : {Missing{"AUGER_GNUPLOT=", "gnuplot-nox"}, Missing{"AUGER_DYGRAPHS_DIR=", "libjs-dygraphs"}}) {
+    const auto r = tools_test::run_auger(dir, "report " + dir + "/log.csv --out " + dir + "/rep --no-diagnose",
+                                         m.env + dir + "/no-such-thing");
+    INFO(m.package << ": " << r.err);
+    CHECK(r.code == 2);
+    CHECK_THAT(r.err, Catch::Contains(m.package));
+    CHECK(tools_test::read_text(dir + "/rep/index.html").empty());
+  }
+}
+
+TEST_CASE("gnuplot strings are quoted: quotes, a backslash and a newline reach the SVG as text") {
+  using auger::wb::gp_quote;
+  CHECK(gp_quote("plain") == "'plain'");
+  CHECK(gp_quote("it's") == "'it''s'");
+  CHECK(gp_quote("a\nb") == "'a b'");
+  auger::wb::Gnuplot gp;
+  const std::string label = "O'Brien \"x\" \\ `date` $(id)\nsecond";
+  const std::string svg = gp.svg("quote", "set title " + gp_quote(label) + "\nplot x title " + gp_quote("it's"));
+  CHECK_THAT(svg, Catch::Contains("O&apos;Brien") || Catch::Contains("O'Brien"));
+  CHECK_THAT(svg, Catch::Contains("`date` $(id) second"));
 }

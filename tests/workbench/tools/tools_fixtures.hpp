@@ -7,10 +7,12 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <system_error>
 
 namespace tools_test {
 
@@ -48,8 +50,8 @@ struct TempDir {
   ~TempDir() {
     const char* keep = std::getenv("AUGER_KEEP_TEST_FILES");
     if (keep && *keep) return;
-    const int rc = std::system(("rm -rf " + shell_quote(path)).c_str());
-    (void)rc;
+    std::error_code ec;
+    std::filesystem::remove_all(path, ec);
   }
   TempDir(const TempDir&) = delete;
   TempDir& operator=(const TempDir&) = delete;

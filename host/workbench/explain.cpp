@@ -1,0 +1,803 @@
+// `auger explain`'s engine (workbench.hpp, docs/workbench.md "explain: the loop"): the loop a
+// researcher runs by hand (compare, diagnose, fit --add the best, diagnose again, ...) as one
+// search over model structures. At every step each candidate is fitted jointly with everything
+// chosen so far and the paper's parameters (never on top of a frozen earlier fit); an effect
+// that no longer pays for itself is dropped; near ties are carried as a small beam; the loop
+// stops when what remains is noise (held-out error at the noise floor, residuals white and
+// independent of the inputs) or when no candidate is significant, and then says what is left.
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <condition_variable>
+#include <cstdio>
+#include <map>
+#include <mutex>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "search.hpp"
+
+namespace auger::wb {
+
+using namespace search;
+
+namespace {
+
+constexpr const char* kCoulomb = "coulomb_friction";
+constexpr const char* kStickSlip = "stick_slip_friction";
+constexpr const char* kTerrainChange = "terrain_change";
+// A channel whose held-out error is at most this multiple of the noise floor is at the noise:
+// logs with no missing effect give 1.0-1.1 (docs/workbench.md "Calibration").
+constexpr double kAtNoise = 1.15;
+// Adding an effect must gain this much in BIC (strong evidence, Kass and Raftery) and lower the
+// held-out error by this share.
+constexpr double kAddBic = -10.0;
+constexpr double kAddHeldout = 0.02;
+
+struct LogCtx {
+  const Dataset* full = nullptr;
+  Dataset data;  // decimated for the search
+  ModelChoice choice;
+  Model base;    // the given model without its effects
+  ChannelValues noise{};
+  Segments all, train, held;
+};
+
+struct State {
+  std::vector<Part> parts;  // paper_params parts (if any) and effects, in the order added
+  double cost = std::numeric_limits<double>::infinity();
+  int n_params = 0;
+  ChannelValues held{kNaN, kNaN, kNaN, kNaN};
+  double h = kNaN;
+  bool flagged = false, implausible = false;
+  std::vector<ExplainStep> history;
+  FitOutcome fit;
+};
+
+// An effect part's label: terrain_change of one of several logs carries the log's number.
+std::string label(const Part& p, std::size_t n_logs) {
+  if (p.log >= 0 && n_logs > 1) return p.id + "@" + std::to_string(p.log + 1);
+  return p.id;
+}
+
+std::vector<std::string> effect_labels(const std::vector<Part>& parts, std::size_t n_logs) {
+  std::vector<std::string> out;
+  for (const Part& p : parts)
+    if (p.entry) out.push_back(label(p, n_logs));
+  return out;
+}
+
+std::string key_of(const std::vector<Part>& parts, std::size_t n_logs) {
+  std::vector<std::string> ids = effect_labels(parts, n_logs);
+  std::sort(ids.begin(), ids.end());
+  std::string k;
+  for (const auto& id : ids) k += id + ",";
+  bool paper = false;
+  for (const Part& p : parts) paper = paper || !p.entry;
+  return k + (paper ? "+paper" : "");
+}
+
+class Explainer {
+ public:
+  Explainer(const std::vector<Dataset>& logs, const std::vector<ModelChoice>& models, const ExplainOptions& o)
+      : opt_(o) {
+    if (logs.empty()) throw std::invalid_argument("explain needs at least one log");
+    if (models.size() != logs.size()) throw std::invalid_argument("explain: one model choice per log");
+    ctx_.resize(logs.size());
+    for (std::size_t i = 0; i < logs.size(); ++i) {
+      LogCtx& c = ctx_[i];
+      c.full = &logs[i];
+      c.choice = models[i];
+      c.base = without_effects(models[i].model);
+      c.noise = estimate_noise_floor(logs[i]);
+      c.data = decimate_for_search(logs[i]);
+      for (int ch = 0; ch < kChannels; ++ch)
+        if (c.data.active[static_cast<std::size_t>(ch)] && !std::isfinite(c.noise[static_cast<std::size_t>(ch)]))
+          throw std::runtime_error(logs[i].path + ": cannot estimate the noise floor of " + channel_name(ch) +
+                                   ": too few consecutive measurements");
+      if (c.data.gantry != ctx_.front().data.gantry || c.data.axis != ctx_.front().data.axis)
+        throw std::invalid_argument(logs[i].path + ": explain takes logs of one kind (robot, or one gantry axis)");
+      c.all = make_segments(c.data, search_segment_s(c.data));
+      split_segments(c.all, c.train, c.held);
+      if (c.all.empty()) throw std::runtime_error(logs[i].path + ": no measured pose to start a simulation from");
+    }
+    for (std::size_t i = 0; i < ctx_.size(); ++i)
+      add_log(train_, ctx_[i].data, *ctx_[i].full, ctx_[i].base, ctx_[i].noise, ctx_[i].train, static_cast<int>(i));
+    for (std::size_t i = 0; i < ctx_.size(); ++i)
+      add_log(all_, ctx_[i].data, *ctx_[i].full, ctx_[i].base, ctx_[i].noise, ctx_[i].all, static_cast<int>(i));
+  }
+
+  ExplainResult run() {
+    ExplainResult res;
+    for (const LogCtx& c : ctx_) {
+      res.logs.push_back(c.full->path);
+      res.noise_floor.push_back(c.noise);
+      for (int ch = 0; ch < kChannels; ++ch)
+        res.active[static_cast<std::size_t>(ch)] = res.active[static_cast<std::size_t>(ch)] || c.data.active[static_cast<std::size_t>(ch)];
+    }
+    // Step 0: the model as given (its own effects, if any, at their values).
+    State s0;
+    s0.parts = parts_of(ctx_.front().choice.model, ctx_.front().data);
+    evaluate(s0);
+    ExplainStep st0;
+    st0.effects = effect_labels(s0.parts, ctx_.size());
+    st0.fitted = fitted_of(s0, 1.0);
+    st0.heldout_ratio = s0.held;
+    st0.heldout_combined = s0.h;
+    s0.history.push_back(st0);
+    progress("explain: step 0, the model as given: held-out error %.2f times the noise floor", s0.h);
+
+    std::vector<State> beam{s0}, finished;
+    for (int step = 1; step <= opt_.max_effects + 1 && !beam.empty(); ++step) {
+      std::vector<State> next;
+      std::set<std::string> seen;
+      for (State& s : beam) {
+        if (at_noise(s) && tests_pass(s)) {
+          finished.push_back(s);
+          continue;
+        }
+        if (effects_in(s) >= opt_.max_effects) {
+          limit_reached_ = true;
+          finished.push_back(s);
+          continue;
+        }
+        std::vector<State> grown = expand(s, step);
+        if (grown.empty()) {
+          finished.push_back(s);
+          continue;
+        }
+        for (State& g : grown) {
+          const std::string k = key_of(g.parts, ctx_.size());
+          if (seen.insert(k).second) next.push_back(std::move(g));
+        }
+      }
+      std::stable_sort(next.begin(), next.end(), [](const State& a, const State& b) {
+        return score(a) < score(b);
+      });
+      if (static_cast<int>(next.size()) > opt_.beam) next.resize(static_cast<std::size_t>(opt_.beam));
+      // A structure that ended at the noise floor ends the search for every branch that is not
+      // already better than it: more effects could only match it.
+      double done_at_noise = std::numeric_limits<double>::infinity();
+      for (const State& f : finished)
+        if (at_noise(f)) done_at_noise = std::min(done_at_noise, score(f));
+      next.erase(std::remove_if(next.begin(), next.end(), [&](const State& x) { return score(x) >= done_at_noise; }),
+                 next.end());
+      beam = std::move(next);
+    }
+    for (State& s : beam) finished.push_back(s);
+    // The final model: the lowest held-out error, a simpler structure within 1 % of it preferred,
+    // plausible before flagged.
+    std::stable_sort(finished.begin(), finished.end(), [](const State& a, const State& b) {
+      return score(a) < score(b);
+    });
+    const State* best = &finished.front();
+    for (const State& s : finished)
+      if (s.implausible == best->implausible && s.h <= best->h * 1.01 && effects_in(s) < effects_in(*best)) best = &s;
+    finish(*best, res);
+    res.structures_tried = structures_;
+    return res;
+  }
+
+ private:
+  template <typename... A>
+  void detail(const char* fmt, A... a) {
+    if (opt_.progress_detail) progress(fmt, a...);
+  }
+  template <typename... A>
+  void progress(const char* fmt, A... a) {
+    if (!opt_.progress) return;
+    std::lock_guard<std::mutex> lock(print_);
+    std::fprintf(stderr, fmt, a...);
+    std::fprintf(stderr, "\n");
+  }
+
+  // Ranking of structures: the held-out error, an implausible fit (a value at or beyond its
+  // physical range) counted 15 % worse: a part of the answer often fits with the paper's
+  // parameters stretched, and the next step takes them back (from_scratch), so it must not be
+  // ruled out, but a plausible structure of nearly the same error goes first.
+  static double score(const State& s) { return s.h * (s.implausible ? 1.15 : 1.0); }
+
+  static int effects_in(const State& s) {
+    int n = 0;
+    for (const Part& p : s.parts) n += p.entry != nullptr;
+    return n;
+  }
+
+  bool at_noise(const State& s) const {
+    for (int c = 0; c < kChannels; ++c)
+      if (std::isfinite(s.held[static_cast<std::size_t>(c)]) && s.held[static_cast<std::size_t>(c)] > kAtNoise) return false;
+    return true;
+  }
+
+  bool tests_pass(const State& s) {
+    for (std::size_t i = 0; i < ctx_.size(); ++i) {
+      const Model m = build(ctx_[i].base, s.parts, static_cast<int>(i));
+      const ResidualTests t = residual_tests(m, *ctx_[i].full, ctx_[i].noise);
+      if (!t.white || !t.independent) return false;
+    }
+    return true;
+  }
+
+  // Held-out error of a structure, pooled over the logs per channel.
+  void heldout(State& s) const {
+    std::array<double, kChannels> sum{};
+    std::array<double, kChannels> n{};
+    for (std::size_t i = 0; i < ctx_.size(); ++i) {
+      const Model m = build(ctx_[i].base, s.parts, static_cast<int>(i));
+      const ErrorStats e = segments_error(m, ctx_[i].data, ctx_[i].held, ctx_[i].noise);
+      for (int c = 0; c < kChannels; ++c) {
+        const auto cc = static_cast<std::size_t>(c);
+        if (!e.n[cc] || !std::isfinite(e.ratio_to_noise[cc])) continue;
+        sum[cc] += e.ratio_to_noise[cc] * e.ratio_to_noise[cc] * static_cast<double>(e.n[cc]);
+        n[cc] += static_cast<double>(e.n[cc]);
+      }
+    }
+    double all = 0;
+    int k = 0;
+    for (int c = 0; c < kChannels; ++c) {
+      const auto cc = static_cast<std::size_t>(c);
+      s.held[cc] = n[cc] > 0 ? std::sqrt(sum[cc] / n[cc]) : kNaN;
+      if (n[cc] > 0) {
+        all += sum[cc] / n[cc];
+        ++k;
+      }
+    }
+    s.h = k ? std::sqrt(all / k) : kNaN;
+  }
+
+  // Cost on the training segments of a structure as it stands (no fit).
+  void evaluate(State& s) {
+    Eigen::VectorXd r;
+    Workspace w;
+    if (!residuals(train_, s.parts, r, w)) throw std::runtime_error("the given model cannot be simulated on this log");
+    s.cost = r.squaredNorm();
+    s.fit.parts = s.parts;
+    s.fit.cost = s.cost;
+    s.fit.r = r;
+    s.n_params = 0;
+    heldout(s);
+  }
+
+  std::vector<FittedEffect> fitted_of(const State& s, double s2_scale) const {
+    std::vector<FittedEffect> out;
+    FitOutcome plain;
+    plain.parts = s.parts;
+    const std::vector<FitParam> all = fit_params(s.fit.JtJ.size() ? s.fit : plain, s.fit.JtJ.size() ? s2_scale : 1.0);
+    std::size_t k = 0;
+    for (const Part& p : s.parts) {
+      FittedEffect fe;
+      fe.effect = p.entry ? label(p, ctx_.size()) : p.id;
+      for (std::size_t i = 0; i < p.specs.size() && k < all.size(); ++i) fe.params.push_back(all[k++]);
+      fe.description = describe(p, base_for(p));
+      if (!p.entry && ctx_.size() > 1) fe.description += " (terrain " + p.terrain + ")";
+      out.push_back(fe);
+    }
+    return out;
+  }
+
+  const Model& base_for(const Part& p) const {
+    for (const LogCtx& c : ctx_)
+      if (p.entry ? (p.log < 0 || &c == &ctx_[static_cast<std::size_t>(p.log)]) : c.base.terrain.name == p.terrain)
+        return c.base;
+    return ctx_.front().base;
+  }
+
+  // The paper's parameters of every terrain among the logs, free, before the effects.
+  std::vector<Part> with_paper(const std::vector<Part>& parts) const {
+    std::vector<Part> out;
+    for (const Part& p : parts)
+      if (!p.entry) out.push_back(p);
+    std::set<std::string> have;
+    for (const Part& p : out) have.insert(p.terrain);
+    for (const LogCtx& c : ctx_)
+      if (!have.count(c.base.terrain.name)) {
+        out.push_back(make_part(kPaperParams, c.base, c.data));
+        have.insert(c.base.terrain.name);
+      }
+    for (const Part& p : parts)
+      if (p.entry) out.push_back(p);
+    return out;
+  }
+
+  struct Task {
+    const State* state = nullptr;
+    std::string id;
+    int log = -1;  // terrain_change of one log when there are several
+    int wait_for = -1;  // stick-slip waits for the Coulomb task of the same state
+    FitOutcome first;   // the candidate fitted on top of the state held
+    FitOutcome out;     // then everything refitted jointly
+    bool joint = false;
+  };
+
+  std::vector<Task> tasks_for(const State& s) const {
+    std::vector<Task> t;
+    bool paper = false;
+    for (const Part& p : s.parts) paper = paper || !p.entry;
+    auto task = [&](const std::string& id, int log) {
+      Task x;
+      x.state = &s;
+      x.id = id;
+      x.log = log;
+      return x;
+    };
+    if (!paper) t.push_back(task(kPaperParams, -1));
+    for (const std::string& id : candidate_ids(ctx_.front().data, opt_.only)) {
+      if (id == kPaperParams) continue;
+      const bool per_log = id == kTerrainChange && ctx_.size() > 1;
+      for (int log = per_log ? 0 : -1; log < (per_log ? static_cast<int>(ctx_.size()) : 0); ++log) {
+        bool in = false;
+        for (const Part& p : s.parts) in = in || (p.id == id && p.log == log);
+        if (!in) t.push_back(task(id, log));
+      }
+    }
+    // Stick-slip last, after the Coulomb fit it starts from.
+    std::stable_partition(t.begin(), t.end(), [](const Task& x) { return x.id != kStickSlip; });
+    for (std::size_t i = 0; i < t.size(); ++i)
+      if (t[i].id == kStickSlip)
+        for (std::size_t j = 0; j < t.size(); ++j)
+          if (t[j].id == kCoulomb) t[i].wait_for = static_cast<int>(j);
+    return t;
+  }
+
+  // Runs fn(task index) for every index in `which` on the thread pool; tasks with wait_for run
+  // after that task is done.
+  template <typename Fn>
+  void run_parallel(std::vector<Task>& tasks, const std::vector<std::size_t>& which, Fn fn) {
+    std::atomic<std::size_t> next{0};
+    std::vector<char> done(tasks.size(), 1);
+    for (std::size_t i : which) done[i] = 0;
+    std::condition_variable cv;
+    std::mutex m;
+    auto worker = [&]() {
+      for (std::size_t n; (n = next++) < which.size();) {
+        const std::size_t i = which[n];
+        const int w = tasks[i].wait_for;
+        if (w >= 0) {
+          std::unique_lock<std::mutex> lock(m);
+          cv.wait(lock, [&] { return done[static_cast<std::size_t>(w)] != 0; });
+        }
+        fn(i);
+        {
+          std::lock_guard<std::mutex> lock(m);
+          done[i] = 1;
+        }
+        cv.notify_all();
+      }
+    };
+    std::vector<std::thread> pool;
+    for (int t = 1; t < std::max(1, opt_.threads); ++t) pool.emplace_back(worker);
+    worker();
+    for (auto& th : pool) th.join();
+  }
+
+  // Two passes: every candidate fitted on top of the state held (cheap: only its own
+  // parameters), then the promising ones refitted jointly with everything (the expensive part).
+  // Promising: the five best by training cost and any that gains at least 10 % of what the best
+  // gains.
+  void run_tasks(std::vector<Task>& tasks, const State& s, int step) {
+    std::vector<std::size_t> all(tasks.size());
+    for (std::size_t i = 0; i < tasks.size(); ++i) all[i] = i;
+    std::atomic<std::size_t> finished{0};
+    const std::vector<Part> state = with_paper(s.parts);
+    run_parallel(tasks, all, [&](std::size_t i) {
+      Task& t = tasks[i];
+      if (t.id == kPaperParams) {
+        t.out = refit(train_, state, 12, 1);
+        t.joint = true;
+      } else {
+        const FitOutcome* hint = t.wait_for >= 0 ? &tasks[static_cast<std::size_t>(t.wait_for)].first : nullptr;
+        t.first = fit_candidate(train_, state, candidate_part(t), 12, hint);
+      }
+      ++structures_;
+      detail("explain: step %d: %zu/%zu candidates fitted on top (%s, %d simulations)", step, ++finished,
+               tasks.size(), t.id.c_str(), (t.joint ? t.out : t.first).sims);
+    });
+    std::vector<std::pair<double, std::size_t>> gains;
+    double best_gain = 0;
+    for (std::size_t i = 0; i < tasks.size(); ++i) {
+      if (tasks[i].joint || !std::isfinite(tasks[i].first.cost)) continue;
+      const double g = s.cost - tasks[i].first.cost;
+      gains.push_back({g, i});
+      best_gain = std::max(best_gain, g);
+    }
+    std::sort(gains.begin(), gains.end(), std::greater<>());
+    std::vector<std::size_t> joint;
+    // (Even one that gains nothing held on top: the state's own fit may have absorbed it.)
+    for (std::size_t k = 0; k < gains.size(); ++k)
+      if (k < 5 || (gains[k].first > 0 && gains[k].first >= 0.1 * best_gain)) joint.push_back(gains[k].second);
+    for (Task& t : tasks) t.wait_for = -1;
+    finished = 0;
+    // Each effect's fit on the paper's model alone (the first step's), kept as a start.
+    if (s.parts.empty())
+      for (const Task& t : tasks)
+        if (!t.joint && std::isfinite(t.first.cost) && !t.first.parts.empty()) {
+          std::lock_guard<std::mutex> lock(alone_mutex_);
+          alone_[t.id + "@" + std::to_string(t.log)] = t.first.parts.back();
+        }
+    run_parallel(tasks, joint, [&](std::size_t i) {
+      Task& t = tasks[i];
+      t.out = refit_joint(train_, state, candidate_part(t), t.first, 10);
+      t.out = from_scratch(std::move(t.out));
+      t.joint = true;
+      ++structures_;
+      detail("explain: step %d: %zu/%zu refitted jointly (%s, %d simulations)", step, ++finished, joint.size(),
+               t.id.c_str(), t.out.sims);
+    });
+  }
+
+  // A fit whose paper parameters end at their physical range has taken up an effect it lacked
+  // (every force scaled up shortens every time constant). The same structure is refitted from
+  // the paper's values and each effect's own fit on the paper's model, where each effect can
+  // take its share back; the better fit is kept.
+  FitOutcome from_scratch(FitOutcome o) {
+    bool at_end = false;
+    for (const Part& p : o.parts) {
+      if (p.entry) continue;
+      std::vector<FitParam> f(p.specs.size());
+      for (std::size_t i = 0; i < p.specs.size(); ++i) f[i].value = p.values[i];
+      flag_params(f, p);
+      for (const FitParam& x : f) at_end = at_end || x.flag.find("physical range") != std::string::npos;
+    }
+    if (!at_end || !std::isfinite(o.cost)) return o;
+    std::vector<Part> start = o.parts;
+    for (Part& p : start) {
+      if (!p.entry) {
+        for (std::size_t i = 0; i < p.values.size(); ++i) p.values[i] = p.specs[i].default_value;
+        continue;
+      }
+      std::lock_guard<std::mutex> lock(alone_mutex_);
+      const auto it = alone_.find(p.id + "@" + std::to_string(p.log));
+      if (it == alone_.end()) continue;
+      for (std::size_t i = 0; i < p.values.size(); ++i)
+        if (std::find(p.free.begin(), p.free.end(), static_cast<int>(i)) != p.free.end()) p.values[i] = it->second.values[i];
+    }
+    FitOutcome again = refit(train_, start, 10, 1);
+    ++structures_;
+    again.sims += o.sims;
+    if (again.cost < o.cost) return again;
+    o.sims = again.sims;
+    return o;
+  }
+
+  Part candidate_part(const Task& t) const {
+    Part cand = make_part(t.id, ctx_.front().base, ctx_[static_cast<std::size_t>(std::max(t.log, 0))].data);
+    cand.log = t.log;
+    return cand;
+  }
+
+  double n_eff_of(const FitOutcome& o) const {
+    return effective_n(static_cast<double>(o.r.size()), lag1_autocorrelation(train_, o.r));
+  }
+
+  State make_state(const State& parent, FitOutcome o) const {
+    State s;
+    s.parts = o.parts;
+    s.cost = o.cost;
+    s.n_params = o.n_params;
+    s.fit = std::move(o);
+    s.history = parent.history;
+    heldout(s);
+    const double n = static_cast<double>(s.fit.r.size());
+    const double s2 = s.cost / std::max(1.0, n - s.n_params) * n / n_eff_of(s.fit);
+    for (const FittedEffect& fe : fitted_of(s, s2)) {
+      s.flagged = s.flagged || any_flag(fe.params);
+      s.implausible = s.implausible || any_implausible(fe.params);
+    }
+    return s;
+  }
+
+  double delta_bic(const State& from, const State& to, double n_eff) const {
+    return n_eff * std::log(std::max(to.cost, 1e-300) / std::max(from.cost, 1e-300)) +
+           (to.n_params - from.n_params) * std::log(n_eff);
+  }
+
+  // Every candidate on top of s, jointly; the significant ones, best first, each after the
+  // backward check.
+  std::vector<State> expand(const State& s, int step) {
+    std::vector<Task> tasks = tasks_for(s);
+    run_tasks(tasks, s, step);
+    std::vector<State> cands;
+    std::vector<std::string> added;
+    double n_eff = 0;
+    {
+      const FitOutcome* best = nullptr;
+      for (const Task& t : tasks)
+        if (t.joint && std::isfinite(t.out.cost) && (!best || t.out.cost < best->cost)) best = &t.out;
+      if (!best) return {};
+      n_eff = n_eff_of(*best);
+    }
+    std::vector<Candidate> ranked;
+    for (Task& t : tasks) {
+      if (!t.joint || !std::isfinite(t.out.cost)) continue;
+      State e = make_state(s, std::move(t.out));
+      Candidate c;
+      c.fitted.effect = t.log >= 0 && ctx_.size() > 1 ? t.id + "@" + std::to_string(t.log + 1) : t.id;
+      const std::vector<FittedEffect> f = fitted_of(e, 1.0);
+      for (const FittedEffect& fe : f)
+        if (fe.effect == c.fitted.effect) c.fitted = fe;
+      c.train_cost = e.cost;
+      c.delta_bic = delta_bic(s, e, n_eff);
+      c.heldout_rms = e.held;
+      c.heldout_ratio = e.h;
+      c.flagged = e.flagged;
+      c.implausible = e.implausible;
+      ranked.push_back(c);
+      cands.push_back(std::move(e));
+      added.push_back(c.fitted.effect);
+    }
+    // Significant: a strong BIC gain and a clear drop of the held-out error.
+    std::vector<std::size_t> order;
+    for (std::size_t i = 0; i < cands.size(); ++i)
+      if (ranked[i].delta_bic < kAddBic && cands[i].h < s.h * (1.0 - kAddHeldout)) order.push_back(i);
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+      return score(cands[a]) < score(cands[b]);
+    });
+    if (order.empty()) {
+      progress("explain: step %d: no candidate is significant (best held-out %.2f, the model %.2f times the noise)",
+               step, cands.empty() ? kNaN : std::min_element(cands.begin(), cands.end(), [](const State& a, const State& b) { return a.h < b.h; })->h,
+               s.h);
+      return {};
+    }
+    std::vector<Candidate> sig;
+    for (std::size_t i : order) sig.push_back(ranked[i]);
+    // Near ties of the best (as diagnose marks neighbours): carried along in the beam.
+    std::vector<char> tied(sig.size(), 0);
+    for (std::size_t k = 1; k < sig.size(); ++k) {
+      std::vector<Candidate> pair{sig.front(), sig[k]};
+      mark_near_ties(pair);
+      if (pair[1].near_tie) {
+        tied[k] = 1;
+        sig[k].tell_apart = pair[1].tell_apart;
+      }
+    }
+    // The best few go on (a beam: the next step may show that the second was the right one);
+    // near ties of the best are listed with it as alternatives.
+    std::vector<State> out;
+    for (std::size_t j = 0; j < order.size() && static_cast<int>(out.size()) < opt_.beam; ++j) {
+      const std::size_t i = order[j];
+      State e = backward(std::move(cands[i]), added[i], n_eff);
+      ExplainStep st;
+      st.index = static_cast<int>(s.history.size());
+      st.added = added[i];
+      st.dropped = dropped_;
+      st.effects = effect_labels(e.parts, ctx_.size());
+      st.heldout_ratio = e.held;
+      st.heldout_combined = e.h;
+      st.delta_bic = ranked[i].delta_bic;
+      st.flagged = e.flagged;
+      st.implausible = e.implausible;
+      const double n = static_cast<double>(e.fit.r.size());
+      st.fitted = fitted_of(e, e.cost / std::max(1.0, n - e.n_params) * n / n_eff_of(e.fit));
+      for (std::size_t k = 0; k < sig.size(); ++k)
+        if (k != j && (tied[k] || (j > 0 && k == 0))) {
+          st.alternatives.push_back(sig[k]);
+          if (j > 0 && k == 0) st.alternatives.back().tell_apart = sig[j].tell_apart;
+        }
+      e.history.push_back(st);
+      progress("explain: step %d: + %s: held-out error %.2f times the noise floor (was %.2f), delta BIC %.1f%s",
+               step, added[i].c_str(), e.h, s.h, ranked[i].delta_bic, dropped_.empty() ? "" : " (dropped some)");
+      out.push_back(std::move(e));
+    }
+    return out;
+  }
+
+  // Drops effects that no longer pay for themselves: removing one must cost more than its BIC
+  // penalty and raise the held-out error, or it goes.
+  State backward(State e, const std::string& just_added, double n_eff) {
+    dropped_.clear();
+    for (bool again = true; again;) {
+      again = false;
+      for (std::size_t i = 0; i < e.parts.size(); ++i) {
+        const Part& p = e.parts[i];
+        if (!p.entry || label(p, ctx_.size()) == just_added) continue;
+        std::vector<Part> without = e.parts;
+        without.erase(without.begin() + static_cast<std::ptrdiff_t>(i));
+        FitOutcome o = refit(train_, without, 10, 1);
+        ++structures_;
+        if (!std::isfinite(o.cost)) continue;
+        State w = make_state(e, std::move(o));
+        const double gain_bic = delta_bic(w, e, n_eff);  // negative: e is better than w
+        const bool pays = gain_bic < -2.0 && w.h > e.h * 1.002;
+        if (!pays) {
+          progress("explain: backward check: %s no longer pays for itself (delta BIC %.1f, held-out %.3f without, %.3f with); dropped",
+                   label(p, ctx_.size()).c_str(), gain_bic, w.h, e.h);
+          dropped_.push_back(label(p, ctx_.size()));
+          w.history = e.history;
+          e = std::move(w);
+          again = true;
+          break;
+        }
+      }
+    }
+    return e;
+  }
+
+  // The final model: refitted on every segment of every log, polished on the full logs as
+  // compare runs them, judged as compare judges it.
+  void finish(const State& s, ExplainResult& res) {
+    res.steps = s.history;
+    res.effects.clear();
+    for (const ExplainStep& st : s.history) {
+      if (st.added.empty()) continue;
+      // Ids in the order added, of the effects still in the final model.
+      const auto& fin = s.history.back().effects;
+      if (std::find(fin.begin(), fin.end(), st.added) != fin.end() &&
+          std::find(res.effects.begin(), res.effects.end(), st.added) == res.effects.end())
+        res.effects.push_back(st.added);
+    }
+    for (const std::string& id : s.history.back().effects)
+      if (std::find(res.effects.begin(), res.effects.end(), id) == res.effects.end()) res.effects.push_back(id);
+    res.final_heldout = s.held;
+    State f = s;
+    if (!s.parts.empty()) {
+      FitOutcome o = refit(all_, s.parts, 15, 1);
+      ++structures_;
+      if (std::isfinite(o.cost)) {
+        // Polish on the full logs (10 ms rows, 25 s segments), as fit does.
+        Problem pf;
+        for (std::size_t i = 0; i < ctx_.size(); ++i)
+          add_log(pf, *ctx_[i].full, *ctx_[i].full, ctx_[i].base, ctx_[i].noise, make_segments(*ctx_[i].full, 25.0),
+                  static_cast<int>(i));
+        for (LogTerm& t : pf.terms) t.options.n_sub = SimOptions{}.n_sub;
+        FitOutcome polished = levenberg_marquardt(pf, o.parts, 4);
+        if (std::isfinite(polished.cost)) {
+          Eigen::VectorXd r;
+          Workspace w;
+          if (residuals(all_, polished.parts, r, w)) {
+            o.parts = polished.parts;
+            o.r = r;
+            o.cost = r.squaredNorm();
+          }
+        }
+        f.parts = o.parts;
+        f.cost = o.cost;
+        f.n_params = o.n_params;
+        f.fit = std::move(o);
+      }
+    }
+    const double n = static_cast<double>(f.fit.r.size());
+    const double n_eff = f.fit.r.size() ? effective_n(n, lag1_autocorrelation(all_, f.fit.r)) : 1.0;
+    res.final_fitted = fitted_of(f, f.fit.r.size() ? f.cost / std::max(1.0, n - f.n_params) * n / n_eff : 1.0);
+    f.flagged = f.implausible = false;
+    for (const FittedEffect& fe : res.final_fitted) {
+      f.flagged = f.flagged || any_flag(fe.params);
+      f.implausible = f.implausible || any_implausible(fe.params);
+    }
+    std::array<double, kChannels> sum{}, cnt{};
+    for (std::size_t i = 0; i < ctx_.size(); ++i) {
+      ModelChoice mc = ctx_[i].choice;
+      mc.model = build(ctx_[i].base, f.parts, static_cast<int>(i));
+      mc.source = "explained from " + ctx_[i].full->path;
+      Prediction p;
+      simulate(mc.model, *ctx_[i].full, sim_options_for(mc.model), p);
+      const ErrorStats e = error_stats(*ctx_[i].full, p, ctx_[i].noise);
+      for (int c = 0; c < kChannels; ++c) {
+        const auto cc = static_cast<std::size_t>(c);
+        if (!e.n[cc]) continue;
+        sum[cc] += e.ratio_to_noise[cc] * e.ratio_to_noise[cc] * static_cast<double>(e.n[cc]);
+        cnt[cc] += static_cast<double>(e.n[cc]);
+      }
+      res.tests.push_back(residual_tests(mc.model, *ctx_[i].full, ctx_[i].noise));
+      if (i == 0) {
+        res.where = worst_windows(window_errors(mc.model, *ctx_[i].full, ctx_[i].noise, 5.0, sim_options_for(mc.model)), 5);
+        std::vector<RegimeRow> rows = error_by_regime(mc.model, *ctx_[i].full, p, ctx_[i].noise);
+        auto worst = [](const RegimeRow& r) {
+          double w = 0;
+          for (double v : r.ratio_to_noise)
+            if (std::isfinite(v)) w = std::max(w, v);
+          return w;
+        };
+        std::sort(rows.begin(), rows.end(), [&](const RegimeRow& a, const RegimeRow& b) { return worst(a) > worst(b); });
+        if (rows.size() > 3) rows.resize(3);
+        res.regimes = rows;
+      }
+      res.final_models.push_back(mc);
+    }
+    for (int c = 0; c < kChannels; ++c)
+      res.final_ratio[static_cast<std::size_t>(c)] = cnt[static_cast<std::size_t>(c)] > 0
+                                                          ? std::sqrt(sum[static_cast<std::size_t>(c)] / cnt[static_cast<std::size_t>(c)])
+                                                          : kNaN;
+    res.model_toml = model_file(f, res);
+    verdict(f, res);
+  }
+
+  std::string model_file(const State& f, const ExplainResult& res) const {
+    std::vector<FittedEffect> fe = res.final_fitted;
+    std::string text = model_to_toml(res.final_models.front().model, *ctx_.front().full, fe);
+    // Other terrains' re-identified parameters (several logs on different ground).
+    std::set<std::string> written{ctx_.front().base.terrain.name};
+    for (std::size_t i = 1; i < ctx_.size(); ++i) {
+      const TerrainParams& t = res.final_models[i].model.terrain;
+      if (!written.insert(t.name).second) continue;
+      std::ostringstream o;
+      o.precision(17);
+      o << "\n# paper_params (eqs. (15)-(17)) of " << t.name << ", re-identified from " << ctx_[i].full->path
+        << "\n[terrain." << t.name << "]\nsigma_long = " << t.sigma_long << "\nsigma_lat = " << t.sigma_lat
+        << "\nD_x = " << t.D_x << "\nD_y = " << t.D_y << "\nD_psi = " << t.D_psi << "\n";
+      // Before the first [[effect]] so the table is not read as part of it.
+      const auto at = text.find("\n[[effect]]");
+      text.insert(at == std::string::npos ? text.size() : at, o.str());
+    }
+    (void)f;
+    return text;
+  }
+
+  void verdict(const State& f, ExplainResult& res) const {
+    bool noise = true;
+    double worst = 0;
+    int worst_c = 0;
+    for (int c = 0; c < kChannels; ++c) {
+      const double v = res.final_ratio[static_cast<std::size_t>(c)];
+      if (!std::isfinite(v)) continue;
+      if (v > worst) {
+        worst = v;
+        worst_c = c;
+      }
+      noise = noise && v <= 1.2;
+    }
+    bool tests_ok = true;
+    std::string tests_words;
+    for (std::size_t i = 0; i < res.tests.size(); ++i) {
+      const ResidualTests& t = res.tests[i];
+      if (t.white && t.independent) continue;
+      tests_ok = false;
+      tests_words += (tests_words.empty() ? "" : "; ") + (res.tests.size() > 1 ? res.logs[i] + ": " : "") +
+                     describe_residual_tests(t);
+    }
+    std::string named;
+    for (const auto& id : res.effects) named += (named.empty() ? "" : ", ") + id;
+    if (named.empty()) named = "no effect";
+    char buf[1200];
+    if (noise && tests_ok) {
+      res.verdict_kind = "noise";
+      std::snprintf(buf, sizeof buf,
+                    "what remains is noise: with %s the error is at most %.2f times the noise floor in every channel "
+                    "and the residuals are white and independent of the inputs",
+                    named.c_str(), worst);
+    } else if (noise) {
+      res.verdict_kind = "near_noise";
+      std::snprintf(buf, sizeof buf,
+                    "at the noise floor in size (at most %.2f times, with %s), but not yet noise in form: %s; no "
+                    "further library effect is significant",
+                    worst, named.c_str(), tests_words.c_str());
+    } else {
+      res.verdict_kind = limit_reached_ ? "max_effects" : "unexplained";
+      const Window* w = res.where.empty() ? nullptr : &res.where.front();
+      std::string regime;
+      if (!res.regimes.empty())
+        regime = res.regimes.front().kind + " " + res.regimes.front().label;
+      std::snprintf(buf, sizeof buf,
+                    "%s: with %s the error is still %.2f times the noise floor in %s; it is largest at t = %.1f-%.1f s "
+                    "in %s (%.1f times) and in the regime '%s'%s%s",
+                    limit_reached_ ? "stopped at the effect limit (--max-effects) before the noise floor"
+                                   : "nothing more in the library explains what is left",
+                    named.c_str(), worst, channel_name(worst_c), w ? w->t_start_s : 0.0, w ? w->t_end_s : 0.0,
+                    w ? channel_name(w->dof) : "-", w ? w->ratio_to_noise : 0.0, regime.c_str(),
+                    tests_words.empty() ? "" : "; ", tests_words.c_str());
+    }
+    res.verdict = buf;
+    if (f.implausible) res.verdict += "; CAUTION: a fitted value is at or beyond its physical range (see the flags)";
+    else if (f.flagged) res.verdict += "; a fitted value is not identified by this log (see the flags)";
+  }
+
+  ExplainOptions opt_;
+  std::vector<LogCtx> ctx_;
+  Problem train_, all_;
+  std::mutex print_;
+  std::vector<std::string> dropped_;
+  std::map<std::string, Part> alone_;  // "id@log" -> the effect fitted alone on the paper's model
+  std::mutex alone_mutex_;
+  bool limit_reached_ = false;
+  std::atomic<int> structures_{0};
+};
+
+}  // namespace
+
+ExplainResult explain(const std::vector<Dataset>& logs, const std::vector<ModelChoice>& models,
+                      const ExplainOptions& options) {
+  Explainer e(logs, models, options);
+  return e.run();
+}
+
+}  // namespace auger::wb

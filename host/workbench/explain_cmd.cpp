@@ -1,0 +1,224 @@
+// `auger explain LOG... [--model FILE] [--out MODEL] [--max-effects N] [--beam N] [--json]`: the
+// workbench's whole loop in one command (docs/workbench.md "explain").
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <string>
+
+#include "args.hpp"
+#include "cli_text.hpp"
+#include "commands.hpp"
+#include "workbench.hpp"
+
+namespace auger::wb {
+
+std::vector<std::string> split_ids(const std::string& text);  // diagnose.cpp
+
+namespace {
+
+constexpr const char* kUsage =
+    "usage: auger explain LOG... [--model FILE] [--out MODEL] [--max-effects N] [--beam N]\n"
+    "                     [--only ID,...] [--threads N] [--json] [--progress | --quiet]\n"
+    "  the loop compare -> diagnose -> fit --add -> diagnose ... in one command: at every step each\n"
+    "  library effect is fitted jointly with the effects chosen so far and the paper's parameters;\n"
+    "  an effect that no longer pays for itself is dropped; near ties are carried along; it stops\n"
+    "  when what remains is noise (held-out error at the noise floor, residuals white and\n"
+    "  independent of the inputs) or no candidate is significant, and says what is left.\n"
+    "  Several logs of one robot are explained together (effects shared, the paper's parameters\n"
+    "  per terrain). --out writes the final model file. A line per step on stderr (--progress: also\n"
+    "  one per candidate fitted; --quiet: none).\n";
+
+// "1.23" for a channel the log has, "-" otherwise.
+std::string cell(double v) {
+  if (!std::isfinite(v)) return "-";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, v < 10 ? "%.2f" : "%.1f", v);
+  return buf;
+}
+
+}  // namespace
+
+int run_explain(int argc, char** argv) {
+  Args a;
+  if (!parse_args(argc, argv, {"--json", "--help", "--progress", "--quiet"},
+                  {"--model", "--out", "--max-effects", "--beam", "--only", "--threads"}, a))
+    return 2;
+  if (a.has("--help") || a.positional.empty()) {
+    std::fprintf(a.has("--help") ? stdout : stderr, "%s", kUsage);
+    return a.has("--help") ? 0 : 2;
+  }
+  auto count = [&](const char* opt, int dflt, int lo, int hi, int& out) {
+    if (!a.has(opt)) {
+      out = dflt;
+      return true;
+    }
+    const std::string v = a.get(opt);
+    char* end = nullptr;
+    const long n = std::strtol(v.c_str(), &end, 10);
+    if (v.empty() || *end != '\0' || n < lo || n > hi) {
+      std::fprintf(stderr, "auger explain: %s: '%s' is not a whole number from %d to %d\n", opt, v.c_str(), lo, hi);
+      return false;
+    }
+    out = static_cast<int>(n);
+    return true;
+  };
+  ExplainOptions o;
+  if (!count("--max-effects", 4, 1, 10, o.max_effects) || !count("--beam", 2, 1, 6, o.beam) ||
+      !count("--threads", 2, 1, 64, o.threads))
+    return 2;
+  o.only = split_ids(a.get("--only"));
+  for (const auto& id : o.only) {
+    bool known = false;
+    for (const auto& le : effect_library()) known |= le.id == id;
+    if (!known) {
+      std::fprintf(stderr, "auger explain: unknown effect '%s' (auger effects lists them)\n", id.c_str());
+      return 2;
+    }
+  }
+  try {
+    std::vector<Dataset> logs;
+    std::vector<ModelChoice> models;
+    double seconds = 0;
+    for (const auto& path : a.positional) {
+      logs.push_back(load_dataset(path));
+      seconds += logs.back().duration_s();
+    }
+    std::vector<std::string> warnings;
+    for (const auto& d : logs) {
+      models.push_back(choose_model(d, a.get("--model")));
+      const std::string w = terrain_warning(d, models.back());
+      if (!w.empty()) warnings.push_back(logs.size() > 1 ? d.path + ": " + w : w);
+    }
+    print_warnings("explain", warnings);
+    o.progress = a.has("--progress") || (!a.has("--quiet") && !a.has("--json"));
+    o.progress_detail = a.has("--progress");
+    const ExplainResult r = explain(logs, models, o);
+    const std::string out = a.get("--out");
+    if (!out.empty()) {
+      std::ofstream f(out);
+      if (!(f << r.model_toml)) {
+        std::fprintf(stderr, "auger explain: cannot write %s\n", out.c_str());
+        return 2;
+      }
+      f.close();
+      choose_model(logs.front(), out);  // it must load back
+    } else {
+      parse_model_file(r.model_toml, "(explained model)");
+    }
+    std::string logs_arg;
+    for (const auto& p : a.positional) logs_arg += " " + p;
+    const std::string next = out.empty() ? "auger explain" + logs_arg + " --out MODEL.toml, then auger compare" +
+                                               logs_arg.substr(0, logs_arg.find(' ', 1)) + " --model MODEL.toml"
+                                         : "auger compare" + std::string(" ") + a.positional.front() + " --model " + out;
+    if (a.has("--json")) {
+      Json j;
+      j.begin_object();
+      j.begin_array("logs");
+      for (std::size_t i = 0; i < r.logs.size(); ++i) {
+        j.begin_object().str("log", r.logs[i]).str("model", models[i].source).str("terrain", models[i].terrain);
+        j.channels("noise_floor", r.noise_floor[i], logs[i].active).end_object();
+      }
+      j.end_array();
+      j.begin_array("effects");
+      for (const auto& id : r.effects) j.str(nullptr, id);
+      j.end_array();
+      j.begin_array("steps");
+      for (const auto& s : r.steps) {
+        j.begin_object().num("step", s.index).str("added", s.added);
+        j.begin_array("dropped");
+        for (const auto& d : s.dropped) j.str(nullptr, d);
+        j.end_array().begin_array("effects");
+        for (const auto& e : s.effects) j.str(nullptr, e);
+        j.end_array();
+        j.channels("heldout_ratio", s.heldout_ratio, r.active).num("heldout_combined", s.heldout_combined);
+        j.num("delta_bic", s.delta_bic).boolean("flagged", s.flagged);
+        json_fitted(j, "fitted", s.fitted);
+        j.begin_array("alternatives");
+        for (const auto& c : s.alternatives) {
+          j.begin_object().str("effect", c.fitted.effect).num("heldout_ratio", c.heldout_ratio).num("delta_bic", c.delta_bic);
+          j.str("tell_apart", c.tell_apart).end_object();
+        }
+        j.end_array().end_object();
+      }
+      j.end_array();
+      j.begin_object("final");
+      j.channels("ratio", r.final_ratio, r.active).channels("heldout_ratio", r.final_heldout, r.active);
+      json_fitted(j, "fitted", r.final_fitted);
+      j.begin_array("residual_tests");
+      for (std::size_t i = 0; i < r.tests.size(); ++i) {
+        j.begin_object().str("log", r.logs[i]).boolean("white", r.tests[i].white).boolean("independent", r.tests[i].independent);
+        j.str("summary", describe_residual_tests(r.tests[i])).end_object();
+      }
+      j.end_array();
+      j.str("model_file", out);
+      j.end_object();
+      j.str("verdict_kind", r.verdict_kind).str("verdict", r.verdict);
+      json_windows(j, "where", r.where);
+      j.num("structures_fitted", r.structures_tried);
+      j.str("next", next);
+      j.begin_array("warnings");
+      for (const auto& w : warnings) j.str(nullptr, w);
+      j.end_array();
+      j.end_object();
+      std::printf("%s\n", j.text().c_str());
+      return 0;
+    }
+    std::printf("explain: %zu log%s, %.1f s in all\n", logs.size(), logs.size() > 1 ? "s" : "", seconds);
+    for (std::size_t i = 0; i < logs.size(); ++i) {
+      std::printf("  %s: %s, %.1f s; model: %s; noise floor", logs[i].path.c_str(), logs[i].gantry ? "gantry" : "robot",
+                  logs[i].duration_s(), models[i].source.c_str());
+      for (int c = 0; c < kChannels; ++c)
+        if (logs[i].active[static_cast<std::size_t>(c)])
+          std::printf(" %s %.3g %s", channel_name(c), r.noise_floor[i][static_cast<std::size_t>(c)], channel_unit(c));
+      std::printf("\n");
+    }
+    std::printf("\nheld-out error per channel, in multiples of the noise floor (1.00 = only noise left):\n");
+    std::printf("step  %-26s", "effect added");
+    for (int c = 0; c < kChannels; ++c)
+      if (r.active[static_cast<std::size_t>(c)]) std::printf(" %8s", channel_name(c));
+    std::printf("  delta BIC\n");
+    for (const auto& s : r.steps) {
+      std::printf("%4d  %-26s", s.index, s.added.empty() ? "(the model as given)" : ("+ " + s.added).c_str());
+      for (int c = 0; c < kChannels; ++c)
+        if (r.active[static_cast<std::size_t>(c)]) std::printf(" %8s", cell(s.heldout_ratio[static_cast<std::size_t>(c)]).c_str());
+      if (s.index > 0) std::printf("  %9.1f%s", s.delta_bic, s.flagged ? "  FLAGGED" : "");
+      std::printf("\n");
+      for (const auto& d : s.dropped) std::printf("      - %s dropped: it no longer pays for itself\n", d.c_str());
+      for (const auto& c : s.alternatives)
+        std::printf("      near tie: %s (held-out %s, delta BIC %.1f); the experiment that tells them apart: %s\n",
+                    c.fitted.effect.c_str(), times_noise(c.heldout_ratio).c_str(), c.delta_bic, c.tell_apart.c_str());
+    }
+    std::printf("Each step refits every effect chosen so far and the paper's parameters jointly with the candidate;\n"
+                "a candidate is taken when it gains more than 10 in BIC and lowers the held-out error by 2 %%, the\n"
+                "lowest held-out error first (a fit with a value at or beyond its physical range counted 15 %% worse).\n");
+    std::printf("\nfinal model, refitted on every segment; error as `auger compare --model` computes it (segments of\n"
+                "25 s, multiples of the noise floor):");
+    for (int c = 0; c < kChannels; ++c)
+      if (r.active[static_cast<std::size_t>(c)])
+        std::printf("  %s %s", channel_name(c), cell(r.final_ratio[static_cast<std::size_t>(c)]).c_str());
+    std::printf("\n");
+    for (const auto& e : r.final_fitted) {
+      std::printf("  %s: %s\n", e.effect.c_str(), e.description.c_str());
+      print_fitted(stdout, e, "    ");
+    }
+    std::printf("residual tests:");
+    for (std::size_t i = 0; i < r.tests.size(); ++i)
+      std::printf(" %s%s", r.tests.size() > 1 ? (r.logs[i] + ": ").c_str() : "", describe_residual_tests(r.tests[i]).c_str());
+    std::printf("\n\nverdict: %s\n", r.verdict.c_str());
+    if (r.verdict_kind != "noise" && !r.where.empty()) {
+      std::printf("where the model fails most (5 s windows):\n");
+      for (const auto& w : r.where)
+        std::printf("  t %7.1f - %7.1f s  %-7s  RMS %s = %s\n", w.t_start_s, w.t_end_s, channel_name(w.dof),
+                    with_unit(w.rms, channel_unit(w.dof), 3).c_str(), times_noise(w.ratio_to_noise).c_str());
+    }
+    if (!out.empty()) std::printf("model file written: %s\n", out.c_str());
+    std::printf("next: %s\n", next.c_str());
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "auger explain: %s\n", e.what());
+    return 2;
+  }
+}
+
+}  // namespace auger::wb

@@ -1,0 +1,331 @@
+// The engines of `diagnose` and `fit` (docs/workbench.md) on the search machinery of
+// search.hpp, and the model file they write.
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <condition_variable>
+#include <cstdio>
+#include <mutex>
+#include <sstream>
+#include <thread>
+
+#include "search.hpp"
+
+namespace auger::wb {
+
+using namespace search;
+
+namespace {
+// A held-out error above this multiple of the noise floor is beyond what logs without a missing
+// effect give (those stay within 1.0-1.1x: docs/workbench.md "Calibration").
+constexpr double kNominalMissRatio = 1.3;
+constexpr const char* kCoulomb = "coulomb_friction";
+constexpr const char* kStickSlip = "stick_slip_friction";
+}  // namespace
+
+// ---------------------------------------------------------------- diagnose
+namespace {
+
+// Ranking of candidates (docs/workbench.md "Ranking"): those that improve the held-out error
+// come first; among them plausible fits before implausible ones (a value outside or at the end
+// of its physical range); then by delta BIC.
+bool ranks_before(const Candidate& a, const Candidate& b, double nominal_heldout) {
+  const bool ga = a.heldout_ratio < nominal_heldout, gb = b.heldout_ratio < nominal_heldout;
+  if (ga != gb) return ga;
+  if (ga && a.implausible != b.implausible) return !a.implausible;
+  return a.delta_bic < b.delta_bic;
+}
+
+}  // namespace
+
+void mark_near_ties(std::vector<Candidate>& cands) {
+  // Near ties: neighbours whose held-out errors are within 10 % and BIC gains within 10 %, or
+  // whose held-out errors are within 2 % (they cannot be told apart on new data, whatever the
+  // training BIC says).
+  for (std::size_t i = 0; i + 1 < cands.size(); ++i) {
+    Candidate& a = cands[i];
+    Candidate& b = cands[i + 1];
+    const bool held_close = std::fabs(a.heldout_ratio - b.heldout_ratio) <= 0.1 * std::max(a.heldout_ratio, 1e-9);
+    const bool bic_close = std::fabs(a.delta_bic - b.delta_bic) <= std::max(10.0, 0.1 * std::fabs(a.delta_bic));
+    const bool held_same = std::fabs(a.heldout_ratio - b.heldout_ratio) <= 0.02 * std::max(a.heldout_ratio, 1e-9);
+    if (((held_close && bic_close) || held_same) && a.delta_bic < -10 && b.delta_bic < -10) {
+      a.near_tie = b.near_tie = true;
+      if (a.tell_apart.empty()) a.tell_apart = tell_apart(a.fitted.effect, b.fitted.effect);
+      b.tell_apart = tell_apart(a.fitted.effect, b.fitted.effect);
+    }
+  }
+}
+
+DiagnoseResult diagnose(const Dataset& full, ModelChoice mc, const DiagnoseOptions& opt) {
+  DiagnoseResult res;
+  res.model = std::move(mc);
+  const Model& given = res.model.model;
+  res.noise_floor = estimate_noise_floor(full);
+  const Dataset data = decimate_for_search(full);
+  for (int c = 0; c < kChannels; ++c)
+    if (data.active[static_cast<std::size_t>(c)] && !std::isfinite(res.noise_floor[static_cast<std::size_t>(c)]))
+      throw std::runtime_error(std::string("cannot estimate the noise floor of ") + channel_name(c) +
+                               ": too few consecutive measurements");
+  // A model file's own effects are refitted jointly with each candidate (never held at the
+  // values of an earlier fit: a second effect judged on top of a frozen first one can score
+  // worse than none).
+  const Model base = without_effects(given);
+  const std::vector<Part> state = parts_of(given, data);
+  res.refits_model = !state.empty();
+
+  Segments train, held;
+  split_segments(make_segments(data, search_segment_s(data)), train, held);
+  const Problem pr = make_problem(data, full, base, res.noise_floor, train);
+
+  {
+    Prediction p;  // as compare reports it
+    simulate(given, full, sim_options_for(given), p);
+    res.nominal = error_stats(full, p, res.noise_floor);
+  }
+  res.nominal_heldout_ratio = combined_ratio(segments_error(given, data, held, res.noise_floor), data);
+  Eigen::VectorXd r0;
+  Workspace work;
+  residuals(pr, state, r0, work);
+  const double cost0 = r0.squaredNorm();
+  const double n = static_cast<double>(r0.size());
+  res.n = n;
+
+  std::vector<std::string> ids;
+  for (const std::string& id : candidate_ids(data, opt.only)) {
+    bool in_model = false;
+    for (const Part& p : state) in_model = in_model || p.id == id;
+    if (!in_model) ids.push_back(id);
+  }
+  // Stick-slip starts from the Coulomb fit: fitted last, so the Coulomb fit is done (or nearly)
+  // when a thread reaches it and the threads rarely wait.
+  std::stable_partition(ids.begin(), ids.end(), [](const std::string& id) { return id != kStickSlip; });
+  const auto coulomb_at = std::find(ids.begin(), ids.end(), kCoulomb);
+  const std::size_t coulomb_i = static_cast<std::size_t>(coulomb_at - ids.begin());
+  std::vector<FitOutcome> outcomes(ids.size());
+  std::vector<char> fitted(ids.size(), 0);
+  std::condition_variable fitted_cv;
+  std::atomic<std::size_t> next{0};
+  std::mutex print;
+  std::size_t done = 0;
+  auto worker = [&]() {
+    for (std::size_t i; (i = next++) < ids.size();) {
+      const FitOutcome* coulomb_fit = nullptr;
+      if (ids[i] == kStickSlip && coulomb_i < ids.size()) {
+        std::unique_lock<std::mutex> lock(print);
+        fitted_cv.wait(lock, [&] { return fitted[coulomb_i] != 0; });
+        coulomb_fit = &outcomes[coulomb_i];  // not written again once fitted
+      }
+      const Part cand = make_part(ids[i], base, data);
+      FitOutcome o = state.empty() ? fit_candidate(pr, {}, cand, 20, coulomb_fit)
+                                   : fit_joint(pr, state, cand, 20, coulomb_fit);
+      std::lock_guard<std::mutex> lock(print);
+      ++done;
+      if (opt.progress)
+        std::fprintf(stderr, "diagnose: %zu/%zu %s fitted (%d simulations)\n", done, ids.size(), ids[i].c_str(), o.sims);
+      outcomes[i] = std::move(o);
+      fitted[i] = 1;
+      fitted_cv.notify_all();
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < std::max(1, opt.threads); ++t) pool.emplace_back(worker);
+  worker();
+  for (auto& t : pool) t.join();
+
+  // n_eff from the best candidate's residuals (what is left is closest to the noise there).
+  std::size_t best_i = 0;
+  for (std::size_t i = 0; i < outcomes.size(); ++i)
+    if (outcomes[i].cost < outcomes[best_i].cost) best_i = i;
+  const double rho = outcomes.empty() || !std::isfinite(outcomes[best_i].cost)
+                         ? lag1_autocorrelation(pr, r0)
+                         : lag1_autocorrelation(pr, outcomes[best_i].r);
+  res.n_eff = effective_n(n, rho);
+  const double scale = n / res.n_eff;
+
+  // The model's own effects were free in every joint fit: only the candidate's parameters are new.
+  int state_free = 0;
+  for (const Part& p : state) state_free += static_cast<int>(p.free.size());
+  std::vector<std::vector<Part>> best_parts;
+  for (std::size_t i = 0; i < outcomes.size(); ++i) {
+    const FitOutcome& o = outcomes[i];
+    if (!std::isfinite(o.cost)) continue;
+    Candidate c;
+    const double s2 = o.cost / std::max(1.0, n - o.n_params);
+    const std::vector<FitParam> all = fit_params(o, s2 * scale);
+    std::size_t k = 0;
+    for (std::size_t p = 0; p < o.parts.size(); ++p) {
+      FittedEffect fe;
+      fe.effect = o.parts[p].id;
+      for (std::size_t q = 0; q < o.parts[p].specs.size(); ++q) fe.params.push_back(all[k++]);
+      fe.description = describe(o.parts[p], base);
+      c.flagged = c.flagged || any_flag(fe.params);
+      c.implausible = c.implausible || any_implausible(fe.params);
+      if (p + 1 == o.parts.size()) c.fitted = fe;
+      else c.refitted.push_back(fe);
+    }
+    c.train_cost = o.cost;
+    // BIC with the effective sample size: n_eff ln(RSS / n) + k ln(n_eff), against the nominal.
+    c.delta_bic = res.n_eff * std::log(std::max(o.cost, 1e-300) / std::max(cost0, 1e-300)) +
+                  std::max(0, o.n_params - state_free) * std::log(res.n_eff);
+    const Model m = build(base, o.parts);
+    const ErrorStats he = segments_error(m, data, held, res.noise_floor);
+    c.heldout_rms = he.rms;
+    c.heldout_ratio = combined_ratio(he, data);
+    res.candidates.push_back(std::move(c));
+    best_parts.push_back(o.parts);
+  }
+  {
+    std::vector<std::size_t> order(res.candidates.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+      return ranks_before(res.candidates[a], res.candidates[b], res.nominal_heldout_ratio);
+    });
+    std::vector<Candidate> sorted;
+    std::vector<std::vector<Part>> parts_sorted;
+    for (std::size_t i : order) {
+      sorted.push_back(res.candidates[i]);
+      parts_sorted.push_back(best_parts[i]);
+    }
+    res.candidates = std::move(sorted);
+    best_parts = std::move(parts_sorted);
+  }
+  mark_near_ties(res.candidates);
+  // Significant: beyond what logs with no missing effect produce (docs/workbench.md,
+  // "Calibration"): the nominal model misses clearly on held-out data and the best candidate
+  // removes a clear share of that on held-out data, with a clear BIC gain.
+  const Candidate* best = res.candidates.empty() ? nullptr : &res.candidates.front();
+  const double nominal_excess = res.nominal_heldout_ratio;
+  res.significant = best && (nominal_excess > kNominalMissRatio ||
+                             (nominal_excess > 1.1 && best->delta_bic < -20 &&
+                              best->heldout_ratio < res.nominal_heldout_ratio * 0.9));
+  // Explained: the best candidate leaves at most 1.5x the noise, or removes 80 % of the excess.
+  const bool explained = best && res.significant &&
+                         (best->heldout_ratio < 1.5 ||
+                          res.nominal_heldout_ratio - best->heldout_ratio > 0.8 * (res.nominal_heldout_ratio - 1.0));
+  Model remaining_model = given;
+  if (res.significant && explained) remaining_model = build(base, best_parts.front());
+  res.where = worst_windows(window_errors(remaining_model, full, res.noise_floor, 5.0, sim_options_for(remaining_model)), 5);
+  char buf[700];
+  if (!best || !res.significant) {
+    std::snprintf(buf, sizeof buf,
+                  "no missing effect: the %s is within %.2f times the noise floor on held-out data and no "
+                  "library effect improves it beyond what logs without a missing effect show",
+                  res.refits_model ? "model" : "nominal model", res.nominal_heldout_ratio);
+  } else if (!explained) {
+    std::snprintf(buf, sizeof buf,
+                  "nothing in the library explains what remains: the best candidate (%s) leaves %.2f times the noise "
+                  "floor on held-out data (%s %.2f times); the model fails most at t = %.1f-%.1f s in %s",
+                  best->fitted.effect.c_str(), best->heldout_ratio, res.refits_model ? "model" : "nominal",
+                  res.nominal_heldout_ratio, res.where.empty() ? 0.0 : res.where[0].t_start_s,
+                  res.where.empty() ? 0.0 : res.where[0].t_end_s, res.where.empty() ? "-" : channel_name(res.where[0].dof));
+  } else {
+    std::snprintf(buf, sizeof buf, "most likely missing: %s (held-out error %.2f times the noise floor, %s %.2f times)%s%s",
+                  best->fitted.description.c_str(), best->heldout_ratio, res.refits_model ? "model" : "nominal",
+                  res.nominal_heldout_ratio,
+                  best->implausible ? "; CAUTION: its fit is implausible (a value at or beyond its physical range), and no plausible candidate improves the held-out error"
+                  : best->flagged ? "; a parameter of it is not identified by this log (see the flags)" : "",
+                  best->near_tie ? "; a near tie with the next candidate: see the experiment that tells them apart" : "");
+  }
+  res.verdict = buf;
+  return res;
+}
+
+// ---------------------------------------------------------------- fit
+FitResult fit(const Dataset& full, ModelChoice mc, const std::vector<std::string>& ids, bool progress) {
+  FitResult res;
+  res.before = mc;
+  const Model& base = mc.model;
+  res.noise_floor = estimate_noise_floor(full);
+  const Dataset data = decimate_for_search(full);
+  const Problem pr = make_problem(data, full, base, res.noise_floor, make_segments(data, search_segment_s(data)));
+  std::vector<Part> parts{make_part(kPaperParams, base, data)};
+  for (const auto& id : ids)
+    if (id != kPaperParams) parts.push_back(make_part(id, base, data));
+  // First each effect alone from the paper's parameters (so its start is sensible), then all
+  // together with the paper's parameters, eqs. (15)-(17).
+  for (std::size_t p = 1; p < parts.size(); ++p) {
+    FitOutcome o = fit_candidate(pr, {}, parts[p], 12);
+    if (std::isfinite(o.cost)) parts[p] = o.parts.back();
+    if (progress) std::fprintf(stderr, "fit: %s alone done (%d simulations)\n", parts[p].id.c_str(), o.sims);
+  }
+  FitOutcome o = research_change_times(pr, refit(pr, parts, 20), 20);
+  if (progress) std::fprintf(stderr, "fit: joint fit done (%d simulations)\n", o.sims);
+  // A last polish on the full log as compare runs it (10 ms rows, 25 s segments): the decimated
+  // log's 50 ms steps differ from it by a little, which matters once the fit is near the noise.
+  if (std::isfinite(o.cost) && full.size() != data.size()) {
+    Problem pf = pr;
+    LogTerm& t = pf.terms.front();
+    t.data = &full;
+    t.segs = make_segments(full, 25.0);
+    t.options.n_sub = SimOptions{}.n_sub;
+    build_index(t);  // force_noise as pr's: both from the full log
+    FitOutcome polished = levenberg_marquardt(pf, o.parts, 6);
+    if (progress) std::fprintf(stderr, "fit: polished on the full log (%d simulations)\n", polished.sims);
+    if (std::isfinite(polished.cost)) {
+      // Keep the decimated fit's statistics (same parameters, n_eff below from its residuals).
+      o.parts = polished.parts;
+      Eigen::VectorXd r;
+      Workspace work;
+      if (residuals(pr, o.parts, r, work)) {
+        o.r = r;
+        o.cost = r.squaredNorm();
+      }
+    }
+  }
+  if (!std::isfinite(o.cost)) throw std::runtime_error("the fit failed: no parameter set gives a valid model");
+  const double n = static_cast<double>(o.r.size());
+  const double n_eff = effective_n(n, lag1_autocorrelation(pr, o.r));
+  const std::vector<FitParam> all_params = fit_params(o, o.cost / std::max(1.0, n - o.n_params) * n / n_eff);
+  std::size_t k = 0;
+  for (const Part& p : o.parts) {
+    FittedEffect fe;
+    fe.effect = p.id;
+    for (std::size_t i = 0; i < p.specs.size(); ++i) fe.params.push_back(all_params[k++]);
+    fe.description = describe(p, base);
+    res.effects.push_back(fe);
+  }
+  res.after = mc;
+  res.after.model = build(base, o.parts);
+  res.after.source = "fitted from " + data.path;
+  // Reported as compare reports it (segments of 25 s), so the two commands agree.
+  Prediction p;
+  simulate(base, full, sim_options_for(base), p);
+  res.err_before = error_stats(full, p, res.noise_floor);
+  simulate(res.after.model, full, sim_options_for(res.after.model), p);
+  res.err_after = error_stats(full, p, res.noise_floor);
+  res.model_toml = model_to_toml(res.after.model, data, res.effects);
+  return res;
+}
+
+// ---------------------------------------------------------------- model file
+std::string model_to_toml(const Model& m, const Dataset& d, const std::vector<FittedEffect>& effects) {
+  std::ostringstream o;
+  o.precision(17);  // max_digits10: a fitted model reads back to the same doubles
+  o << "# Written by auger fit from " << d.path << " (docs/workbench.md). Schema: docs/model.md.\n";
+  o << "schema = 1\nomega_unit = \"rpm\"\nframe = \"rep103\"\n\n";
+  const RobotParams& r = m.robot;
+  if (d.gantry) {
+    o << "[gantry]\nmass_kg = " << r.m_kg << "\n\n";
+  } else {
+    o << "[robot]\nr_s_m = " << r.r_s_m << "\nphi_deg = " << r.phi_rad * 180 / kPi << "\nl_x_m = " << r.l_x_m
+      << "\nl_y_m = " << r.l_y_m << "\nalpha_deg = " << r.alpha_rad * 180 / kPi << "\nm_kg = " << r.m_kg
+      << "\nI_z_kgm2 = " << r.I_z_kgm2 << "\nomega_max_rpm = " << r.omega_max_rpm << "\n\n";
+  }
+  const TerrainParams& t = m.terrain;
+  o << "# paper_params (eqs. (15)-(17)), re-identified\n";
+  o << "[terrain." << (t.name.empty() ? "sand" : t.name) << "]\nsigma_long = " << t.sigma_long
+    << "\nsigma_lat = " << t.sigma_lat << "\nD_x = " << t.D_x << "\nD_y = " << t.D_y << "\n";
+  if (!d.gantry) o << "D_psi = " << t.D_psi << "\n";
+  for (const auto& e : m.effects) {
+    std::string words;
+    for (const auto& fe : effects)
+      if (fe.effect == e->id()) words = fe.description;
+    o << "\n";
+    if (!words.empty()) o << "# " << words << "\n";
+    o << "[[effect]]\nid = \"" << e->id() << "\"\n";
+    for (const auto& [name, value] : e->params()) o << name << " = " << value << "\n";
+  }
+  return o.str();
+}
+
+}  // namespace auger::wb

@@ -1,0 +1,12 @@
+"""auger_interop: measurement data from other tools into the robot log v1 (docs/log-format.md).
+
+`auger import` runs this package (python -m auger_interop import ...) in the project's venv
+(scripts/make-venv.sh): ROS 2 bags (rosbag2, sqlite3 or MCAP storage, read with the `rosbags`
+library, no ROS needed) and CSV files of other programs, mapped column by column (mapping.py),
+resampled onto the log's 100 Hz grid (resample.py) and written whole or not at all (robotlog.py).
+docs/formats.md is the user's guide.
+"""
+
+
+class InputError(Exception):
+    """Bad input: the message names the file and where in it (topic, line, key)."""

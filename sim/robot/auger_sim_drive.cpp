@@ -1,0 +1,195 @@
+// auger-sim-drive: a robot log as augerd writes it, made in lock-step (docs/robot-sim.md
+// "auger-sim-drive"): four modules running the real firmware image (or ideal screws), the
+// physical robot (Coriolis terms, the real lever arms' yaw, blocking of stopped screws on sand),
+// the simulated camera and IMU, driven by the host controller along a square or the helix
+// diagonal (as `auger cmd follow`), or open loop by a simulated joystick through eq. (4) (as
+// `auger cmd vel`). Batch, not paced: a 240 s log takes seconds.
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <random>
+#include <string>
+
+#include "auger/model_file.hpp"
+#include "scheduler.hpp"
+
+namespace {
+
+void usage(std::FILE* f) {
+  std::fprintf(f,
+               "usage: auger-sim-drive --out LOG [--drive square|diagonal|manual] [--terrain sand|frozen_grass]\n"
+               "       [--seconds S] [--seed N] [--screws fil|ideal] [--blocking-rpm X] [--model PATH]\n"
+               "       [--elf PATH] [--threads N] [--truth-out FILE] [--camera-corr-s S] [--camera-latency-s S]\n"
+               "A robot log in augerd's format from the lock-step scheduler: the firmware image in four\n"
+               "simulated modules (--screws ideal: first-order screws), the physical robot on the terrain\n"
+               "(blocking below --blocking-rpm, default 1.5 on sand, 0 = off), camera and IMU; driven by\n"
+               "the host controller around 0.5 m squares or back and forth along the helix diagonal, or by\n"
+               "a simulated joystick (manual: body velocities through eq. (4), as augerd's vel).\n");
+}
+
+double number(const char* opt, const char* text) {
+  char* end = nullptr;
+  const double v = std::strtod(text, &end);
+  if (end == text || *end != '\0' || !std::isfinite(v)) {
+    std::fprintf(stderr, "auger-sim-drive: %s: '%s' is not a number\n", opt, text);
+    std::exit(2);
+  }
+  return v;
+}
+
+// A person with a joystick: every 1.5-5 s a new stick position (stop, one DOF, or a mix; forward
+// more often than back), followed through a 0.5 s first-order smoothing; body velocities.
+class Joystick {
+ public:
+  explicit Joystick(std::uint64_t seed) : rng_(seed * 7919 + 101) {}
+  auger::Vec3 at(double t_s, double dt_s) {
+    std::uniform_real_distribution<double> u01(0, 1), hold(1.5, 5.0);
+    if (t_s >= next_s_) {
+      next_s_ = t_s + hold(rng_);
+      const double kind = u01(rng_);
+      target_.setZero();
+      const double u = -0.03 + 0.11 * u01(rng_), v = -0.06 + 0.12 * u01(rng_), r = -0.25 + 0.5 * u01(rng_);
+      if (kind < 0.15) {
+      } else if (kind < 0.5) {
+        const int d = static_cast<int>(u01(rng_) * 3.0) % 3;
+        target_[d] = d == 0 ? u : d == 1 ? v : r;
+      } else {
+        target_ = auger::Vec3(u, v, r);
+      }
+    }
+    stick_ += (1.0 - std::exp(-dt_s / 0.5)) * (target_ - stick_);
+    return stick_;
+  }
+
+ private:
+  std::mt19937_64 rng_;
+  double next_s_ = 0;
+  auger::Vec3 target_ = auger::Vec3::Zero(), stick_ = auger::Vec3::Zero();
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace auger;
+  std::string out_path, truth_path, drive = "square", terrain = "sand", screws = "fil";
+  std::string model_path = AUGER_DEFAULT_MODEL, elf = AUGER_DEFAULT_ELF;
+  double seconds = 240, blocking_rpm = -1;
+  std::uint64_t seed = 1;
+  int threads = 2;
+  sim::CameraParams camera;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto val = [&]() -> const char* {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "auger-sim-drive: %s needs a value\n", a.c_str());
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    if (a == "--out") out_path = val();
+    else if (a == "--truth-out") truth_path = val();
+    else if (a == "--drive") drive = val();
+    else if (a == "--terrain") terrain = val();
+    else if (a == "--screws") screws = val();
+    else if (a == "--model") model_path = val();
+    else if (a == "--elf") elf = val();
+    else if (a == "--seconds") seconds = number("--seconds", val());
+    else if (a == "--seed") seed = static_cast<std::uint64_t>(number("--seed", val()));
+    else if (a == "--blocking-rpm") blocking_rpm = number("--blocking-rpm", val());
+    else if (a == "--threads") threads = static_cast<int>(number("--threads", val()));
+    else if (a == "--camera-corr-s") camera.noise_corr_s = number("--camera-corr-s", val());
+    else if (a == "--camera-latency-s") camera.latency_s = number("--camera-latency-s", val());
+    else if (a == "-h" || a == "--help") {
+      usage(stdout);
+      return 0;
+    } else {
+      std::fprintf(stderr, "auger-sim-drive: unknown option '%s'\n", a.c_str());
+      usage(stderr);
+      return 2;
+    }
+  }
+  if (out_path.empty() || !(seconds > 0) || (drive != "square" && drive != "diagonal" && drive != "manual") ||
+      (screws != "fil" && screws != "ideal") || threads < 1) {
+    usage(stderr);
+    return 2;
+  }
+  try {
+    const ModelFile file = load_model_file(model_path);
+    const Model m = build_model(file, terrain);
+    ControllerConfig cc = controller_config(file, terrain);
+    // As the demo configures augerd (scripts/demo.sh): the null-space allocator keeps every screw
+    // above the blocking threshold once it engages.
+    cc.allocator.kind = AllocatorKind::null_space;
+    cc.allocator.omega_min_rpm = 3.0;
+    cc.allocator.engage_rpm = 1.5;
+    cc.gamma_per_s = Vec3::Constant(0.2);
+    Controller controller(m, cc);
+    sim::TruthParams tp;  // the physical robot: Coriolis terms, the real lever arms
+    if (blocking_rpm < 0) blocking_rpm = terrain == "sand" ? 1.5 : 0.0;
+    tp.blocking.on = blocking_rpm > 0;
+    tp.blocking.omega_block_rpm = blocking_rpm;
+    sim::SchedulerConfig sc;
+    sc.mode = screws == "fil" ? sim::ScrewMode::fil : sim::ScrewMode::ideal;
+    sc.elf_path = elf;
+    sc.threads = threads;
+    sc.seed = seed;
+    sc.terrain = terrain;
+    sc.camera = camera;
+    sim::Scheduler s(m, tp, sc);
+    std::ofstream log(out_path);
+    if (!log) {
+      std::fprintf(stderr, "auger-sim-drive: cannot write %s\n", out_path.c_str());
+      return 1;
+    }
+    s.set_log(&log);
+    s.set_keep_history(!truth_path.empty());
+    const double boot_s = 0.1;
+    if (drive == "manual") {
+      Joystick stick(seed);
+      s.set_command_source([&](double t_s, Vec4& cmd) {
+        if (t_s < boot_s) return false;
+        cmd = kinematic_screw_speeds_rpm(m, stick.at(t_s, sc.control_period_s));
+        const double peak = cmd.cwiseAbs().maxCoeff();
+        if (peak > 22.0) cmd *= 22.0 / peak;
+        return true;
+      });
+    } else {
+      s.set_controller(&controller);
+      std::vector<Waypoint> wps;
+      const double leg_s = drive == "square" ? 12.0 : 20.0;
+      const double diag = std::atan2(m.terrain.sigma_lat / m.terrain.D_y, m.terrain.sigma_long / m.terrain.D_x);
+      for (int k = 1; k * leg_s <= seconds; ++k) {
+        Vec3 p = Vec3::Zero();
+        if (drive == "square") {
+          static const double corners[4][2] = {{0.5, 0}, {0.5, 0.5}, {0, 0.5}, {0, 0}};
+          p << corners[(k - 1) % 4][0], corners[(k - 1) % 4][1], 0;
+        } else if (k % 2 == 1) {
+          p << 0.5 * std::cos(diag), 0.5 * std::sin(diag), 0;
+        }
+        wps.push_back({k * leg_s, p});
+      }
+      s.run_until(boot_s);
+      controller.set_waypoints(wps);
+      controller.set_enabled(true);
+    }
+    s.run_until(seconds);
+    log.close();
+    if (!log) {
+      std::fprintf(stderr, "auger-sim-drive: writing %s failed\n", out_path.c_str());
+      return 1;
+    }
+    if (!truth_path.empty()) {
+      std::ofstream tr(truth_path);
+      CsvLogWriter w(tr, {{"format", "auger-sim-truth v1"}}, {"t_s", "x_m", "y_m", "psi_rad"});
+      for (const auto& h : s.history()) {
+        const double row[4] = {h.t_s, h.eta_true[0], h.eta_true[1], h.eta_true[2]};
+        w.write_row(row, 4);
+      }
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "auger-sim-drive: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
