@@ -106,6 +106,8 @@ void CsvLogReader::parse_header() {
       if (colon != std::string::npos && colon > 0 &&
           body.find_first_of(" \t") > colon) {  // `key: value`, key without blanks
         metadata_.push_back({trim(body.substr(0, colon)), trim(body.substr(colon + 1)), line_});
+        // The format's own time key must be a clock's (merge aligns logs by it).
+        if (metadata_.back().key == "t0_unix_s") metadata_number(metadata_.back(), limits::kLogTime);
       }
       continue;  // free notes are comments
     }
@@ -132,6 +134,14 @@ void CsvLogReader::parse_header() {
   if (t_col_ < 0) throw LogError(name_, header_line_, 1, "header has no column 't_s'");
   fields_.resize(columns_.size());
   values_.resize(columns_.size());
+}
+
+double CsvLogReader::metadata_number(const MetadataEntry& m, const InputBound& bound) const {
+  double v = 0;
+  if (!parse_double(m.value, v))
+    throw LogError(name_, m.line, 1, "metadata '" + m.key + "' " + quote(m.value) + " is not a number");
+  if (const std::string e = check_bound(m.key.c_str(), v, bound); !e.empty()) throw LogError(name_, m.line, 1, e);
+  return v;
 }
 
 std::optional<std::string> CsvLogReader::meta(const std::string& key) const {
@@ -225,9 +235,13 @@ bool CsvLogReader::next() {
   }
   const double t = values_[static_cast<std::size_t>(t_col_)];
   if (!measured(t)) fail_at_field(t_col_, "empty t_s");
+  if (const std::string e = check_bound("t_s", t, limits::kLogTime); !e.empty()) fail_at_field(t_col_, e);
   if (!(t > last_t_s_))
     fail_at_field(t_col_, "t_s " + quote(fields_[static_cast<std::size_t>(t_col_)]) +
                               " does not increase (previous " + std::to_string(last_t_s_) + ")");
+  // Samples closer than a microsecond are no clock's (a log 3e-297 s long fitted a model).
+  if (t - last_t_s_ < limits::kMinSampleStepS)
+    fail_at_field(t_col_, "t_s " + quote(fields_[static_cast<std::size_t>(t_col_)]) + " is less than 1 us after the previous row");
   last_t_s_ = t;
   return true;
 }
@@ -340,12 +354,34 @@ auto robot_field(S& s, const RobotColumn& c) -> decltype(&s.t_s) {
 const std::vector<std::string> kRobotRequired = {"t_s", "omega_rpm_0", "omega_rpm_1", "omega_rpm_2",
                                                  "omega_rpm_3", "x_m", "y_m", "psi_rad"};
 
-// Reads a numeric field that the typed reader knows: text that is not a number is an error.
-double known_value(const CsvLogReader& csv, int col) {
+// Reads a numeric field that the typed reader knows: text that is not a number is an error, and
+// so is a value outside its physical bounds (input_limits.hpp; null: any finite number).
+double known_value(const CsvLogReader& csv, int col, const InputBound* bound = nullptr) {
   double v = csv.value(col);
   if (!measured(v) && !csv.field_text(col).empty() && !is_nan_text(csv.field_text(col)))
     csv.fail_at_field(col, "bad number " + quote(csv.field_text(col)));
+  if (bound && measured(v)) {
+    const std::string e = check_bound(csv.columns()[static_cast<std::size_t>(col)].c_str(), v, *bound);
+    if (!e.empty()) csv.fail_at_field(col, e);
+  }
   return v;
+}
+
+// The bounds of a robot-log column's quantity (null: none beyond a finite number).
+const InputBound* robot_bound(Field f) {
+  switch (f) {
+    case Field::omega:
+    case Field::cmd: return &limits::kScrewSpeed;
+    case Field::x:
+    case Field::y:
+    case Field::xd:
+    case Field::yd: return &limits::kPosition;
+    case Field::psi:
+    case Field::imu_psi:
+    case Field::psid: return &limits::kHeading;
+    case Field::imu_r: return &limits::kYawRate;
+    default: return nullptr;
+  }
 }
 
 std::optional<std::int64_t> known_integer(const CsvLogReader& csv, int col) {
@@ -390,7 +426,7 @@ bool RobotLogReader::next(RobotSample& s) {
     const int col = index_[k];
     if (col < 0) continue;
     if (double* f = robot_field(s, cols[k])) {
-      *f = known_value(csv_, col);
+      *f = known_value(csv_, col, robot_bound(cols[k].field));
     } else {
       auto& arr = cols[k].field == Field::status ? s.status : s.seq_ack;
       arr[static_cast<std::size_t>(cols[k].screw)] = known_integer(csv_, col);
@@ -447,6 +483,11 @@ GantryLogReader::GantryLogReader(std::istream& in, std::string name) : csv_(in, 
 
 void GantryLogReader::bind() {
   csv_.check_format(kGantryLogFormat);
+  for (const auto& m : csv_.metadata()) {
+    if (m.key == "mass_kg") csv_.metadata_number(m, limits::kGantryMass);
+    if (m.key == "axis" && m.value != "longitudinal" && m.value != "lateral")
+      throw LogError(csv_.name(), m.line, 1, "metadata 'axis' must be longitudinal or lateral, not " + quote(m.value));
+  }
   csv_.require_columns(kGantryColumns);
   for (std::size_t k = 0; k < kGantryColumns.size(); ++k) index_[k] = csv_.column_index(kGantryColumns[k]);
 }
@@ -454,10 +495,10 @@ void GantryLogReader::bind() {
 bool GantryLogReader::next(GantrySample& s) {
   if (!csv_.next()) return false;
   s.t_s = csv_.t_s();
-  s.omega_rpm[0] = known_value(csv_, index_[1]);
-  s.omega_rpm[1] = known_value(csv_, index_[2]);
-  s.force_n = known_value(csv_, index_[3]);
-  s.position_m = known_value(csv_, index_[4]);
+  s.omega_rpm[0] = known_value(csv_, index_[1], &limits::kScrewSpeed);
+  s.omega_rpm[1] = known_value(csv_, index_[2], &limits::kScrewSpeed);
+  s.force_n = known_value(csv_, index_[3], &limits::kForce);
+  s.position_m = known_value(csv_, index_[4], &limits::kPosition);
   return true;
 }
 

@@ -50,6 +50,8 @@ inline constexpr InputBound kScrewSpeed{"screw speed", "rpm", -327.67, 327.67,
 inline constexpr InputBound kWaypointTime{"waypoint time", "s", 0, 86400, "one day of motion"};
 // Gantry traction force: 100 times what a 16 kg module can push.
 inline constexpr InputBound kForce{"force", "N", -1e5, 1e5, "100x what the gantry's module can push"};
+// Gantry logs' `mass_kg` (module plus load; 16 kg in the paper).
+inline constexpr InputBound kGantryMass{"mass", "kg", 0.1, 1000, "a screw module with its load on the rail"};
 // Log times: t_s may be a Unix time (1.7e9 s); consecutive samples at least a microsecond apart.
 inline constexpr InputBound kLogTime{"log time", "s", -1e10, 1e10, "Unix times fit; beyond that is no clock"};
 inline constexpr double kMinSampleStepS = 1e-6;

@@ -18,6 +18,7 @@
 #include <utility>
 #include <vector>
 
+#include "auger/input_limits.hpp"
 #include "auger/measured.hpp"
 
 namespace auger {
@@ -65,6 +66,8 @@ class CsvLogReader {
   void require_columns(const std::vector<std::string>& required) const;
   // Throws LogError if `# format:` is present and differs from expected.
   void check_format(const std::string& expected) const;
+  // A metadata value as a number within bound; else LogError at its line.
+  double metadata_number(const MetadataEntry& m, const InputBound& bound) const;
 
   // Reads the next row; false at end of file. Checks field count, numbers, t_s. A last row cut
   // short (the file ends without its newline inside the row: a full disk, a killed writer) is
