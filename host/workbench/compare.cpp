@@ -3,6 +3,7 @@
 #include <string>
 
 #include "args.hpp"
+#include "checks.hpp"
 #include "commands.hpp"
 #include "workbench.hpp"
 
@@ -48,6 +49,9 @@ int run_compare(int argc, char** argv) {
   try {
     const Dataset d = load_dataset(a.positional[0]);
     const CompareResult r = compare(d, choose_model(d, a.get("--model")));
+    require_noise_floor(d, r.noise_floor);
+    require_finite(d, r.open_loop_err, r.model, "the open-loop run");
+    require_finite(d, r.segments_err, r.model, "segments of 25 s");
     if (a.has("--json")) {
       Json j;
       j.begin_object();

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "args.hpp"
+#include "checks.hpp"
 #include "commands.hpp"
 #include "report_plot.hpp"
 #include "workbench.hpp"
@@ -180,13 +181,24 @@ int report_usage(std::FILE* f, int code) {
   return code;
 }
 
-bool make_dir(const std::string& path) {
-  if (mkdir(path.c_str(), 0755) == 0 || errno == EEXIST) {
+// The output directory: created for this report if it does not exist; a report that fails
+// leaves nothing behind (the directory it created is removed, a directory that existed keeps
+// what it had: the page is written last, in one piece).
+struct OutputDir {
+  std::string path;
+  bool created = false;
+  bool done = false;
+  bool make() {
     struct stat st {};
-    return stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
+    if (stat(path.c_str(), &st) == 0) return S_ISDIR(st.st_mode);
+    if (mkdir(path.c_str(), 0755) != 0) return false;
+    created = true;
+    return true;
   }
-  return false;
-}
+  ~OutputDir() {
+    if (!done && created) rmdir(path.c_str());
+  }
+};
 
 // What the engine found: everything a section draws from.
 struct Findings {
@@ -412,15 +424,20 @@ int run_report(int argc, char** argv) {
 
   try {
     const Dataset d = load_dataset(a.positional[0]);  // bad input first: exit 2 naming the line
-    Gnuplot gp;                                        // then a missing gnuplot, before the work
-    if (!make_dir(out_dir)) {
+    const bool search = !a.has("--no-diagnose") || a.has("--effect");
+    if (search) require_fit_data(d, "report");
+    const ModelChoice mc = choose_model(d, a.get("--model"));
+    Gnuplot gp;  // then a missing gnuplot, before the work
+    OutputDir dir{out_dir};
+    if (!dir.make()) {
       std::fprintf(stderr, "auger report: cannot create directory '%s': %s\n", out_dir.c_str(), std::strerror(errno));
       return 2;
     }
     step("compare");
     Findings f(d);
-    const ModelChoice mc = choose_model(d, a.get("--model"));
     f.cmp = compare(d, mc);
+    require_noise_floor(d, f.cmp.noise_floor);
+    require_finite(d, f.cmp.segments_err, mc, "segments of 25 s");
     f.chans = active_channels(d);
     f.effect = a.get("--effect");
     f.effect_given = !f.effect.empty();
@@ -456,10 +473,13 @@ int run_report(int argc, char** argv) {
       page << "<p><small>Written by auger report; every number comes from the same engine as auger compare / "
            "diagnose / fit (docs/workbench.md).</small></p></body></html>\n";
       if (!page) {
+        page.close();
+        std::remove(page_path.c_str());
         std::fprintf(stderr, "auger report: cannot write '%s'\n", page_path.c_str());
         return 2;
       }
     }
+    dir.done = true;
     if (json) {
       Json j;
       j.begin_object().str("command", "report").str("log", d.path).str("out", page_path);
