@@ -105,12 +105,14 @@ test: deps check-protocol host asan fuzz-smoke board
 
 # Longer suites (docs/benchmarks.md has their times): the tests labelled `long` (flash-all into
 # four simulated modules), the parser fuzzer for 5 million inputs, the sand diagonal with the
-# firmware in the loop across the blocking thresholds, and the hidden-effect suite with 10
-# seeds per effect, at least 9 must pass (docs/workbench-suite.md).
+# firmware in the loop across the blocking thresholds, augerd's load test for a minute
+# (docs/daemon.md "Limits and abuse"), and the hidden-effect suite with 10 seeds per effect, at
+# least 9 must pass (docs/workbench-suite.md).
 test-full: test
 	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) ctest --output-on-failure -L long
 	$(MAKE) fuzz FUZZ_RUNS=5000000
 	$(BUILD)/tests/robot/test_robot_fil "[.full]"
+	$(BUILD)/tests/daemon/test_daemon "[.load_full]"
 	python3 tests/workbench/hidden/run_hidden.py --auger $(BUILD)/host/auger/auger \
 	  --sim-log $(BUILD)/sim/robot/auger-sim-log --seeds 10 --min-pass 9 --jobs 2
 

@@ -26,9 +26,9 @@ class WaypointLoader {
   // One request at a time: busy() says whether one is under way.
   void start(const std::string& path, const std::string& copy_path, double now_s);
   bool busy() const { return job_ != nullptr; }
-  // The result once the file is read, or after timeout_s (an error; the reading thread is left
-  // to finish on its own and its result dropped). Never blocks.
-  std::optional<Result> poll(double now_s, double timeout_s = 5.0);
+  // The result once the file is read, or after timeout_s an error (before `auger cmd` gives up
+  // at 5 s; the reading thread finishes on its own and its result is dropped). Never blocks.
+  std::optional<Result> poll(double now_s, double timeout_s = 4.0);
 
   // The reading itself, synchronous (the thread's body; tests call it directly).
   static Result load(const std::string& path, const std::string& copy_path);

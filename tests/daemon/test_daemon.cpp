@@ -544,6 +544,13 @@ TEST_CASE("augerd start-up errors", "[daemon]") {
                  {"--check"});
     CHECK(c.first == 2);
     CHECK(c.second.find("omega_min_rpm = 6") != std::string::npos);
+    // The service treats exactly that code as final, and the missing port's as worth a retry.
+    const std::string unit = slurp(AUGER_SOURCE_DIR "/packaging/augerd.service.in");
+    const auto k = unit.find("\nRestartPreventExitStatus=");
+    REQUIRE(k != std::string::npos);
+    const std::string codes = unit.substr(k + 26, unit.find('\n', k + 1) - (k + 26));
+    CHECK(codes == std::to_string(c.first));
+    CHECK(unit.find("\nRestart=on-failure\n") != std::string::npos);
   }
 
   auto r = run(good + "speed = 3\n");
@@ -845,6 +852,15 @@ void abuse(double duration_s) {
   for (int fd : idle) close(fd);
   kill(d.pid, SIGTERM);
   CHECK(d.wait_exit(3.0) == 0);
+  // augerd's own report at exit: its loop period and the log's syncs (docs/daemon.md).
+  std::string report;
+  for (const char* key : {"augerd: log:", "cycles; loop period"}) {
+    const std::string all = d.stderr_text();
+    auto b = all.rfind(key);
+    if (b == std::string::npos) continue;
+    b = all.rfind('\n', b) == std::string::npos ? 0 : all.rfind('\n', b) + 1;  // the whole line
+    report += "\n  " + all.substr(b, all.find('\n', b) - b);
+  }
 
   const Period per = log_period(dir + "/log", t_abuse0, t_abuse1);
   std::sort(stop_ms.begin(), stop_ms.end());
@@ -854,7 +870,7 @@ void abuse(double duration_s) {
                      << " / " << stop_ms.back() << " ms (min / median / max of " << stop_ms.size()
                      << "); flood answers " << flood_answers << ", short connections answered " << short_answers
                      << " of " << short_tries << ", follow refused " << follow_errors << ", sensor lines sent "
-                     << sensor_lines);
+                     << sensor_lines << report);
   INFO(st << "\n" << err_text);
   CHECK(st.find("fault=none") != std::string::npos);
   CHECK(st.find("mode=vel") != std::string::npos);
