@@ -7,8 +7,6 @@
 #include <functional>
 #include <map>
 
-#include <grp.h>
-
 #include <toml++/toml.h>
 
 #include "auger/effect.hpp"
@@ -76,12 +74,6 @@ struct Reader {
     if ((m & 0600) != 0600) fail(n, "'" + key + "' must give augerd's user read and write (0o600)");
     if (m & 0002) fail(n, "'" + key + "' must not let every user write the socket (others' w bit)");
     return m;
-  }
-  long group_id(const toml::node& n, const std::string& key, std::string& name) const {
-    name = text(n, key);
-    const struct group* g = ::getgrnam(name.c_str());
-    if (!g) fail(n, "'" + key + "': no group named '" + name + "' on this system");
-    return static_cast<long>(g->gr_gid);
   }
   const toml::table& table(const toml::node& n, const std::string& key) const {
     if (!n.is_table()) fail(n, "'" + key + "' must be a table [" + key + "]");
@@ -250,9 +242,15 @@ DaemonConfig load_daemon_config(const std::string& path) {
                      {"commands_mode", [&](const toml::node& v) { c.commands_mode = r.socket_mode(v, "commands_mode"); }},
                      {"sensors_mode", [&](const toml::node& v) { c.sensors_mode = r.socket_mode(v, "sensors_mode"); }},
                      {"commands_group",
-                      [&](const toml::node& v) { c.commands_gid = r.group_id(v, "commands_group", c.commands_group); }},
+                      [&](const toml::node& v) {
+                        c.commands_group = r.text(v, "commands_group");
+                        c.line_commands_group = r.line(v);
+                      }},
                      {"sensors_group",
-                      [&](const toml::node& v) { c.sensors_gid = r.group_id(v, "sensors_group", c.sensors_group); }},
+                      [&](const toml::node& v) {
+                        c.sensors_group = r.text(v, "sensors_group");
+                        c.line_sensors_group = r.line(v);
+                      }},
                      {"idle_timeout_s", [&](const toml::node& v) {
                         c.idle_timeout_s = r.number(v, "idle_timeout_s", 0.5, 3600);
                       }}});

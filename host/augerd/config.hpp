@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -35,10 +36,10 @@ struct DaemonConfig {
   std::string commands_socket;
   std::string sensors_socket;
   // Who may connect: the files' modes and groups, set explicitly (docs/daemon.md "Who may
-  // command the robot"). Group -1: augerd's own group.
+  // command the robot"). A group is a name resolved at start-up (the system's, not the file's
+  // business: check_startup); empty: augerd's own group.
   unsigned commands_mode = 0660, sensors_mode = 0660;
-  long commands_gid = -1, sensors_gid = -1;
-  std::string commands_group, sensors_group;  // the names given, for messages
+  std::string commands_group, sensors_group;
   double idle_timeout_s = 30.0;               // a client that sends no line this long is closed
 
   // [log]
@@ -50,6 +51,7 @@ struct DaemonConfig {
   // Lines of keys whose values are checked against each other after the model file's defaults
   // (0: not in this file).
   int line_omega_min = 0, line_omega_max = 0, line_period = 0, line_telemetry_timeout = 0;
+  int line_commands_group = 0, line_sensors_group = 0;
 };
 
 // Reads and checks the file, including the model file (so that a bad model is a start-up error
@@ -66,5 +68,8 @@ struct StartupProblem {
   std::string text;
 };
 std::vector<StartupProblem> check_startup(const DaemonConfig& config);
+
+// A socket's group id: -1 for none given (augerd's own), nullopt for a name this system lacks.
+std::optional<long> socket_gid(const std::string& group_name);
 
 }  // namespace augerd

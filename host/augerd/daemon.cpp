@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstring>
 #include <ctime>
+#include <stdexcept>
 
 #include <sched.h>
 #include <sys/mman.h>
@@ -41,16 +42,21 @@ Daemon::Daemon(const DaemonConfig& cfg, auger::Model model)
 Daemon::~Daemon() = default;
 
 void Daemon::open_sockets() {
+  auto gid = [](const std::string& group) {
+    const std::optional<long> g = socket_gid(group);
+    if (!g) throw std::runtime_error("no group named '" + group + "'");
+    return *g;
+  };
   LineServerOptions o;
   o.idle_timeout_s = cfg_.idle_timeout_s;
   o.mode = cfg_.commands_mode;
-  o.gid = cfg_.commands_gid;
+  o.gid = gid(cfg_.commands_group);
   o.reserved_allows = reserved_command;  // `stop` always gets through (docs/daemon.md)
   commands_ = std::make_unique<LineServer>(cfg_.commands_socket, o);
   LineServerOptions s;
   s.idle_timeout_s = cfg_.idle_timeout_s;
   s.mode = cfg_.sensors_mode;
-  s.gid = cfg_.sensors_gid;
+  s.gid = gid(cfg_.sensors_group);
   sensors_ = std::make_unique<LineServer>(cfg_.sensors_socket, s);
 }
 

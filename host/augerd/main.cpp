@@ -57,6 +57,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "augerd: configuration error: %s\n", e.what());
     return kExitConfig;
   }
+  if (check_only) std::printf("augerd: %s: the configuration and the model are valid\n", config_path.c_str());
   // Before anything is opened: a configuration certain to fail is reported whole, once, and
   // exits 2 (final for the service); a missing port may appear later (exit 1, retried).
   int code = kExitOk;
@@ -66,7 +67,7 @@ int main(int argc, char** argv) {
   }
   if (code != kExitOk) return code;
   if (check_only) {
-    std::printf("augerd: %s is valid and everything start-up needs is in place\n", config_path.c_str());
+    std::printf("augerd: everything start-up needs is in place\n");
     return kExitOk;
   }
   struct sigaction sa{};

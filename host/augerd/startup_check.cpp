@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <cstring>
 
+#include <grp.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -39,6 +40,13 @@ bool in_group(long gid) {
 }
 
 }  // namespace
+
+std::optional<long> socket_gid(const std::string& name) {
+  if (name.empty()) return -1;
+  const struct group* g = ::getgrnam(name.c_str());
+  if (!g) return std::nullopt;
+  return static_cast<long>(g->gr_gid);
+}
 
 std::vector<StartupProblem> check_startup(const DaemonConfig& c) {
   std::vector<StartupProblem> out;
@@ -74,11 +82,11 @@ std::vector<StartupProblem> check_startup(const DaemonConfig& c) {
   struct Sock {
     const char* key;
     const std::string& path;
-    long gid;
     const std::string& group;
+    int group_line;
   };
-  for (const Sock& s : {Sock{"commands", c.commands_socket, c.commands_gid, c.commands_group},
-                        Sock{"sensors", c.sensors_socket, c.sensors_gid, c.sensors_group}}) {
+  for (const Sock& s : {Sock{"commands", c.commands_socket, c.commands_group, c.line_commands_group},
+                        Sock{"sensors", c.sensors_socket, c.sensors_group, c.line_sensors_group}}) {
     const std::string dir = parent_of(s.path);
     struct stat st;
     if (::stat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode))
@@ -87,7 +95,11 @@ std::vector<StartupProblem> check_startup(const DaemonConfig& c) {
       final(std::string(s.key) + " socket " + s.path + ": directory " + dir + " is not writable by augerd's user");
     if (::lstat(s.path.c_str(), &st) == 0 && !S_ISSOCK(st.st_mode))
       final(std::string(s.key) + " socket " + s.path + " exists and is not a socket (augerd would not replace it)");
-    if (!in_group(s.gid))
+    const std::optional<long> gid = socket_gid(s.group);
+    if (!gid)
+      final(c.path + ":" + std::to_string(s.group_line) + ": " + s.key + "_group: no group named '" + s.group +
+            "' on this system (packaging/auger.sysusers creates auger-sensors)");
+    else if (!in_group(*gid))
       final(std::string(s.key) + " socket: augerd's user is not in group '" + s.group +
             "', so it cannot give the socket that group (SupplementaryGroups= in the service)");
   }

@@ -232,8 +232,10 @@ TEST_CASE("configuration: related values are ordered, socket modes and groups ex
     const DaemonConfig c = load_daemon_config(p);
     CHECK(c.sensors_mode == 0620);
     CHECK(c.commands_mode == 0660);  // the default, whatever the umask
-    CHECK(c.sensors_gid == long(getegid()));
-    CHECK(c.commands_gid == -1);
+    CHECK(c.sensors_group == group_name);
+    CHECK(socket_gid(c.sensors_group) == long(getegid()));
+    CHECK(socket_gid(c.commands_group) == -1);  // none given: augerd's own
+    CHECK_FALSE(socket_gid("no-such-group-x"));
     CHECK(c.idle_timeout_s == 2);
     unlink(p.c_str());
   }
@@ -248,8 +250,8 @@ TEST_CASE("configuration: related values are ordered, socket modes and groups ex
             ":14:16: 'sensors_mode' must not let every user write"},
         Bad{replace(kGood, "sensors = \"/run/s.sock\"", "sensors = \"/run/s.sock\"\ncommands_mode = 0o060"),
             "'commands_mode' must give augerd's user read and write"},
-        Bad{replace(kGood, "sensors = \"/run/s.sock\"", "sensors = \"/run/s.sock\"\nsensors_group = \"no-such-group-x\""),
-            ":14:17: 'sensors_group': no group named 'no-such-group-x'"}}) {
+        Bad{replace(kGood, "sensors = \"/run/s.sock\"", "sensors = \"/run/s.sock\"\nsensors_group = 7"),
+            ":14:17: 'sensors_group' must be a string"}}) {
     expect_config_error(b.text, b.where);
   }
 }
@@ -302,5 +304,12 @@ TEST_CASE("start-up checks: what augerd --check must catch before anything is op
   x = c;
   x.sensors_socket = d + "/nodir/s.sock";
   CHECK(problems(x).second.find("directory " + d + "/nodir does not exist") != std::string::npos);
+  x = c;
+  x.path = "/etc/augerd.toml";
+  x.sensors_group = "no-such-group-x";
+  x.line_sensors_group = 17;
+  r = problems(x);
+  CHECK(r.first);  // the group must be created (sysusers) before augerd can start
+  CHECK(r.second.find("/etc/augerd.toml:17: sensors_group: no group named 'no-such-group-x'") != std::string::npos);
   [[maybe_unused]] int rc = std::system(("rm -rf '" + d + "'").c_str());
 }
