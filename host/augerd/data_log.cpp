@@ -65,7 +65,6 @@ void DataLog::write(const auger::RobotSample& sample, const std::vector<double>&
     return;
   }
   queued_rows_ += row;
-  ++queued_n_;
 }
 
 void DataLog::event(const std::string& line) {
@@ -170,7 +169,22 @@ void DataLog::sync(double now_s) {
   stats_.fsync_max_s = std::max(stats_.fsync_max_s, dt);
 }
 
-void DataLog::write_rows(const std::string& rows, std::size_t n_rows, double now_s) {
+void DataLog::write_rows(const std::string& rows, double now_s) {
+  // The rows of one flush, split where the file reaches rotate_bytes: a file ends with the first
+  // row at or beyond that size, as when the loop wrote every row itself.
+  for (std::size_t begin = 0; begin < rows.size();) {
+    std::size_t end = rows.size();
+    if (fd_ >= 0 && size_ < cfg_.rotate_bytes && cfg_.rotate_bytes - size_ < end - begin) {
+      const std::size_t nl = rows.find('\n', begin + std::size_t(cfg_.rotate_bytes - size_) - 1);
+      if (nl != std::string::npos) end = nl + 1;
+    }
+    const std::string chunk = rows.substr(begin, end - begin);
+    write_chunk(chunk, std::size_t(std::count(chunk.begin(), chunk.end(), '\n')), now_s);
+    begin = end;
+  }
+}
+
+void DataLog::write_chunk(const std::string& rows, std::size_t n_rows, double now_s) {
   if (n_rows == 0) return;
   auto lost = [&](std::uint64_t n) {
     lost_since_failure_ += n;
@@ -219,7 +233,6 @@ void DataLog::write_rows(const std::string& rows, std::size_t n_rows, double now
 void DataLog::run() {
   for (;;) {
     std::string rows, events;
-    std::size_t n = 0;
     bool stopping;
     {
       std::unique_lock<std::mutex> lock(mutex_);
@@ -227,8 +240,6 @@ void DataLog::run() {
                      [&] { return stop_ || !queued_events_.empty(); });
       rows.swap(queued_rows_);
       events.swap(queued_events_);
-      n = queued_n_;
-      queued_n_ = 0;
       stopping = stop_;
     }
     const double now = clock_s(CLOCK_MONOTONIC);
@@ -237,7 +248,7 @@ void DataLog::run() {
       std::size_t w = 0;
       if (write_all(events_fd_, events, w)) ::fdatasync(events_fd_);
     }
-    write_rows(rows, n, now);
+    write_rows(rows, now);
     if (fd_ >= 0 && now - synced_at_s_ >= cfg_.fsync_interval_s) sync(now);
     if (stopping) break;
   }

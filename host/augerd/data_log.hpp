@@ -77,7 +77,8 @@ class DataLog {
  private:
   void run();
   bool start_file(double now_s);  // writer thread; false: could not (and nothing left behind)
-  void write_rows(const std::string& rows, std::size_t n_rows, double now_s);
+  void write_rows(const std::string& rows, double now_s);
+  void write_chunk(const std::string& rows, std::size_t n_rows, double now_s);
   void fail(const char* what, int err, double now_s);
   bool write_all(int fd, const std::string& data, std::size_t& written);
   void sync(double now_s);
@@ -90,7 +91,6 @@ class DataLog {
   mutable std::mutex mutex_;
   std::condition_variable wake_;
   std::string queued_rows_, queued_events_;
-  std::size_t queued_n_ = 0;
   std::uint64_t dropped_full_queue_ = 0;
   bool stop_ = false;
   std::thread thread_;

@@ -155,6 +155,12 @@ std::string talk(const std::string& sock, const std::string& lines, int answers)
   return got;
 }
 
+// A number of a status line ("key=value"); NaN if absent.
+double status_value(const std::string& st, const std::string& key) {
+  const auto k = st.find(" " + key + "=");
+  return k == std::string::npos ? NAN : std::atof(st.c_str() + k + key.size() + 2);
+}
+
 std::string now_unix() {
   timespec ts;
   clock_gettime(CLOCK_REALTIME, &ts);
@@ -294,6 +300,26 @@ TEST_CASE("augerd runs four simulated modules in real time and stops safely", "[
       CHECK(a.rfind("error: '" + fifo + "': not a regular file", 0) == 0);
       CHECK(a.find("\nstatus t_s=") != std::string::npos);
       CHECK(SimRig::wall_s() - t0 < 0.2);
+    }
+    // A camera pose within every bound that the estimate cannot follow: a jump of 1000 km at a
+    // micrometre's confidence (a camera switching frames). The EKF's speed would leap to 1e5 m/s;
+    // the controller latches its fault, augerd stops every screw and says so, never arrived;
+    // the estimate stays the last good one; enable clears the fault.
+    {
+      REQUIRE(talk(cmd, "goto 0.1 0 0\n", 1) == "ok");
+      CHECK(talk(sens, "pose " + now_unix() + " 1000000 0 0 0.000001 0.000001 0.000001\n", -1) == "");
+      std::string st;
+      CHECK(wait_until([&] { return (st = talk(cmd, "status\n", 1)).find("fault=estimator") != std::string::npos; }, 1.0));
+      INFO(st << "\n" << d.stderr_text());
+      CHECK(st.find("enabled=0") != std::string::npos);
+      CHECK(st.find("mode=stopped") != std::string::npos);
+      CHECK(st.find("arrived=0") != std::string::npos);
+      CHECK(std::fabs(status_value(st, "x_m")) < 0.05);  // the last good estimate, near the start
+      CHECK(wait_until([&] { return all_stopped(rig); }, 0.5));
+      CHECK(d.stderr_text().find("estimator diverged: estimated u_mps") != std::string::npos);
+      CHECK(talk(cmd, "vel 0.01 0 0\n", 1).rfind("error: not enabled", 0) == 0);
+      REQUIRE(talk(cmd, "enable\n", 1) == "ok");
+      CHECK(talk(cmd, "status\n", 1).find("fault=none") != std::string::npos);
     }
     REQUIRE(talk(cmd, "stop\n", 1) == "ok");
     CHECK(talk(sens, "imu " + now_unix() + " 0.1 0.0\npose " + now_unix() + " 0 0 0 0.01 0.01 0.01\n", -1) == "");
@@ -711,11 +737,6 @@ Period log_period(const std::string& log_dir, double t0, double t1) {
   return p;
 }
 
-double status_t_s(const std::string& st) {
-  const auto k = st.find("t_s=");
-  return k == std::string::npos ? NAN : std::atof(st.c_str() + k + 4);
-}
-
 // The load test (issue 13): augerd drives the robot (vel, kept alive on one connection) while its
 // sockets are abused the ways that froze it before, all at once, for duration_s: more idle
 // connections than the cap on both sockets, clients flooding `status all` (some never reading
@@ -735,7 +756,7 @@ void abuse(double duration_s) {
   Keeper feeder(cmd, "vel 0.03 0 0", 0.1);
   REQUIRE(wait_until([&] { return all_driven(rig); }, 2.0));
   sleep_s(1.0);
-  const double t_abuse0 = status_t_s(talk(cmd, "status\n", 1));
+  const double t_abuse0 = status_value(talk(cmd, "status\n", 1), "t_s");
 
   std::atomic<bool> run{true};
   std::vector<std::thread> threads;
@@ -846,7 +867,7 @@ void abuse(double duration_s) {
     talk(cmd, "enable\n", 1);
     sleep_s(0.1);
   }
-  const double t_abuse1 = status_t_s(talk(cmd, "status\n", 1));
+  const double t_abuse1 = status_value(talk(cmd, "status\n", 1), "t_s");
   run = false;
   for (auto& t : threads) t.join();
   for (int fd : idle) close(fd);
