@@ -118,14 +118,15 @@ test: deps check-protocol host venv asan fuzz-smoke board
 # Longer suites (docs/benchmarks.md has their times): the tests labelled `long` (flash-all into
 # four simulated modules; auger report --explain in headless Chromium with a screenshot), the
 # parser fuzzer for 5 million inputs, the sand diagonal with the firmware in the loop across the
-# blocking thresholds, the hidden-effect suite with 10 seeds per effect, at least 9 must pass, and
-# the explain suite: 7 pair classes x 5 seeds (at least 4 of 5 each), 2 clean logs, the
-# firmware-in-the-loop chain on sand and frozen grass, square / diagonal / manual
-# (docs/workbench-suite.md).
+# blocking thresholds, augerd's load test for a minute (docs/daemon.md "Limits and abuse"), the
+# hidden-effect suite with 10 seeds per effect, at least 9 must pass, and the explain suite:
+# 7 pair classes x 5 seeds (at least 4 of 5 each), 2 clean logs, the firmware-in-the-loop chain
+# on sand and frozen grass, square / diagonal / manual (docs/workbench-suite.md).
 test-full: test
 	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) ctest --output-on-failure -L long
 	$(MAKE) fuzz FUZZ_RUNS=5000000
 	$(BUILD)/tests/robot/test_robot_fil "[.full]"
+	$(BUILD)/tests/daemon/test_daemon "[.load_full]"
 	python3 tests/workbench/hidden/run_hidden.py --auger $(BUILD)/host/auger/auger \
 	  --sim-log $(BUILD)/sim/robot/auger-sim-log --seeds 10 --min-pass 9 --jobs 2
 	python3 tests/workbench/hidden/run_explain.py --auger $(BUILD)/host/auger/auger \

@@ -42,7 +42,10 @@ set(CMAKE_FIND_ROOT_PATH_MODE_PACKAGE BOTH)
 # Test programs of this build run under qemu-user (no binfmt registration needed).
 find_program(AUGER_QEMU_AARCH64 qemu-aarch64)
 if(AUGER_QEMU_AARCH64)
-  set(CMAKE_CROSSCOMPILING_EMULATOR ${AUGER_QEMU_AARCH64} -L /usr/aarch64-linux-gnu)
+  # The cross ld.so with its own libc, not the arm64 multiarch one its cache would name
+  # (tests/board/qemu_augerd.sh says why).
+  set(CMAKE_CROSSCOMPILING_EMULATOR ${AUGER_QEMU_AARCH64} -L /usr/aarch64-linux-gnu
+      -E LD_LIBRARY_PATH=/usr/aarch64-linux-gnu/lib)
 endif()
 
 # pkg-config (pkg_check_modules) must describe the arm64 libraries, not the build machine's.

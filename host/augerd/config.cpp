@@ -68,6 +68,17 @@ struct Reader {
     if (!n.is_boolean()) fail(n, "'" + key + "' must be true or false");
     return *n.value<bool>();
   }
+  int line(const toml::node& n) const { return static_cast<int>(n.source().begin.line); }
+  // A socket file's mode: an integer (TOML writes octal as 0o660), owner read-write, and never
+  // writable by every user (that would let anyone command the robot).
+  unsigned socket_mode(const toml::node& n, const std::string& key) const {
+    const double v = number(n, key, 0, 0777);
+    const auto m = static_cast<unsigned>(v);
+    if (double(m) != v) fail(n, "'" + key + "' must be an integer mode such as 0o660");
+    if ((m & 0600) != 0600) fail(n, "'" + key + "' must give augerd's user read and write (0o600)");
+    if (m & 0002) fail(n, "'" + key + "' must not let every user write the socket (others' w bit)");
+    return m;
+  }
   const toml::table& table(const toml::node& n, const std::string& key) const {
     if (!n.is_table()) fail(n, "'" + key + "' must be a table [" + key + "]");
     return *n.as_table();
@@ -209,6 +220,7 @@ DaemonConfig load_daemon_config(const std::string& path) {
                       [&](const toml::node& v) { c.identity_timeout_s = r.number(v, "identity_timeout_s", 0.1, 30); }},
                      {"telemetry_timeout_s", [&](const toml::node& v) {
                         c.telemetry_timeout_s = r.number(v, "telemetry_timeout_s", 0.02, 0.25);
+                        c.line_telemetry_timeout = r.line(v);
                       }}});
            }},
           {"model",
@@ -225,7 +237,11 @@ DaemonConfig load_daemon_config(const std::string& path) {
            [&](const toml::node& n) {
              const toml::table& t = r.table(n, "control");
              r.keys(t, "[control]",
-                    {{"period_s", [&](const toml::node& v) { c.period_s = r.number(v, "period_s", 0.002, 0.1); }},
+                    {{"period_s",
+                      [&](const toml::node& v) {
+                        c.period_s = r.number(v, "period_s", 0.002, 0.1);
+                        c.line_period = r.line(v);
+                      }},
                      {"vel_timeout_s",
                       [&](const toml::node& v) { c.vel_timeout_s = r.number(v, "vel_timeout_s", 0.05, 5); }},
                      {"realtime_priority",
@@ -261,11 +277,13 @@ DaemonConfig load_daemon_config(const std::string& path) {
                      {"omega_max_rpm",
                       [&](const toml::node& v) {
                         double x = r.number(v, "omega_max_rpm", 0.1, 327);
+                        c.line_omega_max = r.line(v);
                         control_overrides.push_back([&c, x] { c.controller.allocator.omega_max_rpm = x; });
                       }},
                      {"omega_min_rpm",
                       [&](const toml::node& v) {
                         double x = r.number(v, "omega_min_rpm", 0, 327);
+                        c.line_omega_min = r.line(v);
                         control_overrides.push_back([&c, x] { c.controller.allocator.omega_min_rpm = x; });
                       }},
                      {"engage_rpm",
@@ -306,9 +324,25 @@ DaemonConfig load_daemon_config(const std::string& path) {
                         c.commands_socket = resolve(path, r.text(v, "commands"));
                         have_cmd = true;
                       }},
-                     {"sensors", [&](const toml::node& v) {
+                     {"sensors",
+                      [&](const toml::node& v) {
                         c.sensors_socket = resolve(path, r.text(v, "sensors"));
                         have_sens = true;
+                      }},
+                     {"commands_mode", [&](const toml::node& v) { c.commands_mode = r.socket_mode(v, "commands_mode"); }},
+                     {"sensors_mode", [&](const toml::node& v) { c.sensors_mode = r.socket_mode(v, "sensors_mode"); }},
+                     {"commands_group",
+                      [&](const toml::node& v) {
+                        c.commands_group = r.text(v, "commands_group");
+                        c.line_commands_group = r.line(v);
+                      }},
+                     {"sensors_group",
+                      [&](const toml::node& v) {
+                        c.sensors_group = r.text(v, "sensors_group");
+                        c.line_sensors_group = r.line(v);
+                      }},
+                     {"idle_timeout_s", [&](const toml::node& v) {
+                        c.idle_timeout_s = r.number(v, "idle_timeout_s", 0.5, 3600);
                       }}});
            }},
           {"ros2", [&](const toml::node& n) { read_ros2(r, r.table(n, "ros2"), path, c.ros2); }},
@@ -323,8 +357,12 @@ DaemonConfig load_daemon_config(const std::string& path) {
                       [&](const toml::node& v) {
                         c.log_rotate_bytes = std::uint64_t(r.number(v, "rotate_bytes", 4096, 1e12));
                       }},
-                     {"flush_interval_s", [&](const toml::node& v) {
+                     {"flush_interval_s",
+                      [&](const toml::node& v) {
                         c.log_flush_interval_s = r.number(v, "flush_interval_s", 0.01, 1.0);
+                      }},
+                     {"fsync_interval_s", [&](const toml::node& v) {
+                        c.log_fsync_interval_s = r.number(v, "fsync_interval_s", 0.1, 3600);
                       }}});
            }}});
 
@@ -353,6 +391,22 @@ DaemonConfig load_daemon_config(const std::string& path) {
   for (auto& f : control_overrides) f();
   if (allocator_text == "pinv") c.controller.allocator.kind = auger::AllocatorKind::pseudo_inverse;
   if (allocator_text == "nullspace") c.controller.allocator.kind = auger::AllocatorKind::null_space;
+
+  // Values that must be ordered, wherever each came from (this file, the model file, Table 5).
+  auto from = [&](int line) { return line > 0 ? path + ":" + std::to_string(line) : "the model file " + c.model_file; };
+  const auto& a = c.controller.allocator;
+  if (a.omega_min_rpm > a.omega_max_rpm)
+    throw ConfigError(path, std::max(c.line_omega_min ? c.line_omega_min : c.line_omega_max, 1), 1,
+                      "omega_min_rpm = " + shortest(a.omega_min_rpm) + " (" + from(c.line_omega_min) +
+                          ") is above omega_max_rpm = " + shortest(a.omega_max_rpm) + " (" + from(c.line_omega_max) +
+                          "): no screw speed satisfies both");
+  if (c.telemetry_timeout_s < 2 * c.period_s)
+    throw ConfigError(path, std::max(c.line_telemetry_timeout ? c.line_telemetry_timeout : c.line_period, 1), 1,
+                      "telemetry_timeout_s = " + shortest(c.telemetry_timeout_s) + " is shorter than two loop periods (" +
+                          "period_s = " + shortest(c.period_s) + "): every module would count as lost");
+  if (c.vel_timeout_s < 2 * c.period_s)
+    throw ConfigError(path, std::max(c.line_period, 1), 1,
+                      "vel_timeout_s = " + shortest(c.vel_timeout_s) + " is shorter than two loop periods");
   return c;
 }
 

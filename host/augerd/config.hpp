@@ -4,7 +4,9 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "auger/controller.hpp"
 #include "auger/model.hpp"
@@ -34,18 +36,44 @@ struct DaemonConfig {
   // [sockets]
   std::string commands_socket;
   std::string sensors_socket;
+  // Who may connect: the files' modes and groups, set explicitly (docs/daemon.md "Who may
+  // command the robot"). A group is a name resolved at start-up (the system's, not the file's
+  // business: check_startup); empty: augerd's own group.
+  unsigned commands_mode = 0660, sensors_mode = 0660;
+  std::string commands_group, sensors_group;
+  double idle_timeout_s = 30.0;               // a client that sends no line this long is closed
 
   // [log]
   std::string log_dir;
   std::uint64_t log_rotate_bytes = 64ull << 20;
   double log_flush_interval_s = 1.0;
+  double log_fsync_interval_s = 10.0;
+
+  // Lines of keys whose values are checked against each other after the model file's defaults
+  // (0: not in this file).
+  int line_omega_min = 0, line_omega_max = 0, line_period = 0, line_telemetry_timeout = 0;
+  int line_commands_group = 0, line_sensors_group = 0;
 
   // [ros2]: the ROS 2 interface on DDS, off unless enabled (docs/ros2.md)
   auger::ros2::Settings ros2;
 };
 
 // Reads and checks the file, including the model file (so that a bad model is a start-up error
-// too). Throws auger::ConfigError ("file:line:column: message").
+// too) and the order of related values (omega_min_rpm <= omega_max_rpm, ...). Throws
+// auger::ConfigError ("file:line:column: message").
 DaemonConfig load_daemon_config(const std::string& path);
+
+// What start-up will need from the system, checked before anything is opened (`augerd --check`
+// and every start): the ports exist and are character devices we may read and write, the log
+// directory exists and is writable, the socket paths are usable and distinct, the sockets'
+// groups can be given. Each problem is one line naming the path.
+struct StartupProblem {
+  bool final;  // a configuration error (exit 2: the service is not restarted); else it may pass later
+  std::string text;
+};
+std::vector<StartupProblem> check_startup(const DaemonConfig& config);
+
+// A socket's group id: -1 for none given (augerd's own), nullopt for a name this system lacks.
+std::optional<long> socket_gid(const std::string& group_name);
 
 }  // namespace augerd

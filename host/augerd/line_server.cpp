@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include <fcntl.h>
+#include <poll.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
@@ -13,10 +14,6 @@
 
 namespace augerd {
 namespace {
-
-constexpr std::size_t kMaxLine = 4096;        // longer is not a protocol line: drop the client
-constexpr std::size_t kMaxPendingOut = 65536;  // a client that never reads is dropped
-constexpr std::size_t kMaxClients = 32;
 
 [[noreturn]] void fail(const std::string& path, const std::string& what) {
   throw std::runtime_error("socket " + path + ": " + what);
@@ -32,7 +29,7 @@ sockaddr_un address(const std::string& path) {
 
 }  // namespace
 
-LineServer::LineServer(const std::string& path) : path_(path) {
+LineServer::LineServer(const std::string& path, LineServerOptions options) : path_(path), opt_(std::move(options)) {
   const sockaddr_un a = address(path);
   struct stat st;
   if (::lstat(path.c_str(), &st) == 0) {
@@ -46,11 +43,26 @@ LineServer::LineServer(const std::string& path) : path_(path) {
   }
   fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
   if (fd_ < 0) fail(path, std::strerror(errno));
-  if (::bind(fd_, reinterpret_cast<const sockaddr*>(&a), sizeof a) != 0 || ::listen(fd_, 8) != 0) {
-    const int err = errno;
+  // The file is created owner-only (no window with the umask's mode), then given its group and
+  // mode: who may connect is the configuration's decision, not the umask's.
+  const mode_t old_umask = ::umask(0177);
+  const int bound = ::bind(fd_, reinterpret_cast<const sockaddr*>(&a), sizeof a);
+  const int bind_err = errno;
+  ::umask(old_umask);
+  auto give_up = [&](const std::string& what) {
     ::close(fd_);
-    fail(path, std::strerror(err));
-  }
+    fd_ = -1;
+    if (bound == 0) ::unlink(path.c_str());
+    fail(path, what);
+  };
+  if (bound != 0) give_up(std::strerror(bind_err));
+  if (opt_.gid >= 0 && ::chown(path.c_str(), static_cast<uid_t>(-1), static_cast<gid_t>(opt_.gid)) != 0)
+    give_up("cannot give it group " + std::to_string(opt_.gid) + ": " + std::strerror(errno));
+  if (::chmod(path.c_str(), static_cast<mode_t>(opt_.mode)) != 0)
+    give_up("cannot set its mode: " + std::string(std::strerror(errno)));
+  // A burst of connections waits in the kernel's queue (capped by net.core.somaxconn) rather
+  // than being refused; serve() takes them as slots free.
+  if (::listen(fd_, SOMAXCONN) != 0) give_up(std::strerror(errno));
 }
 
 LineServer::~LineServer() {
@@ -61,14 +73,12 @@ LineServer::~LineServer() {
   }
 }
 
-std::string LineServer::peer_text(int fd) {
-  ucred cred{};
-  socklen_t len = sizeof cred;
-  if (::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) != 0) return "unknown client";
+std::string LineServer::current_peer() const {
+  if (!current_) return "unknown client";
   std::string comm = "?";
-  std::ifstream f("/proc/" + std::to_string(cred.pid) + "/comm");
+  std::ifstream f("/proc/" + std::to_string(current_->pid) + "/comm");
   if (f) std::getline(f, comm);
-  return "pid " + std::to_string(cred.pid) + " (" + comm + ") uid " + std::to_string(cred.uid);
+  return "pid " + std::to_string(current_->pid) + " (" + comm + ") uid " + std::to_string(current_->uid);
 }
 
 void LineServer::drop(std::size_t i) {
@@ -76,59 +86,160 @@ void LineServer::drop(std::size_t i) {
   clients_.erase(clients_.begin() + static_cast<std::ptrdiff_t>(i));
 }
 
-void LineServer::serve(const std::function<std::string(const std::string&)>& handle) {
-  for (;;) {
-    const int c = ::accept4(fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
-    if (c < 0) break;  // EAGAIN: nobody waiting (other errors: try again next cycle)
-    if (clients_.size() >= kMaxClients) {
-      ::close(c);
+bool LineServer::take_slot(double now_s, bool& reserved) {
+  std::size_t general = 0;
+  for (const auto& c : clients_) general += !c.reserved;
+  reserved = false;
+  if (general < opt_.max_clients) return true;
+  // Full: the client idle the longest gives way, if it has been idle a while.
+  auto longest_idle = [&](bool among_reserved) {
+    std::size_t best = clients_.size();
+    double idle = opt_.evict_idle_s;
+    for (std::size_t i = 0; i < clients_.size(); ++i) {
+      const Client& c = clients_[i];
+      if (c.reserved != among_reserved || c.deferred) continue;
+      if (now_s - c.last_line_s >= idle) idle = now_s - c.last_line_s, best = i;
+    }
+    return best;
+  };
+  std::size_t victim = longest_idle(false);
+  if (victim < clients_.size()) {
+    drop(victim);
+    ++stats_.evicted;
+    return true;
+  }
+  if (!opt_.reserved_allows) return false;
+  bool occupied = false;
+  for (const auto& c : clients_) occupied |= c.reserved;
+  if (occupied) {
+    victim = longest_idle(true);
+    if (victim >= clients_.size()) return false;
+    drop(victim);
+    ++stats_.evicted;
+  }
+  reserved = true;
+  return true;
+}
+
+void LineServer::accept_new(double now_s) {
+  for (std::size_t k = 0; k < opt_.accepts_per_cycle; ++k) {
+    pollfd p{fd_, POLLIN, 0};
+    if (::poll(&p, 1, 0) <= 0 || !(p.revents & POLLIN)) return;  // nobody waiting
+    bool reserved = false;
+    if (!take_slot(now_s, reserved)) return;  // every slot busy: the rest waits in the backlog
+    const int fd = ::accept4(fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
+    if (fd < 0) return;  // EAGAIN: the client gave up meanwhile (other errors: next cycle)
+    Client c;
+    c.fd = fd;
+    c.id = next_id_++;
+    c.reserved = reserved;
+    c.last_line_s = now_s;
+    ucred cred{};
+    socklen_t len = sizeof cred;
+    if (::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) == 0) c.pid = cred.pid, c.uid = cred.uid;
+    clients_.push_back(std::move(c));
+    ++stats_.accepted;
+    stats_.reserved += reserved;
+  }
+}
+
+void LineServer::handle_lines(Client& c, const Handler& handle, std::size_t budget) {
+  current_ = &c;
+  auto answer = [&](const std::string& line) {
+    if (c.reserved && !opt_.reserved_allows(line)) {
+      c.out += "error: augerd serves " + std::to_string(opt_.max_clients) +
+               " clients and all are busy: this connection takes only stop and status\n";
+      c.closing = true;
+      return;
+    }
+    const std::optional<std::string> a = handle(line);
+    if (!a) c.deferred = true;
+    else if (!a->empty()) c.out += *a + "\n";
+    if (c.reserved) c.closing = true;  // one answer on the reserved connection
+  };
+  for (std::size_t n = 0; n < budget && !c.deferred && !c.closing && c.out.size() < opt_.pause_out; ++n) {
+    const std::size_t nl = c.in.find('\n');
+    if (nl == std::string::npos) {
+      // A last line without its newline still counts when the client has shut down.
+      if (c.eof && !c.in.empty()) {
+        std::string line;
+        line.swap(c.in);
+        answer(line);
+      }
+      break;
+    }
+    std::string line = c.in.substr(0, nl);
+    c.in.erase(0, nl + 1);
+    answer(line);
+  }
+  current_ = nullptr;
+}
+
+void LineServer::flush(Client& c, bool& gone) {
+  while (!c.out.empty()) {
+    const ssize_t n = ::send(c.fd, c.out.data(), c.out.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+    if (n > 0) {
+      c.out.erase(0, static_cast<std::size_t>(n));
       continue;
     }
-    clients_.push_back(Client{c, peer_text(c), {}, {}, false});
+    if (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) gone = true;
+    break;
   }
-  char buf[2048];
+  if (c.out.size() > opt_.max_pending_out) {
+    gone = true;  // it does not read its answers
+    ++stats_.slow_readers;
+  }
+}
+
+void LineServer::serve(double now_s, const Handler& handle) {
+  accept_new(now_s);
+  char buf[4096];
   for (std::size_t i = 0; i < clients_.size();) {
-    Client& cl = clients_[i];
+    Client& c = clients_[i];
     bool gone = false;
-    while (!cl.eof) {
-      const ssize_t n = ::recv(cl.fd, buf, sizeof buf, 0);
+    // Read within the budget, and only as much as will be handled soon: the rest stays in the
+    // kernel's buffer, so a client sending faster than it is served is slowed down, not stored.
+    std::size_t got = 0;
+    while (!c.eof && !c.closing && got < opt_.bytes_per_cycle && c.in.size() < opt_.bytes_per_cycle) {
+      const std::size_t want = std::min(sizeof buf, opt_.bytes_per_cycle - got);
+      const ssize_t n = ::recv(c.fd, buf, want, MSG_DONTWAIT);
       if (n > 0) {
-        cl.in.append(buf, static_cast<std::size_t>(n));
-        if (cl.in.size() > kMaxLine && cl.in.find('\n') == std::string::npos) {
-          gone = true;
-          break;
-        }
+        c.in.append(buf, static_cast<std::size_t>(n));
+        got += static_cast<std::size_t>(n);
         continue;
       }
-      if (n == 0) cl.eof = true;
+      if (n == 0) c.eof = true;
       else if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) gone = true;
       break;
     }
-    current_peer_ = cl.peer;
-    std::size_t nl;
-    while (!gone && (nl = cl.in.find('\n')) != std::string::npos) {
-      std::string line = cl.in.substr(0, nl);
-      cl.in.erase(0, nl + 1);
-      std::string answer = handle(line);
-      if (!answer.empty()) cl.out += answer + "\n";
+    const std::size_t nl = c.in.find('\n');
+    if (!gone && !c.closing && (nl == std::string::npos ? c.in.size() : nl) > opt_.max_line) {
+      c.out += "error: line longer than " + std::to_string(opt_.max_line) + " bytes; closing the connection\n";
+      c.in.clear();
+      c.closing = true;
+      ++stats_.overlong;
     }
-    // A last line without its newline still counts when the client has shut down.
-    if (!gone && cl.eof && !cl.in.empty()) {
-      std::string answer = handle(cl.in);
-      cl.in.clear();
-      if (!answer.empty()) cl.out += answer + "\n";
-    }
-    while (!gone && !cl.out.empty()) {
-      const ssize_t n = ::send(cl.fd, cl.out.data(), cl.out.size(), MSG_NOSIGNAL);
-      if (n > 0) cl.out.erase(0, static_cast<std::size_t>(n));
-      else {
-        if (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) gone = true;
-        break;
-      }
-    }
-    if (cl.out.size() > kMaxPendingOut) gone = true;
-    if (gone || (cl.eof && cl.out.empty())) drop(i);
+    const std::size_t lines_before = c.in.size();
+    if (!gone) handle_lines(c, handle, opt_.lines_per_cycle);
+    if (c.in.size() != lines_before) c.last_line_s = now_s;
+    if (!gone) flush(c, gone);
+    const bool finished = (c.eof || c.closing) && c.out.empty() && !c.deferred && (c.closing || c.in.empty());
+    const bool idle = !c.deferred && now_s - c.last_line_s > opt_.idle_timeout_s;
+    if (idle && !gone && !finished) ++stats_.idle_closed;
+    if (gone || finished || idle) drop(i);
     else ++i;
+  }
+}
+
+void LineServer::reply(std::uint64_t client, const std::string& answer) {
+  for (auto& c : clients_) {
+    if (c.id != client) continue;
+    c.deferred = false;
+    if (!answer.empty()) c.out += answer + "\n";
+    if (c.reserved) c.closing = true;
+    bool gone = false;
+    flush(c, gone);  // a failure shows in the next serve()
+    return;
   }
 }
 

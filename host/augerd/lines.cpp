@@ -2,26 +2,30 @@
 
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
+
+#include "auger/input_limits.hpp"
 
 namespace augerd {
 namespace {
 
-std::string quote(const std::string& s) {
-  // Answers are one line: control characters of the input must not break them.
-  std::string q = "'";
-  for (char ch : s) q += (static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f) ? '?' : ch;
-  if (q.size() > 201) q = q.substr(0, 200) + "...";
-  return q + "'";
-}
+using auger::check_goal;
+using auger::check_imu;
+using auger::check_pose;
+using auger::check_screw_speed;
+using auger::check_velocity;
 
-// A finite number, the whole field; else an error naming the field.
+std::string quote(const std::string& s) { return quote_line(s); }
+
+// A finite number over the whole field (a NUL or trailing bytes are not part of a number);
+// else an error naming the field.
 bool number(const std::string& field, const char* name, double& out, std::string& err) {
   const char* s = field.c_str();
   char* end = nullptr;
   errno = 0;
   const double v = std::strtod(s, &end);
-  if (end == s || *end != '\0' || errno == ERANGE || !std::isfinite(v)) {
+  if (end == s || end != s + field.size() || errno == ERANGE || !std::isfinite(v)) {
     err = name + std::string(" must be a finite number, got ") + quote(field);
     return false;
   }
@@ -29,7 +33,22 @@ bool number(const std::string& field, const char* name, double& out, std::string
   return true;
 }
 
+// A line is printable text: a control byte (a NUL cuts a C string short) is refused where it is.
+std::string control_byte(const std::string& line) {
+  for (std::size_t i = 0; i < line.size(); ++i) {
+    const auto ch = static_cast<unsigned char>(line[i]);
+    if ((ch < 0x20 && ch != '\t' && !(ch == '\r' && i + 1 == line.size())) || ch == 0x7f) {
+      char b[96];
+      std::snprintf(b, sizeof b, "control byte 0x%02x at byte %zu of the line (text only)", ch, i + 1);
+      return b;
+    }
+  }
+  return "";
+}
+
 }  // namespace
+
+std::string quote_line(const std::string& s) { return auger::quote_input(s, 200); }
 
 std::vector<std::string> split_fields(const std::string& line) {
   std::vector<std::string> f;
@@ -46,6 +65,7 @@ std::vector<std::string> split_fields(const std::string& line) {
 }
 
 std::string parse_command(const std::string& line, Command& out) {
+  if (std::string e = control_byte(line); !e.empty()) return e + ": " + quote(line);
   const auto f = split_fields(line);
   if (f.empty()) return "empty command (enable, stop, vel, goto, follow, allocator, status, spin)";
   const std::string& w = f[0];
@@ -70,11 +90,13 @@ std::string parse_command(const std::string& line, Command& out) {
     if (!number(f[1], vel ? "u_mps" : "x_m", c.a, err) || !number(f[2], vel ? "v_mps" : "y_m", c.b, err) ||
         !number(f[3], vel ? "r_radps" : "psi_rad", c.c, err))
       return err;
+    if (!(err = vel ? check_velocity(c.a, c.b, c.c) : check_goal(c.a, c.b, c.c)).empty()) return err;
   } else if (w == "spin") {
     if (!(err = arity(2, "spin <module 0..3> <omega_rpm>")).empty()) return err;
     c.kind = CommandKind::spin;
     if (!number(f[1], "module", c.a, err) || !number(f[2], "omega_rpm", c.b, err)) return err;
     if (c.a != 0 && c.a != 1 && c.a != 2 && c.a != 3) return "module must be 0, 1, 2 or 3, got " + quote(f[1]);
+    if (!(err = check_screw_speed(c.b)).empty()) return err;
   } else if (w == "follow") {
     if (!(err = arity(1, "follow <csv_path>")).empty()) return err;
     c.kind = CommandKind::follow;
@@ -92,6 +114,7 @@ std::string parse_command(const std::string& line, Command& out) {
 }
 
 std::string parse_sensor(const std::string& line, SensorMessage& out) {
+  if (std::string e = control_byte(line); !e.empty()) return e + ": " + quote(line);
   const auto f = split_fields(line);
   if (f.empty()) return "empty sensor message (pose, imu)";
   std::string err;
@@ -105,14 +128,14 @@ std::string parse_sensor(const std::string& line, SensorMessage& out) {
         !number(f[5], "sx_m", m.sx_m, err) || !number(f[6], "sy_m", m.sy_m, err) ||
         !number(f[7], "spsi_rad", m.spsi_rad, err))
       return err;
-    if (!(m.sx_m > 0 && m.sy_m > 0 && m.spsi_rad > 0))
-      return "standard deviations must be > 0, got " + quote(line);
+    if (!(err = check_pose(m.x_m, m.y_m, m.psi_rad, m.sx_m, m.sy_m, m.spsi_rad)).empty()) return err;
   } else if (f[0] == "imu") {
     if (f.size() != 4) return "imu takes 3 fields: imu <t_unix_s> <psi_rad> <r_radps>, got " + quote(line);
     m.kind = SensorKind::imu;
     if (!number(f[1], "t_unix_s", m.t_unix_s, err) || !number(f[2], "psi_rad", m.imu_psi_rad, err) ||
         !number(f[3], "r_radps", m.imu_r_radps, err))
       return err;
+    if (!(err = check_imu(m.imu_psi_rad, m.imu_r_radps)).empty()) return err;
   } else {
     return "unknown sensor message " + quote(f[0]) + " (pose, imu)";
   }

@@ -24,9 +24,14 @@ struct SensorMessage {
   double imu_psi_rad = 0, imu_r_radps = 0;                                  // imu
 };
 
-// Each returns an empty string on success, else the error text (without "error: ").
+// Each returns an empty string on success, else the error text (without "error: "). A line
+// with a control byte, a number that is not the whole field, or a value outside the bounds of
+// auger/input_limits.hpp is refused.
 std::string parse_command(const std::string& line, Command& out);
 std::string parse_sensor(const std::string& line, SensorMessage& out);
+
+// The input as one printable quoted line for an error answer (auger::quote_input, 200 bytes).
+std::string quote_line(const std::string& s);
 
 // Splits at runs of spaces and tabs.
 std::vector<std::string> split_fields(const std::string& line);

@@ -1,6 +1,8 @@
 // Controller step: estimation, reference eq. (18), PID eqs. (19)-(21), allocation eq. (22).
 #include "auger/controller.hpp"
 
+#include "auger/input_limits.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -15,16 +17,28 @@ Controller::Controller(const Model& model, const ControllerConfig& config)
   reset(Vec3::Zero());
 }
 
-void Controller::reset(const Vec3& eta) {
+void Controller::restart_estimator(const Vec3& eta) {
   dr_.eta = eta;
   dr_.zeta.setZero();
   dr_.dyn.reset(model_);
   ekf_reset(config_.ekf, ekf_, eta);
   pose_history_.clear();
-  reference_reset(ref_, eta);
-  pid_ = PidState{};
   eta_ = eta;
   zeta_.setZero();
+  last_good_eta_ = eta;
+}
+
+void Controller::latch_fault(const std::string& what) {
+  if (fault_.empty()) fault_ = what;
+  enabled_ = false;
+  trajectory_running_ = false;
+}
+
+void Controller::reset(const Vec3& eta) {
+  restart_estimator(eta);
+  fault_.clear();
+  reference_reset(ref_, eta);
+  pid_ = PidState{};
   started_ = false;
   trajectory_running_ = false;
   enabled_ = false;
@@ -91,8 +105,17 @@ const std::array<double, 4>& Controller::step(double t_s, const std::array<Screw
       zeta_ = ekf_.x.tail<3>();
       break;
   }
+  // One absurd measurement must not poison the estimate for good: a diverged state latches a
+  // fault and the estimator starts again from the last estimate that made sense.
+  if (!estimate_ok(eta_, zeta_)) {
+    latch_fault("estimator diverged: " + check_estimate(eta_, zeta_));
+    restart_estimator(last_good_eta_);
+  } else {
+    last_good_eta_ = eta_;
+  }
 
-  if (!enabled_) {
+  if (!enabled_ || !fault_.empty()) {
+    enabled_ = false;
     reference_reset(ref_, eta_);
     setpoints_rpm_.fill(0.0);
     alloc_ = AllocationResult{};
@@ -111,6 +134,11 @@ const std::array<double, 4>& Controller::step(double t_s, const std::array<Screw
 
   tracking_pid(config_.gains, pid_, eta_, zeta_, ref_, pid_terms_);  // eqs. (19)-(21)
   allocate(model_, config_.allocator, pid_terms_.tau_n, alloc_);       // eq. (22)
+  if (!alloc_.omega_rpm.allFinite()) {
+    latch_fault("non-finite screw speeds from the allocation (eq. (22))");
+    setpoints_rpm_.fill(0.0);
+    return setpoints_rpm_;
+  }
   for (int i = 0; i < 4; ++i) setpoints_rpm_[static_cast<std::size_t>(i)] = alloc_.omega_rpm[i];
   return setpoints_rpm_;
 }

@@ -1,10 +1,16 @@
 // Log reader/writer of docs/log-format.md.
 #include "auger/log.hpp"
 
+#include "auger/input_limits.hpp"
+
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
+#include <unordered_set>
+
+#include <sys/stat.h>
 
 namespace auger {
 namespace {
@@ -34,9 +40,10 @@ bool parse_double(const std::string& s, double& out) {
   return res.ec == std::errc() && res.ptr == e && std::isfinite(out);
 }
 
-std::string quote(const std::string& s) { return "'" + s + "'"; }
+std::string quote(const std::string& s) { return quote_input(s); }
 
 }  // namespace
+
 
 LogError::LogError(std::string file, int line, int column, const std::string& message)
     : std::runtime_error(file + ":" + std::to_string(line) + ":" + std::to_string(column) +
@@ -58,14 +65,28 @@ CsvLogReader::CsvLogReader(std::istream& in, std::string name) : in_(&in), name_
   parse_header();
 }
 
+namespace {
+// A directory or a device is not a log (reading /dev/zero would never end); a pipe is fine.
+const std::string& readable_file(const std::string& path) {
+  struct stat st;
+  if (::stat(path.c_str(), &st) == 0) {
+    if (S_ISDIR(st.st_mode)) throw LogError(path, 0, 0, "is a directory, not a log file");
+    if (S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode) || S_ISSOCK(st.st_mode))
+      throw LogError(path, 0, 0, "is a device or socket, not a log file");
+  }
+  return path;
+}
+}  // namespace
+
 CsvLogReader::CsvLogReader(const std::string& path)
-    : owned_(std::make_unique<std::ifstream>(path)), in_(owned_.get()), name_(path) {
+    : owned_(std::make_unique<std::ifstream>(readable_file(path))), in_(owned_.get()), name_(path) {
   if (!*owned_) throw LogError(path, 0, 0, "cannot open log file");
   parse_header();
 }
 
 bool CsvLogReader::read_line(std::string& line) {
   if (!std::getline(*in_, line)) return false;
+  unterminated_ = in_->eof();  // getline stopped at the end of the file, not at a newline
   ++line_;
   if (!line.empty() && line.back() == '\r') line.pop_back();  // CRLF files
   if (line_ == 1 && line.size() >= 3 && std::memcmp(line.data(), "\xEF\xBB\xBF", 3) == 0)
@@ -85,6 +106,8 @@ void CsvLogReader::parse_header() {
       if (colon != std::string::npos && colon > 0 &&
           body.find_first_of(" \t") > colon) {  // `key: value`, key without blanks
         metadata_.push_back({trim(body.substr(0, colon)), trim(body.substr(colon + 1)), line_});
+        // The format's own time key must be a clock's (merge aligns logs by it).
+        if (metadata_.back().key == "t0_unix_s") metadata_number(metadata_.back(), limits::kLogTime);
       }
       continue;  // free notes are comments
     }
@@ -99,7 +122,8 @@ void CsvLogReader::parse_header() {
     std::string col = trim(raw, &lead);
     const int column = static_cast<int>(start + lead) + 1;
     if (col.empty()) throw LogError(name_, line_, column, "empty column name in header");
-    if (std::find(columns_.begin(), columns_.end(), col) != columns_.end())
+    // A hash map: a header of 100 000 columns is read in linear time.
+    if (!column_of_.emplace(col, static_cast<int>(columns_.size())).second)
       throw LogError(name_, line_, column, "duplicate column " + quote(col));
     columns_.push_back(col);
     field_start_col_.push_back(column);
@@ -112,6 +136,14 @@ void CsvLogReader::parse_header() {
   values_.resize(columns_.size());
 }
 
+double CsvLogReader::metadata_number(const MetadataEntry& m, const InputBound& bound) const {
+  double v = 0;
+  if (!parse_double(m.value, v))
+    throw LogError(name_, m.line, 1, "metadata '" + m.key + "' " + quote(m.value) + " is not a number");
+  if (const std::string e = check_bound(m.key.c_str(), v, bound); !e.empty()) throw LogError(name_, m.line, 1, e);
+  return v;
+}
+
 std::optional<std::string> CsvLogReader::meta(const std::string& key) const {
   for (const auto& m : metadata_)
     if (m.key == key) return m.value;
@@ -119,8 +151,8 @@ std::optional<std::string> CsvLogReader::meta(const std::string& key) const {
 }
 
 int CsvLogReader::column_index(const std::string& column) const {
-  auto it = std::find(columns_.begin(), columns_.end(), column);
-  return it == columns_.end() ? -1 : static_cast<int>(it - columns_.begin());
+  auto it = column_of_.find(column);
+  return it == column_of_.end() ? -1 : it->second;
 }
 
 void CsvLogReader::require_columns(const std::vector<std::string>& required) const {
@@ -139,6 +171,18 @@ void CsvLogReader::check_format(const std::string& expected) const {
 void CsvLogReader::fail_at_field(int column, const std::string& message) const {
   throw LogError(name_, line_, field_start_col_[static_cast<std::size_t>(column)],
                  message + " in column " + quote(columns_[static_cast<std::size_t>(column)]));
+}
+
+// The file's last line, without its newline, short of fields or ending in a field that is not a
+// number: a row cut by a full disk or a killed writer. (A whole last row without its newline, as
+// some programs write, is kept.)
+bool CsvLogReader::row_is_cut(std::size_t n_fields) const {
+  if (!unterminated_) return false;
+  if (n_fields < columns_.size()) return true;
+  if (n_fields > columns_.size()) return false;
+  const std::string& f = fields_[n_fields - 1];
+  double v;
+  return !f.empty() && !is_nan_text(f) && !parse_double(f, v);
 }
 
 bool CsvLogReader::next() {
@@ -166,6 +210,14 @@ bool CsvLogReader::next() {
     if (comma == std::string::npos) break;
     start = comma + 1;
   }
+  if (row_is_cut(n)) {
+    last_row_cut_ = true;
+    std::fprintf(stderr,
+                 "%s:%d: warning: the last row is cut short (%zu of %zu fields, no newline at the end of the file: "
+                 "a full disk or a killed writer?); it is ignored, the rows before it are read\n",
+                 name_.c_str(), line_, n, columns_.size());
+    return false;
+  }
   if (n != columns_.size())
     throw LogError(name_, line_, static_cast<int>(text_.size()) + 1,
                    std::to_string(n) + " fields where the header has " +
@@ -183,9 +235,13 @@ bool CsvLogReader::next() {
   }
   const double t = values_[static_cast<std::size_t>(t_col_)];
   if (!measured(t)) fail_at_field(t_col_, "empty t_s");
+  if (const std::string e = check_bound("t_s", t, limits::kLogTime); !e.empty()) fail_at_field(t_col_, e);
   if (!(t > last_t_s_))
     fail_at_field(t_col_, "t_s " + quote(fields_[static_cast<std::size_t>(t_col_)]) +
                               " does not increase (previous " + std::to_string(last_t_s_) + ")");
+  // Samples closer than a microsecond are no clock's (a log 3e-297 s long fitted a model).
+  if (t - last_t_s_ < limits::kMinSampleStepS)
+    fail_at_field(t_col_, "t_s " + quote(fields_[static_cast<std::size_t>(t_col_)]) + " is less than 1 us after the previous row");
   last_t_s_ = t;
   return true;
 }
@@ -298,12 +354,34 @@ auto robot_field(S& s, const RobotColumn& c) -> decltype(&s.t_s) {
 const std::vector<std::string> kRobotRequired = {"t_s", "omega_rpm_0", "omega_rpm_1", "omega_rpm_2",
                                                  "omega_rpm_3", "x_m", "y_m", "psi_rad"};
 
-// Reads a numeric field that the typed reader knows: text that is not a number is an error.
-double known_value(const CsvLogReader& csv, int col) {
+// Reads a numeric field that the typed reader knows: text that is not a number is an error, and
+// so is a value outside its physical bounds (input_limits.hpp; null: any finite number).
+double known_value(const CsvLogReader& csv, int col, const InputBound* bound = nullptr) {
   double v = csv.value(col);
   if (!measured(v) && !csv.field_text(col).empty() && !is_nan_text(csv.field_text(col)))
     csv.fail_at_field(col, "bad number " + quote(csv.field_text(col)));
+  if (bound && measured(v)) {
+    const std::string e = check_bound(csv.columns()[static_cast<std::size_t>(col)].c_str(), v, *bound);
+    if (!e.empty()) csv.fail_at_field(col, e);
+  }
   return v;
+}
+
+// The bounds of a robot-log column's quantity (null: none beyond a finite number).
+const InputBound* robot_bound(Field f) {
+  switch (f) {
+    case Field::omega:
+    case Field::cmd: return &limits::kScrewSpeed;
+    case Field::x:
+    case Field::y:
+    case Field::xd:
+    case Field::yd: return &limits::kPosition;
+    case Field::psi:
+    case Field::imu_psi:
+    case Field::psid: return &limits::kHeading;
+    case Field::imu_r: return &limits::kYawRate;
+    default: return nullptr;
+  }
 }
 
 std::optional<std::int64_t> known_integer(const CsvLogReader& csv, int col) {
@@ -348,7 +426,7 @@ bool RobotLogReader::next(RobotSample& s) {
     const int col = index_[k];
     if (col < 0) continue;
     if (double* f = robot_field(s, cols[k])) {
-      *f = known_value(csv_, col);
+      *f = known_value(csv_, col, robot_bound(cols[k].field));
     } else {
       auto& arr = cols[k].field == Field::status ? s.status : s.seq_ack;
       arr[static_cast<std::size_t>(cols[k].screw)] = known_integer(csv_, col);
@@ -410,6 +488,11 @@ GantryLogReader::GantryLogReader(std::istream& in, std::string name) : csv_(in, 
 
 void GantryLogReader::bind() {
   csv_.check_format(kGantryLogFormat);
+  for (const auto& m : csv_.metadata()) {
+    if (m.key == "mass_kg") csv_.metadata_number(m, limits::kGantryMass);
+    if (m.key == "axis" && m.value != "longitudinal" && m.value != "lateral")
+      throw LogError(csv_.name(), m.line, 1, "metadata 'axis' must be longitudinal or lateral, not " + quote(m.value));
+  }
   csv_.require_columns(kGantryColumns);
   for (std::size_t k = 0; k < kGantryColumns.size(); ++k) index_[k] = csv_.column_index(kGantryColumns[k]);
 }
@@ -417,10 +500,10 @@ void GantryLogReader::bind() {
 bool GantryLogReader::next(GantrySample& s) {
   if (!csv_.next()) return false;
   s.t_s = csv_.t_s();
-  s.omega_rpm[0] = known_value(csv_, index_[1]);
-  s.omega_rpm[1] = known_value(csv_, index_[2]);
-  s.force_n = known_value(csv_, index_[3]);
-  s.position_m = known_value(csv_, index_[4]);
+  s.omega_rpm[0] = known_value(csv_, index_[1], &limits::kScrewSpeed);
+  s.omega_rpm[1] = known_value(csv_, index_[2], &limits::kScrewSpeed);
+  s.force_n = known_value(csv_, index_[3], &limits::kForce);
+  s.position_m = known_value(csv_, index_[4], &limits::kPosition);
   return true;
 }
 

@@ -50,12 +50,14 @@ void check_waypoints(const std::vector<Waypoint>& w) {
   }
 }
 
-std::vector<Waypoint> read_waypoints_csv(std::istream& in, const std::string& name) {
+std::vector<Waypoint> read_waypoints_csv(std::istream& in, const std::string& name, std::size_t max_rows) {
   CsvLogReader csv(in, name);
   csv.require_columns({"t_s", "x_m", "y_m", "psi_rad"});
   const int cols[3] = {csv.column_index("x_m"), csv.column_index("y_m"), csv.column_index("psi_rad")};
   std::vector<Waypoint> w;
   while (csv.next()) {
+    if (w.size() >= max_rows)
+      throw LogError(name, csv.line(), 1, "more than " + std::to_string(max_rows) + " waypoints");
     Waypoint p;
     p.t_s = csv.t_s();
     for (int k = 0; k < 3; ++k) {

@@ -3,6 +3,7 @@
 #include <string>
 
 #include "args.hpp"
+#include "checks.hpp"
 #include "cli_text.hpp"
 #include "commands.hpp"
 #include "workbench.hpp"
@@ -70,6 +71,9 @@ int run_compare(int argc, char** argv) {
   try {
     const Dataset d = load_dataset(a.positional[0]);
     const CompareResult r = compare(d, choose_model(d, a.get("--model")));
+    require_noise_floor(d, r.noise_floor);
+    require_finite(d, r.open_loop_err, r.model, "the open-loop run");
+    require_finite(d, r.segments_err, r.model, "segments of 25 s");
     std::vector<std::string> warnings;
     if (const std::string w = terrain_warning(d, r.model); !w.empty()) warnings.push_back(w);
     const std::string model_arg = a.has("--model") ? " --model " + typed(a.get("--model")) : "";

@@ -1,10 +1,12 @@
 // `auger diagnose LOG [--model FILE] [--only ID,...] [--json]`: which physical effect is missing
 // (docs/workbench.md).
 #include <cstdio>
+#include <cstdlib>
 #include <sstream>
 #include <string>
 
 #include "args.hpp"
+#include "checks.hpp"
 #include "cli_text.hpp"
 #include "commands.hpp"
 #include "workbench.hpp"
@@ -53,6 +55,7 @@ int run_diagnose(int argc, char** argv) {
   }
   try {
     const Dataset d = load_dataset(a.positional[0]);
+    require_fit_data(d, "diagnose");
     DiagnoseOptions o;
     o.only = split_ids(a.get("--only"));
     for (const auto& id : o.only) {
@@ -63,9 +66,20 @@ int run_diagnose(int argc, char** argv) {
         return 2;
       }
     }
-    if (a.has("--threads")) o.threads = std::max(1, std::atoi(a.get("--threads").c_str()));
+    if (a.has("--threads")) {
+      const std::string t = a.get("--threads");
+      char* end = nullptr;
+      const long n = std::strtol(t.c_str(), &end, 10);
+      if (end == t.c_str() || *end != '\0' || n < 1 || n > 256) {
+        std::fprintf(stderr, "auger diagnose: --threads '%s' is not a number of threads in 1..256\n", t.c_str());
+        return 2;
+      }
+      o.threads = int(n);
+    }
     o.progress = a.has("--progress") || (!a.has("--quiet") && d.duration_s() > 300);
     const DiagnoseResult r = diagnose(d, choose_model(d, a.get("--model")), o);
+    require_noise_floor(d, r.noise_floor);
+    require_finite(d, r.nominal, r.model, "segments (the nominal model)");
     std::vector<std::string> warnings;
     if (const std::string w = terrain_warning(d, r.model); !w.empty()) warnings.push_back(w);
     const std::string next = next_command(d, r, a.get("--model"));

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "args.hpp"
+#include "auger/input_limits.hpp"
 #include "commands.hpp"
 #include "workbench.hpp"
 
@@ -12,6 +13,8 @@ namespace auger::wb {
 int run_effects(int argc, char** argv) {
   Args a;
   if (!parse_args(argc, argv, {"--json", "--help"}, {}, a)) return 2;
+  if (!a.has("--help") && !a.positional.empty())
+    std::fprintf(stderr, "auger effects: takes no file or argument, got %s\n", quote_input(a.positional[0]).c_str());
   if (a.has("--help") || !a.positional.empty()) {
     std::fprintf(a.has("--help") ? stdout : stderr, "usage: auger effects [--json]\n  the effect library: identifiers, parameters, units\n");
     return a.has("--help") ? 0 : 2;

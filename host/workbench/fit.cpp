@@ -1,10 +1,13 @@
 // `auger fit LOG --add EFFECT[,EFFECT...] [--out MODEL] [--model FILE] [--json]`: re-identify
 // the paper's parameters with effects added, error before and after (docs/workbench.md).
+#include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <stdexcept>
 #include <string>
 
 #include "args.hpp"
+#include "checks.hpp"
 #include "cli_text.hpp"
 #include "commands.hpp"
 #include "workbench.hpp"
@@ -39,7 +42,17 @@ int run_fit(int argc, char** argv) {
   }
   try {
     const Dataset d = load_dataset(a.positional[0]);
+    require_fit_data(d, "fit");
     const FitResult r = fit(d, choose_model(d, a.get("--model")), ids, a.has("--progress"));
+    // Numbers, or nothing is written (a model of NaN would load and mislead).
+    require_noise_floor(d, r.noise_floor);
+    require_finite(d, r.err_before, r.before, "segments, before");
+    require_finite(d, r.err_after, r.after, "segments, with the effects fitted");
+    for (const auto& e : r.effects)
+      for (const auto& p : e.params)
+        if (!std::isfinite(p.value))
+          throw std::runtime_error("the fit of " + e.effect + " gave " + p.name + " = " + std::to_string(p.value) +
+                                   ": nothing written");
     std::vector<std::string> warnings;
     if (const std::string w = terrain_warning(d, r.before); !w.empty()) warnings.push_back(w);
     // The file must load back and give the same model (checked here, not assumed).
@@ -47,11 +60,17 @@ int run_fit(int argc, char** argv) {
     if (!out.empty()) {
       std::ofstream f(out);
       if (!(f << r.model_toml)) {
+        std::remove(out.c_str());
         std::fprintf(stderr, "auger fit: cannot write %s\n", out.c_str());
         return 2;
       }
       f.close();
-      choose_model(d, out);
+      try {
+        choose_model(d, out);
+      } catch (...) {
+        std::remove(out.c_str());  // a file that does not load back is not left behind
+        throw;
+      }
     } else {
       parse_model_file(r.model_toml, "(fitted model)");
     }

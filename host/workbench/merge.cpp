@@ -55,7 +55,8 @@ int run_merge(int argc, char** argv) {
         out_path = argv[++i];
       } else if (a == "--max-shift" && i + 1 < argc) {
         options.max_shift_s = parse_number(argv[++i], "--max-shift");
-        if (!(options.max_shift_s > 0)) throw std::invalid_argument("--max-shift must be positive");
+        if (!(options.max_shift_s > 0 && options.max_shift_s <= kMaxShiftS))
+          throw std::invalid_argument("--max-shift must be in (0, " + std::to_string(int(kMaxShiftS)) + "] s");
       } else if (!a.empty() && a[0] == '-') {
         std::fprintf(stderr, "auger merge: unknown option '%s'\n", a.c_str());
         return merge_usage(stderr, 2);
@@ -81,10 +82,7 @@ int run_merge(int argc, char** argv) {
     const CsvLogReader& csv = reader.csv();
     for (const auto& m : csv.metadata()) {
       if (m.key == "t0_unix_s") {
-        char* end = nullptr;
-        t0_robot = std::strtod(m.value.c_str(), &end);
-        if (end == m.value.c_str() || *end != '\0' || !std::isfinite(t0_robot))
-          throw LogError(files[0], m.line, 1, "t0_unix_s '" + m.value + "' is not a number");
+        t0_robot = parse_t0_unix_s(files[0], m);
         robot_has_t0 = true;
       }
       if (m.key != "format" && m.key != "merged_camera_log" && m.key != "camera_offset_s")
@@ -110,7 +108,13 @@ int run_merge(int argc, char** argv) {
   const double coarse = t0_used ? t0_camera - t0_robot : 0.0;
   std::vector<double> t_s, imu_r;
   for (const auto& r : rows) t_s.push_back(r.t_s), imu_r.push_back(r.imu_r_radps);
-  const Alignment al = align_camera(t_s, imu_r, camera, coarse, t0_used, options);
+  Alignment al;
+  try {
+    al = align_camera(t_s, imu_r, camera, coarse, t0_used, options);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "auger merge: %s\n", e.what());
+    return 2;
+  }
 
   std::size_t filled = 0, replaced = 0;
   const bool write = !out_path.empty() && al.quality != "poor";
@@ -134,6 +138,8 @@ int run_merge(int argc, char** argv) {
     }
     out.flush();
     if (!out) {
+      out.close();
+      std::remove(out_path.c_str());  // no half-written log left behind
       std::fprintf(stderr, "auger merge: writing '%s' failed\n", out_path.c_str());
       return 2;
     }

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "auger/log.hpp"
+
 namespace auger::wb {
 
 // A camera's pose track in its own clock; psi_rad is unwrapped (continuous) so that it can be
@@ -23,7 +25,10 @@ struct MergeOptions {
   double max_shift_s = 30;   // search +- this around the t0_unix_s offset
   double smooth_s = 0.1;     // half-width of the rate window: camera heading differences over 2 x this
   double max_gap_s = 0.5;    // camera samples farther apart than this are not interpolated across
+  std::size_t max_grid = 4000000;  // samples of the alignment grid (11 h at 10 ms); beyond: refused
 };
+// --max-shift is at most this (an hour: clocks further apart are not one run).
+constexpr double kMaxShiftS = 3600;
 
 // t_robot = t_camera + offset_s.
 struct Alignment {
@@ -39,7 +44,11 @@ struct Alignment {
   std::string note;            // why, in words
 };
 
+// A log's `t0_unix_s` metadata: a number within the bounds of a clock. Throws LogError.
+double parse_t0_unix_s(const std::string& path, const MetadataEntry& m);
+
 // robot_t_s / imu_r_radps: the robot log's times and IMU yaw rates (NaN = not measured).
+// Throws std::invalid_argument when a log is too long for the alignment grid.
 Alignment align_camera(const std::vector<double>& robot_t_s, const std::vector<double>& imu_r_radps,
                        const PoseTrack& camera, double coarse_offset_s, bool t0_used,
                        const MergeOptions& options = {});

@@ -1,8 +1,12 @@
 // Camera-to-robot time alignment (merge.hpp): t0_unix_s, then the yaw-rate cross-correlation.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
+#include <stdexcept>
+#include <string>
 
+#include "auger/input_limits.hpp"
 #include "auger/log.hpp"
 #include "auger/measured.hpp"
 #include "auger/model.hpp"
@@ -83,6 +87,15 @@ LagScore correlate(const std::vector<double>& a, const std::vector<double>& b, l
 
 }  // namespace
 
+double parse_t0_unix_s(const std::string& path, const MetadataEntry& m) {
+  char* end = nullptr;
+  const double v = std::strtod(m.value.c_str(), &end);
+  if (end == m.value.c_str() || *end != '\0' || !std::isfinite(v))
+    throw LogError(path, m.line, 1, "t0_unix_s " + quote_input(m.value) + " is not a number");
+  if (const std::string e = check_bound("t0_unix_s", v, limits::kLogTime); !e.empty()) throw LogError(path, m.line, 1, e);
+  return v;
+}
+
 PoseTrack read_pose_track(const std::string& path, double* t0_unix_s, bool* has_t0) {
   CsvLogReader csv(path);
   csv.check_format(kRobotLogFormat);
@@ -90,10 +103,7 @@ PoseTrack read_pose_track(const std::string& path, double* t0_unix_s, bool* has_
   if (has_t0) *has_t0 = false;
   for (const auto& m : csv.metadata()) {
     if (m.key != "t0_unix_s") continue;
-    char* end = nullptr;
-    const double v = std::strtod(m.value.c_str(), &end);
-    if (end == m.value.c_str() || *end != '\0' || !std::isfinite(v))
-      throw LogError(path, m.line, 1, "t0_unix_s '" + m.value + "' is not a number");
+    const double v = parse_t0_unix_s(path, m);
     if (t0_unix_s) *t0_unix_s = v;
     if (has_t0) *has_t0 = true;
   }
@@ -143,6 +153,17 @@ Alignment align_camera(const std::vector<double>& robot_t_s, const std::vector<d
   const double dt = std::clamp(dts[dts.size() / 2], 1e-3, 0.1);
   al.grid_dt_s = dt;
   const double tr0 = robot_t_s.front();
+  // The search holds both logs on a uniform grid: bounded, or a log with steps of 1e6 s asks for
+  // terabytes (it aborted with bad_alloc).
+  auto check_grid = [&](double span_s, const char* which) {
+    if (span_s / dt + 1 <= double(o.max_grid)) return;
+    char b[240];
+    std::snprintf(b, sizeof b, "the %s log spans %.4g s: more than %zu samples at the %.3g s steps of the alignment; "
+                  "cut it into runs before merging", which, span_s, o.max_grid, dt);
+    throw std::invalid_argument(b);
+  };
+  check_grid(robot_t_s.back() - tr0, "robot");
+  check_grid(camera.t_s.back() - camera.t_s.front(), "camera");
   const std::size_t nr = static_cast<std::size_t>((robot_t_s.back() - tr0) / dt) + 1;
   const std::size_t h = std::max<std::size_t>(1, static_cast<std::size_t>(std::lround(o.smooth_s / dt)));
 

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "args.hpp"
+#include "checks.hpp"
 #include "cli_text.hpp"
 #include "commands.hpp"
 #include "report.hpp"
@@ -49,6 +50,37 @@ std::vector<int> active_channels(const Dataset& d) {
   return c;
 }
 
+// The output directory: created (with any missing parents) for this report if it does not
+// exist; a report that fails leaves nothing behind (what it created is removed, a directory that
+// existed keeps what it had: the page is written last, in one piece).
+struct OutputDir {
+  explicit OutputDir(const std::string& p) : path(p) {}
+  std::filesystem::path path;
+  std::filesystem::path created;  // the topmost directory this report created, empty if none
+  bool done = false;
+  // false with `why` set if it cannot be made a directory.
+  bool make(std::string& why) {
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    fs::path top;
+    for (fs::path p = fs::absolute(path, ec); !ec && !p.empty() && !fs::exists(p, ec); p = p.parent_path()) {
+      top = p;
+      if (p == p.parent_path()) break;
+    }
+    fs::create_directories(path, ec);
+    if (!top.empty() && fs::is_directory(top)) created = top;
+    if (ec || !fs::is_directory(path)) {
+      why = ec ? ec.message() : "a file of that name exists";
+      return false;
+    }
+    return true;
+  }
+  ~OutputDir() {
+    std::error_code ec;
+    if (!done && !created.empty()) std::filesystem::remove_all(created, ec);
+  }
+};
+
 }  // namespace
 
 int run_report(int argc, char** argv) {
@@ -75,20 +107,23 @@ int run_report(int argc, char** argv) {
 
   try {
     const Dataset d = load_dataset(a.positional[0]);  // bad input first: exit 2 naming the line
-    Gnuplot gp;                                        // then a missing gnuplot or dygraphs, before the work
+    const bool search = !a.has("--no-diagnose") || a.has("--effect") || a.has("--explain");
+    if (search) require_fit_data(d, "report");
+    const std::string model_path = a.get("--model");
+    const ModelChoice mc = choose_model(d, model_path);
+    Gnuplot gp;  // then a missing gnuplot or dygraphs, before the work
     ChartSet charts;
-    std::error_code ec;
-    std::filesystem::create_directories(out_dir, ec);
-    if (ec || !std::filesystem::is_directory(out_dir)) {
-      std::fprintf(stderr, "auger report: cannot create directory '%s': %s\n", out_dir.c_str(),
-                   ec ? ec.message().c_str() : "a file of that name exists");
+    OutputDir dir(out_dir);
+    std::string why;
+    if (!dir.make(why)) {
+      std::fprintf(stderr, "auger report: cannot create directory '%s': %s\n", out_dir.c_str(), why.c_str());
       return 2;
     }
     step("compare");
     Findings f(d);
-    const std::string model_path = a.get("--model");
-    const ModelChoice mc = choose_model(d, model_path);
     f.cmp = compare(d, mc);
+    require_noise_floor(d, f.cmp.noise_floor);
+    require_finite(d, f.cmp.segments_err, mc, "segments of 25 s");
     f.chans = active_channels(d);
     if (const std::string w = terrain_warning(d, mc); !w.empty()) f.warnings.push_back(w);
     print_warnings("report", f.warnings);
@@ -164,10 +199,13 @@ int run_report(int argc, char** argv) {
               "diagnose / fit / explain (docs/workbench.md, docs/workbench-tools.md).</small></p>\n"
            << charts.scripts() << "</body></html>\n";
       if (!page) {
+        page.close();
+        std::remove(page_path.c_str());
         std::fprintf(stderr, "auger report: cannot write '%s'\n", page_path.c_str());
         return 2;
       }
     }
+    dir.done = true;
     if (json) {
       Json j;
       j.begin_object().str("command", "report").str("log", d.path).str("out", page_path);

@@ -154,6 +154,15 @@ ModelChoice choose_model(const Dataset& data, const std::string& model_path) {
   const TerrainEntry* te = f.find_terrain(wanted);
   if (!te) {
     if (f.terrains.empty()) throw ConfigError(model_path, 1, 1, "model file has no [terrain.NAME]");
+    // Another terrain's parameters are not this log's: only a log that names no terrain takes
+    // the model's one terrain.
+    std::string have;
+    for (const auto& t : f.terrains) have += (have.empty() ? "" : ", ") + t.params.name;
+    if (!data.terrain.empty() || f.terrains.size() > 1)
+      throw ConfigError(model_path, 1, 1,
+                        "no [terrain." + wanted + "] for the log " + data.path +
+                            (data.terrain.empty() ? " (it names no terrain: sand is assumed)" : " (its `# terrain:`)") +
+                            "; the model file has " + have);
     te = &f.terrains.front();
   }
   mc.terrain = te->params.name;

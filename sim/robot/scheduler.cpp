@@ -9,6 +9,7 @@
 
 #include "protocol.h"
 #include "simmod.h"
+#include "setpoint.hpp"
 
 namespace auger::sim {
 
@@ -148,7 +149,8 @@ void Scheduler::tick() {
         ModuleLink& l = *links_[static_cast<std::size_t>(i)];
         proto_setpoint_t s{};
         s.seq = ++l.seq;
-        s.omega_crpm = static_cast<std::int16_t>(std::lround(cmd[i] * 100.0));
+        // The controller's setpoints are finite (it latches a fault otherwise); saturated to the wire.
+        auger::io::setpoint_crpm(cmd[i], s.omega_crpm);
         s.flags = enabled ? PROTO_SP_ENABLE : 0;
         if (enabled && !l.cleared) {
           s.flags |= PROTO_SP_CLEAR_FAULTS;

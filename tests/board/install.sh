@@ -52,10 +52,15 @@ cmp -s "$from/host/augerd/augerd" "$d/usr/local/bin/augerd" || fail "augerd is n
 unit=$d/usr/local/lib/systemd/system/augerd.service
 conf=$d/etc/auger/augerd.toml
 grep -qx 'ExecStart=/usr/local/bin/augerd --config /etc/auger/augerd.toml' "$unit" || fail "ExecStart: $(grep ExecStart "$unit")"
-for k in 'Restart=on-failure' 'User=auger' 'SupplementaryGroups=dialout' 'RuntimeDirectory=augerd' \
-         'LogsDirectory=auger' 'LimitRTPRIO=50'; do
+for k in 'Restart=on-failure' 'RestartPreventExitStatus=2' 'User=auger' 'SupplementaryGroups=dialout auger-sensors' \
+         'RuntimeDirectory=augerd' 'RuntimeDirectoryMode=0751' 'LogsDirectory=auger' 'LimitRTPRIO=50'; do
   grep -qx "$k" "$unit" || fail "the unit lacks $k"
 done
+# The configuration check runs in the main process: an ExecStartPre= that fails is restarted
+# for ever (RestartPreventExitStatus= sees only the main process's status).
+! grep -q '^ExecStartPre=.*--check' "$unit" || fail "the unit checks the configuration in ExecStartPre="
+grep -qx 'm auger auger-sensors' "$d/etc/sysusers.d/auger.conf" || fail "sysusers: augerd is not in auger-sensors"
+grep -qx 'sensors_group = "auger-sensors"' "$conf" || fail "the config's sensors group"
 ! grep -q '@[A-Z]*@' "$unit" "$conf" || fail "an @NAME@ was not substituted"
 grep -qx 'file = "/usr/local/share/auger/models/robot.toml"' "$conf" || fail "the config's model: $(grep '^file' "$conf")"
 grep -q '^commands = "/run/augerd/commands.sock"' "$conf" || fail "the config's commands socket"

@@ -35,7 +35,12 @@ else
   command -v qemu-aarch64 >/dev/null || fail "qemu-aarch64 missing (qemu-user, scripts/install-deps.sh)"
   aarch64-linux-gnu-gcc -std=c99 -O2 -Wall -Wextra -Werror -shared -fPIC \
     "$src/tests/board/qemu_termios2.c" -o "$work/qemu_termios2.so" -ldl
-  run=(qemu-aarch64 -L /usr/aarch64-linux-gnu -E "LD_PRELOAD=$work/qemu_termios2.so")
+  # LD_LIBRARY_PATH: the cross toolchain's ld.so must load its own libc. With arm64 multiarch
+  # installed (ncurses for auger), ld.so.cache points libc.so.6 at /lib/aarch64-linux-gnu's, a
+  # later build of glibc 2.36 whose internals differ from that ld.so's: the first
+  # pthread_create then spun for ever (augerd writes its logs from a thread).
+  run=(qemu-aarch64 -L /usr/aarch64-linux-gnu -E "LD_PRELOAD=$work/qemu_termios2.so"
+       -E "LD_LIBRARY_PATH=/usr/aarch64-linux-gnu/lib")
 fi
 for t in host/augerd/augerd host/tools/auger-module host/auger/auger; do
   # exec: the pid sim-robot.sh records is the program's (qemu passes signals to it).
@@ -50,12 +55,15 @@ rc=0; "$auger" cmd > "$work/usage.out" 2>&1 || rc=$?
 
 # The installed configuration is valid for the installed augerd: make install's layout with
 # these binaries into a scratch PREFIX/SYSCONFDIR (no DESTDIR, so the paths written into the
-# configuration are the scratch ones), then augerd --check.
+# configuration are the scratch ones), then augerd --check. This machine is not the robot: the
+# check then lists what start-up would miss here (the module ports, /run/augerd, /var/log/auger,
+# the group auger-sensors) and exits non-zero, but the file and the model must be valid.
 PREFIX=$work/prefix SYSCONFDIR=$work/etc FROM=$board bash "$src/packaging/install.sh" install > "$work/install.out" ||
   fail "install of the board binaries failed"
-"${run[@]}" "$work/prefix/bin/augerd" --config "$work/etc/auger/augerd.toml" --check > "$work/check.out" 2>&1 ||
+"${run[@]}" "$work/prefix/bin/augerd" --config "$work/etc/auger/augerd.toml" --check > "$work/check.out" 2>&1 || true
+grep -q "augerd.toml: the configuration and the model are valid" "$work/check.out" ||
   fail "the installed augerd refuses the installed configuration"
-grep -q "augerd.toml is valid" "$work/check.out" || fail "augerd --check said nothing"
+! grep -q "augerd.toml:[0-9]*:[0-9]*:" "$work/check.out" || fail "augerd --check: an error in the installed file"
 
 AUGER_BUILD=$work/bin AUGER_SRC=$src
 # shellcheck source=../../scripts/sim-robot.sh

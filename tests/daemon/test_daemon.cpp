@@ -10,9 +10,11 @@
 #include <catch2/catch.hpp>
 
 #include <fcntl.h>
+#include <grp.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/file.h>
+#include <sys/stat.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <stdlib.h>
@@ -155,6 +157,12 @@ std::string talk(const std::string& sock, const std::string& lines, int answers)
   return got;
 }
 
+// A number of a status line ("key=value"); NaN if absent.
+double status_value(const std::string& st, const std::string& key) {
+  const auto k = st.find(" " + key + "=");
+  return k == std::string::npos ? NAN : std::atof(st.c_str() + k + key.size() + 2);
+}
+
 std::string now_unix() {
   timespec ts;
   clock_gettime(CLOCK_REALTIME, &ts);
@@ -219,11 +227,27 @@ TEST_CASE("augerd runs four simulated modules in real time and stops safely", "[
   // ports in yet another order: augerd must map them by id.
   SimRig rig(dir, {0, 1, 2, 3}, {2, 0, 3, 1});
   const std::string cfg = dir + "/augerd.toml";
-  std::ofstream(cfg) << config_text(dir, {rig.port(3), rig.port(1), rig.port(0), rig.port(2)});
+  // The sensors socket given this process's group explicitly (on the robot: the sensor
+  // producers' group), the commands socket augerd's own.
+  const struct group* own = getgrgid(getegid());
+  REQUIRE(own);
+  std::string text = config_text(dir, {rig.port(3), rig.port(1), rig.port(0), rig.port(2)});
+  text.replace(text.find("[log]"), 5, "sensors_group = \"" + std::string(own->gr_name) + "\"\n[log]");
+  std::ofstream(cfg) << text;
+  // Started with the most permissive umask: the sockets' modes must not come from it.
+  const mode_t old_umask = umask(0);
   Daemon d(cfg, dir + "/augerd.err");
+  umask(old_umask);
   const std::string cmd = dir + "/cmd.sock", sens = dir + "/sensors.sock";
-  REQUIRE(wait_until([&] { return access(cmd.c_str(), F_OK) == 0; }, 5.0));
+  REQUIRE(wait_until([&] { return access(cmd.c_str(), F_OK) == 0 && access(sens.c_str(), F_OK) == 0; }, 5.0));
   INFO(d.stderr_text());
+  for (const std::string& path : {cmd, sens}) {
+    struct stat st {};
+    REQUIRE(stat(path.c_str(), &st) == 0);
+    INFO(path);
+    CHECK((st.st_mode & 07777) == 0660);
+    CHECK(st.st_gid == getegid());
+  }
   const std::string st0 = talk(cmd, "status\n", 1);
   CHECK(st0.rfind("status t_s=", 0) == 0);
   CHECK(st0.find("enabled=0") != std::string::npos);
@@ -244,6 +268,62 @@ TEST_CASE("augerd runs four simulated modules in real time and stops safely", "[
       INFO(bad << " -> " << a);
       CHECK(a.rfind("error: ", 0) == 0);
     }
+    // Issue 13: absurd but finite values, a NUL inside a number; enabled, so that nothing but the
+    // bounds refuses them. Each answer is one printable line.
+    REQUIRE(talk(cmd, "enable\n", 1) == "ok");
+    for (const std::string& bad : std::vector<std::string>{"vel 1e308 1e308 1e308", "goto 1e308 0 0",
+                                                           std::string("vel 0.01\0garbage 0 0", 20), "spin 1 1e308"}) {
+      const std::string a = talk(cmd, bad + "\n", 1);
+      INFO(bad << " -> " << a);
+      CHECK(a.rfind("error: ", 0) == 0);
+      CHECK(a.find('\0') == std::string::npos);
+    }
+    for (const std::string& bad : std::vector<std::string>{"pose " + now_unix() + " 0 0 0 1e300 1e300 1e300",
+                                                           "imu " + now_unix() + " 0 1e100", "imu " + now_unix() + " 0 1e20",
+                                                           "pose " + now_unix() + " 0 0 0 0.01 0.01 1e300"}) {
+      const std::string a = talk(sens, bad + "\n", -1);
+      INFO(bad << " -> " << a);
+      CHECK(a.find("is outside") != std::string::npos);
+    }
+    {
+      const std::string st = talk(cmd, "status\n", 1);
+      INFO(st);
+      CHECK(st.find("x_m=nan") == std::string::npos);
+      CHECK(st.find("fault=none") != std::string::npos);
+      CHECK(st.find("mode=idle") != std::string::npos);
+    }
+    // follow of a FIFO nobody writes: refused at once, the loop keeps its period.
+    {
+      const std::string fifo = dir + "/traj.fifo";
+      REQUIRE(mkfifo(fifo.c_str(), 0600) == 0);
+      const double t0 = SimRig::wall_s();
+      const std::string a = talk(cmd, "follow " + fifo + "\nstatus\n", 2);
+      INFO(a);
+      CHECK(a.rfind("error: '" + fifo + "': not a regular file", 0) == 0);
+      CHECK(a.find("\nstatus t_s=") != std::string::npos);
+      CHECK(SimRig::wall_s() - t0 < 0.2);
+    }
+    // A camera pose within every bound that the estimate cannot follow: a jump of 1000 km at a
+    // micrometre's confidence (a camera switching frames). The EKF's speed would leap to 1e5 m/s;
+    // the controller latches its fault, augerd stops every screw and says so, never arrived;
+    // the estimate stays the last good one; enable clears the fault.
+    {
+      REQUIRE(talk(cmd, "goto 0.1 0 0\n", 1) == "ok");
+      CHECK(talk(sens, "pose " + now_unix() + " 1000000 0 0 0.000001 0.000001 0.000001\n", -1) == "");
+      std::string st;
+      CHECK(wait_until([&] { return (st = talk(cmd, "status\n", 1)).find("fault=estimator") != std::string::npos; }, 1.0));
+      INFO(st << "\n" << d.stderr_text());
+      CHECK(st.find("enabled=0") != std::string::npos);
+      CHECK(st.find("mode=stopped") != std::string::npos);
+      CHECK(st.find("arrived=0") != std::string::npos);
+      CHECK(std::fabs(status_value(st, "x_m")) < 0.05);  // the last good estimate, near the start
+      CHECK(wait_until([&] { return all_stopped(rig); }, 0.5));
+      CHECK(d.stderr_text().find("estimator diverged: estimated u_mps") != std::string::npos);
+      CHECK(talk(cmd, "vel 0.01 0 0\n", 1).rfind("error: not enabled", 0) == 0);
+      REQUIRE(talk(cmd, "enable\n", 1) == "ok");
+      CHECK(talk(cmd, "status\n", 1).find("fault=none") != std::string::npos);
+    }
+    REQUIRE(talk(cmd, "stop\n", 1) == "ok");
     CHECK(talk(sens, "imu " + now_unix() + " 0.1 0.0\npose " + now_unix() + " 0 0 0 0.01 0.01 0.01\n", -1) == "");
     const std::string st = talk(cmd, "status\n", 1);
     CHECK(st.find("enabled=0") != std::string::npos);
@@ -453,7 +533,53 @@ TEST_CASE("augerd start-up errors", "[daemon]") {
   };
   const std::vector<std::string> ports{dir + "/p0", dir + "/p1", dir + "/p2", dir + "/p3"};
   const std::string good = config_text(dir, ports);
-  CHECK(run(good, {"--check"}).first == 0);
+  {
+    // Ports that do not exist (yet: a module unplugged): --check says so, exit 1, retried.
+    auto c = run(good, {"--check"});
+    CHECK(c.first == 1);
+    CHECK(c.second.find(ports[0] + " does not exist") != std::string::npos);
+  }
+  // Configurations certain to fail (issue 13): --check and start-up exit 2, which the service
+  // does not restart; each names what is wrong. The ports are character devices here.
+  {
+    const std::vector<std::string> dev{"/dev/null", "/dev/zero", "/dev/full", "/dev/urandom"};
+    const std::string base = config_text(dir, dev);
+    auto replace = [](std::string t, const std::string& from, const std::string& to) {
+      return t.replace(t.find(from), from.size(), to);
+    };
+    std::ofstream(dir + "/regular") << "x\n";
+    struct Case {
+      std::string text, message;
+    };
+    for (const Case& k : {Case{replace(base, dir + "/log\"", dir + "/nolog\""), "log directory " + dir + "/nolog does not exist"},
+                          Case{replace(base, dir + "/log\"", dir + "/regular\""), "is not a directory"},
+                          Case{replace(base, dir + "/cmd.sock", dir + "/regular"), "exists and is not a socket"},
+                          Case{replace(base, dir + "/sensors.sock", dir + "/log/../cmd.sock"), "are the same file"},
+                          Case{replace(base, "/dev/urandom", dir + "/regular"), "is not a character device"},
+                          Case{base + "", ""}}) {
+      if (k.message.empty()) {
+        CHECK(run(k.text, {"--check"}).first == 0);  // the same with every path in place
+        continue;
+      }
+      for (const auto& args : {std::vector<std::string>{"--check"}, std::vector<std::string>{}}) {
+        auto c = run(k.text, args);
+        INFO(k.message << (args.empty() ? " (start)" : " (--check)") << ": " << c.second);
+        CHECK(c.first == 2);
+        CHECK(c.second.find(k.message) != std::string::npos);
+      }
+    }
+    auto c = run(replace(base, "allocator = \"nullspace\"\n", "allocator = \"nullspace\"\nomega_max_rpm = 5\nomega_min_rpm = 6\n"),
+                 {"--check"});
+    CHECK(c.first == 2);
+    CHECK(c.second.find("omega_min_rpm = 6") != std::string::npos);
+    // The service treats exactly that code as final, and the missing port's as worth a retry.
+    const std::string unit = slurp(AUGER_SOURCE_DIR "/packaging/augerd.service.in");
+    const auto k = unit.find("\nRestartPreventExitStatus=");
+    REQUIRE(k != std::string::npos);
+    const std::string codes = unit.substr(k + 26, unit.find('\n', k + 1) - (k + 26));
+    CHECK(codes == std::to_string(c.first));
+    CHECK(unit.find("\nRestart=on-failure\n") != std::string::npos);
+  }
 
   auto r = run(good + "speed = 3\n");
   CHECK(r.first == 2);
@@ -476,7 +602,7 @@ TEST_CASE("augerd start-up errors", "[daemon]") {
   CHECK(r.first == 2);
   CHECK(r.second.find("bad.toml:2:") != std::string::npos);
 
-  r = run(good);  // the ports do not exist
+  r = run(good);  // the ports do not exist: not final, the service retries
   CHECK(r.first == 1);
   CHECK(r.second.find(ports[0]) != std::string::npos);
 
@@ -551,9 +677,33 @@ TEST_CASE("augerd keeps control when the log cannot be written", "[daemon]") {
   std::size_t reports = 0;
   for (auto p = err.find("failed"); p != std::string::npos; p = err.find("failed", p + 1)) ++reports;
   CHECK(reports == 1);
-  CHECK(talk(cmd, "status\n", 1).find("enabled=1") != std::string::npos);
+  const std::string st = talk(cmd, "status\n", 1);
+  CHECK(st.find("enabled=1") != std::string::npos);
+  CHECK(st.find("log_ok=0") != std::string::npos);
   kill(d.pid, SIGTERM);
   CHECK(d.wait_exit(2.0) == 0);
+  // The file the limit stopped ends at a row boundary: every reader takes it whole, with no
+  // warning; no empty file was left (issue 13: the last row was cut mid-field).
+  FILE* p = popen(("ls " + dir + "/log/*.csv").c_str(), "r");
+  REQUIRE(p);
+  char b[512];
+  int files = 0;
+  while (fgets(b, sizeof b, p)) {
+    const std::string path(b, strcspn(b, "\n"));
+    ++files;
+    const std::string text = slurp(path);
+    INFO(path);
+    REQUIRE(!text.empty());
+    CHECK(text.back() == '\n');
+    auger::RobotLogReader reader(path);
+    auger::RobotSample smp;
+    int rows = 0;
+    while (reader.next(smp)) ++rows;
+    CHECK_FALSE(reader.csv().last_row_cut());
+    CHECK(rows > 100);
+  }
+  pclose(p);
+  CHECK(files == 1);
 }
 
 TEST_CASE("augerd logs a module's trip with its snapshot and a reset with its cause; follows its telemetry period",
@@ -630,3 +780,244 @@ TEST_CASE("augerd logs a module's trip with its snapshot and a reset with its ca
   kill(d.pid, SIGTERM);
   CHECK(d.wait_exit(2.0) == 0);
 }
+
+namespace {
+
+// A client that keeps one connection and sends `line` every period (a teleop, a monitor).
+struct Keeper {
+  std::atomic<bool> run{true};
+  std::atomic<int> answers{0}, errors{0};
+  std::thread t;
+  Keeper(const std::string& sock, const std::string& line, double period_s) {
+    t = std::thread([=] {
+      const int fd = connect_to(sock);
+      if (fd < 0) return;
+      std::string in;
+      char buf[8192];
+      while (run) {
+        send(fd, (line + "\n").data(), line.size() + 1, MSG_NOSIGNAL);
+        const double until = SimRig::wall_s() + period_s;
+        while (SimRig::wall_s() < until) {
+          pollfd p{fd, POLLIN, 0};
+          if (poll(&p, 1, 10) <= 0) continue;
+          const ssize_t n = recv(fd, buf, sizeof buf, 0);
+          if (n <= 0) break;
+          in.append(buf, std::size_t(n));
+          for (std::size_t nl; (nl = in.find('\n')) != std::string::npos; in.erase(0, nl + 1))
+            (in.rfind("error", 0) == 0 ? errors : answers)++;
+        }
+      }
+      close(fd);
+    });
+  }
+  ~Keeper() {
+    run = false;
+    t.join();
+  }
+};
+
+// Loop period statistics of the log rows with t_s in [t0, t1).
+struct Period {
+  int n = 0;
+  double mean_s = 0, std_s = 0, max_dev_s = 0, max_s = 0;
+};
+Period log_period(const std::string& log_dir, double t0, double t1) {
+  Period p;
+  double sum = 0, sum2 = 0;
+  FILE* ls = popen(("ls " + log_dir + "/*.csv").c_str(), "r");
+  char b[512];
+  while (ls && fgets(b, sizeof b, ls)) {
+    auger::RobotLogReader r(std::string(b, strcspn(b, "\n")));
+    auger::RobotSample s;
+    while (r.next(s)) {
+      if (s.t_s < t0 || s.t_s >= t1 || !std::isfinite(s.loop_dt_s)) continue;
+      ++p.n;
+      sum += s.loop_dt_s;
+      sum2 += s.loop_dt_s * s.loop_dt_s;
+      p.max_dev_s = std::max(p.max_dev_s, std::fabs(s.loop_dt_s - 0.01));
+      p.max_s = std::max(p.max_s, s.loop_dt_s);
+    }
+  }
+  if (ls) pclose(ls);
+  if (p.n) p.mean_s = sum / p.n, p.std_s = std::sqrt(std::max(0.0, sum2 / p.n - p.mean_s * p.mean_s));
+  return p;
+}
+
+// The load test (issue 13): augerd drives the robot (vel, kept alive on one connection) while its
+// sockets are abused the ways that froze it before, all at once, for duration_s: more idle
+// connections than the cap on both sockets, clients flooding `status all` (some never reading
+// their answers), a stream of short connections, follow of a FIFO, of /dev/zero, of a file too
+// big and of one with too many rows, garbage and absurd values on the sensors socket. Then
+// `stop` on fresh connections, timed. Bounded: loopback Unix sockets only, a fixed duration.
+void abuse(double duration_s) {
+  const std::string dir = make_dir("load");
+  RemoveDir cleanup{dir};
+  SimRig rig(dir, {0, 1, 2, 3}, {0, 1, 2, 3});
+  const std::string cfg = dir + "/augerd.toml";
+  std::ofstream(cfg) << config_text(dir, {rig.port(0), rig.port(1), rig.port(2), rig.port(3)});
+  Daemon d(cfg, dir + "/augerd.err");
+  const std::string cmd = dir + "/cmd.sock", sens = dir + "/sensors.sock";
+  REQUIRE(wait_until([&] { return access(cmd.c_str(), F_OK) == 0; }, 5.0));
+  REQUIRE(talk(cmd, "enable\n", 1) == "ok");
+  Keeper feeder(cmd, "vel 0.03 0 0", 0.1);
+  REQUIRE(wait_until([&] { return all_driven(rig); }, 2.0));
+  sleep_s(1.0);
+  const double t_abuse0 = status_value(talk(cmd, "status\n", 1), "t_s");
+
+  std::atomic<bool> run{true};
+  std::vector<std::thread> threads;
+  std::vector<int> idle;
+  std::atomic<long> flood_answers{0}, short_answers{0}, short_tries{0}, follow_errors{0}, sensor_lines{0};
+  // Flooders: 20 000 `status all` each, as fast as the socket takes them; two read, two never do.
+  for (int k = 0; k < 4; ++k)
+    threads.emplace_back([&, k] {
+      const int fd = connect_to(cmd);
+      std::string many;
+      for (int i = 0; i < 1000; ++i) many += "status all\n";
+      char buf[65536];
+      for (int rep = 0; rep < 20 && run; ++rep) {
+        std::size_t off = 0;
+        while (off < many.size() && run) {
+          pollfd p{fd, short(POLLOUT | (k < 2 ? POLLIN : 0)), 0};
+          if (poll(&p, 1, 20) <= 0) continue;
+          if (p.revents & POLLIN) {
+            const ssize_t n = recv(fd, buf, sizeof buf, 0);
+            if (n <= 0) break;
+            flood_answers += std::count(buf, buf + n, '\n');
+          }
+          if (p.revents & POLLOUT) {
+            const ssize_t n = send(fd, many.data() + off, many.size() - off, MSG_NOSIGNAL | MSG_DONTWAIT);
+            if (n > 0) off += std::size_t(n);
+            else if (n < 0 && errno != EAGAIN) break;
+          }
+          if (p.revents & (POLLHUP | POLLERR)) break;
+        }
+      }
+      while (run) sleep_s(0.05);
+      close(fd);
+    });
+  // More idle connections than the cap, on both sockets.
+  for (int k = 0; k < 40; ++k) idle.push_back(connect_to(cmd));
+  for (int k = 0; k < 40; ++k) idle.push_back(connect_to(sens));
+  // A stream of short connections, at most 300 a second.
+  threads.emplace_back([&] {
+    while (run) {
+      ++short_tries;
+      if (talk(cmd, "status\n", 1).rfind("status t_s=", 0) == 0) ++short_answers;
+      sleep_s(1.0 / 300);
+    }
+  });
+  // follow of files that froze or bloated the loop before, twice a second.
+  const std::string fifo = dir + "/fifo", big = dir + "/big.csv", many = dir + "/many.csv";
+  REQUIRE(mkfifo(fifo.c_str(), 0600) == 0);
+  {
+    const int fd = open(big.c_str(), O_WRONLY | O_CREAT, 0644);
+    REQUIRE(ftruncate(fd, off_t(1) << 30) == 0);  // 1 GiB, sparse
+    close(fd);
+    std::ofstream f(many);
+    f << "t_s,x_m,y_m,psi_rad\n";
+    for (int i = 0; i <= 100000; ++i) f << i << ",0,0,0\n";
+  }
+  threads.emplace_back([&] {
+    const std::string paths[] = {fifo, "/dev/zero", big, many};
+    for (int i = 0; run; ++i) {
+      const std::string a = talk(cmd, "follow " + paths[i % 4] + "\n", 1);
+      if (a.rfind("error: ", 0) == 0) ++follow_errors;
+      sleep_s(0.5);
+    }
+  });
+  // The sensors socket: garbage, control bytes and absurd values, as fast as it takes them.
+  for (int k = 0; k < 2; ++k)
+    threads.emplace_back([&] {
+      const int fd = connect_to(sens);
+      const std::string t = now_unix();
+      std::string junk = "imu " + t + " 0 1e100\npose " + t + " 0 0 0 1e300 1e300 1e300\nimu " + t +
+                         " 0 1e20\ngarbage \x01\x02\x7f\n" + std::string("imu 1\0 0 0\n", 11) + "vel 1 2 3\n";
+      while (run) {
+        pollfd p{fd, POLLOUT, 0};
+        if (poll(&p, 1, 20) <= 0) continue;
+        const ssize_t n = send(fd, junk.data(), junk.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+        if (n < 0 && errno != EAGAIN) break;
+        if (n > 0) sensor_lines += 6;
+        char buf[65536];
+        while (recv(fd, buf, sizeof buf, MSG_DONTWAIT) > 0) {
+        }
+      }
+      close(fd);
+    });
+
+  sleep_s(duration_s);
+  // Still under abuse: no module timed out, the robot is driven, the dead-man fed.
+  const std::string st = talk(cmd, "status\n", 1);
+  const std::string err_text = d.stderr_text();
+  const bool driven = all_driven(rig);
+  // `stop` on fresh connections, timed from the send to the answer, each followed by enable.
+  std::vector<double> stop_ms;
+  for (int k = 0; k < 10; ++k) {
+    const int fd = connect_to(cmd);
+    REQUIRE(fd >= 0);
+    const double t0 = SimRig::wall_s();
+    send(fd, "stop\n", 5, MSG_NOSIGNAL);
+    std::string got;
+    char buf[256];
+    pollfd p{fd, POLLIN, 0};
+    while (got.find('\n') == std::string::npos && poll(&p, 1, 1000) > 0) {
+      const ssize_t n = recv(fd, buf, sizeof buf, 0);
+      if (n <= 0) break;
+      got.append(buf, std::size_t(n));
+    }
+    stop_ms.push_back(1e3 * (SimRig::wall_s() - t0));
+    close(fd);
+    CHECK(got == "ok\n");
+    sleep_s(0.05);
+    talk(cmd, "enable\n", 1);
+    sleep_s(0.1);
+  }
+  const double t_abuse1 = status_value(talk(cmd, "status\n", 1), "t_s");
+  run = false;
+  for (auto& t : threads) t.join();
+  for (int fd : idle) close(fd);
+  kill(d.pid, SIGTERM);
+  CHECK(d.wait_exit(3.0) == 0);
+  // augerd's own report at exit: its loop period and the log's syncs (docs/daemon.md).
+  std::string report;
+  for (const char* key : {"augerd: log:", "cycles; loop period"}) {
+    const std::string all = d.stderr_text();
+    auto b = all.rfind(key);
+    if (b == std::string::npos) continue;
+    b = all.rfind('\n', b) == std::string::npos ? 0 : all.rfind('\n', b) + 1;  // the whole line
+    report += "\n  " + all.substr(b, all.find('\n', b) - b);
+  }
+
+  const Period per = log_period(dir + "/log", t_abuse0, t_abuse1);
+  std::sort(stop_ms.begin(), stop_ms.end());
+  WARN("load test, " << duration_s << " s of abuse: loop period mean " << per.mean_s * 1e3 << " ms, std "
+                     << per.std_s * 1e3 << " ms, longest " << per.max_s * 1e3 << " ms (" << per.n
+                     << " cycles); stop answered in " << stop_ms.front() << " / " << stop_ms[stop_ms.size() / 2]
+                     << " / " << stop_ms.back() << " ms (min / median / max of " << stop_ms.size()
+                     << "); flood answers " << flood_answers << ", short connections answered " << short_answers
+                     << " of " << short_tries << ", follow refused " << follow_errors << ", sensor lines sent "
+                     << sensor_lines << report);
+  INFO(st << "\n" << err_text);
+  CHECK(st.find("fault=none") != std::string::npos);
+  CHECK(st.find("mode=vel") != std::string::npos);
+  CHECK(driven);
+  CHECK(err_text.find("no-telemetry") == std::string::npos);
+  CHECK(err_text.find("corrupt-frames") == std::string::npos);
+  CHECK(per.n > int(80 * duration_s));
+  CHECK(per.max_s < 0.05);  // no stall near the modules' 100 ms telemetry timeout
+  CHECK(per.std_s < 0.003);
+  CHECK(short_answers > 0.9 * short_tries);
+  CHECK(follow_errors > 0);
+  // Within one cycle: the line waits at most a period for the next cycle, plus the machine's
+  // scheduling (two cores shared with builds); the median must show the one cycle.
+  CHECK(stop_ms[stop_ms.size() / 2] < 15.0);
+  CHECK(stop_ms.back() < 40.0);
+}
+
+}  // namespace
+
+TEST_CASE("augerd holds its loop while its sockets are abused", "[load]") { abuse(4.0); }
+
+// make test-full: the same for a minute.
+TEST_CASE("augerd holds its loop while its sockets are abused, one minute", "[.load_full]") { abuse(60.0); }

@@ -1,17 +1,33 @@
-// augerd's pure parts: the socket line parsers and the configuration reader.
+// augerd's parts without modules: the socket line parsers and their bounds, the configuration
+// reader and start-up checks, setpoint encoding. The sockets, the log writer and the waypoint
+// loader have their own files (test_line_server.cpp, test_data_log.cpp).
 #include <catch2/catch.hpp>
 
+#include <cmath>
+#include <cstdlib>
 #include <fstream>
+#include <vector>
 #include <string>
 
+#include <grp.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "auger/effect.hpp"
 #include "config.hpp"
 #include "lines.hpp"
+#include "setpoint.hpp"
 #include "status_text.hpp"
 
 using namespace augerd;
+
+namespace {
+// A string literal with its embedded NUL bytes (without the terminating one).
+template <std::size_t N>
+std::string raw(const char (&s)[N]) {
+  return std::string(s, N - 1);
+}
+}  // namespace
 
 TEST_CASE("command lines", "[daemon][unit]") {
   Command c;
@@ -51,6 +67,77 @@ TEST_CASE("command lines", "[daemon][unit]") {
   CHECK(parse_command(std::string("bad\x01"), c).find('\x01') == std::string::npos);  // one printable line
 }
 
+TEST_CASE("command and sensor values are whole numbers within physical bounds", "[daemon][unit]") {
+  // Issue 13: these were accepted and became NaN setpoints or a NaN estimate for good.
+  Command c;
+  for (const std::string& bad : std::vector<std::string>
+       {"vel 1e308 1e308 1e308", "vel 0 0 1e308", "vel 11 0 0", "goto 1e308 0 0", "goto 0 0 1e308", "goto 2e7 0 0",
+        "spin 1 1e308", "spin 1 400", raw("vel 0.01\0garbage 0 0"), raw("vel 0.01\0 0 0"),
+        "vel 0.01garbage 0 0", "vel 0x 0 0"}) {
+    Command out;
+    out.kind = CommandKind::stop;
+    const std::string err = parse_command(bad, out);
+    INFO(quote_line(bad) << " -> " << err);
+    CHECK(!err.empty());
+    CHECK(out.kind == CommandKind::stop);
+    CHECK(err.find('\0') == std::string::npos);  // never echoes a raw control byte
+  }
+  CHECK(parse_command("vel 1e308 0 0", c).find("u_mps = 1e+308 m/s is outside -10..10 m/s") != std::string::npos);
+  CHECK(parse_command(raw("vel 0.01\0garbage 0 0"), c).find("control byte 0x00 at byte 9") !=
+        std::string::npos);
+  CHECK(parse_command("goto 1e6 -1e6 3", c).empty());  // a projected frame's coordinates are places
+  CHECK(parse_command("vel 0.2 0 -0.5", c).empty());
+  CHECK(parse_command("spin 3 -327.67", c).empty());
+
+  SensorMessage m;
+  for (const std::string& bad : std::vector<std::string>
+       {"pose 1 0 0 0 1e300 0.01 0.01", "pose 1 0 0 0 0.01 1e300 0.01", "pose 1 0 0 0 0.01 0.01 1e300",
+        "pose 1 0 0 0 1e-300 0.01 0.01", "pose 1 0 0 0 0 0.01 0.01", "pose 1 1e308 0 0 0.01 0.01 0.01",
+        "imu 1 0 1e100", "imu 1 0 1e20", "imu 1 1e300 0", "imu 1 0 -36", raw("imu 1 0\0 0.1"),
+        "imu 1 0 0.1\x7f"}) {
+    INFO(quote_line(bad));
+    CHECK(!parse_sensor(bad, m).empty());
+  }
+  CHECK(parse_sensor("pose 1 0 0 0 1e300 0.01 0.01", m).find("sx_m = 1e+300 m is outside") != std::string::npos);
+  CHECK(parse_sensor("imu 1 0 1e20", m).find("r_radps = 1e+20 rad/s is outside -35..35") != std::string::npos);
+  CHECK(parse_sensor("imu 1 100 34.9", m).empty());  // an unwrapped heading, a fast gyro
+  CHECK(parse_sensor("pose 1 500000 5000000 0.1 0.02 0.02 0.01", m).empty());  // UTM
+}
+
+TEST_CASE("error answers quote the input as one printable, bounded line", "[daemon][unit]") {
+  CHECK(quote_line("ab") == "'ab'");
+  CHECK(quote_line(raw("a\0b\n")) == "'a\\x00b\\x0a'");
+  const std::string huge(10u << 20, 'x');
+  const std::string q = quote_line(huge);
+  CHECK(q.size() < 260);
+  CHECK(q.find("(10485760 bytes)") != std::string::npos);
+  Command c;
+  CHECK(parse_command("vel " + huge + " 0 0", c).size() < 400);
+}
+
+TEST_CASE("setpoint encoding saturates and never converts a NaN", "[daemon][unit]") {
+  int16_t v = 123;
+  CHECK_FALSE(auger::io::setpoint_crpm(std::nan(""), v));
+  CHECK(v == 0);
+  v = 123;
+  CHECK_FALSE(auger::io::setpoint_crpm(HUGE_VAL, v));
+  CHECK(v == 0);
+  CHECK_FALSE(auger::io::setpoint_crpm(-HUGE_VAL, v));
+  CHECK(v == 0);
+  CHECK(auger::io::setpoint_crpm(1e308, v));  // * 100 overflows to inf: still the wire's maximum
+  CHECK(v == 32767);
+  CHECK(auger::io::setpoint_crpm(-1e308, v));
+  CHECK(v == -32767);
+  CHECK(auger::io::setpoint_crpm(400, v));
+  CHECK(v == 32767);
+  CHECK(auger::io::setpoint_crpm(12.345, v));
+  CHECK(v == 1235);  // lround: half away from zero
+  CHECK(auger::io::setpoint_crpm(-0.004, v));
+  CHECK(v == 0);
+  CHECK(auger::io::setpoint_crpm(-327.67, v));
+  CHECK(v == -32767);
+}
+
 TEST_CASE("sensor lines", "[daemon][unit]") {
   SensorMessage m;
   CHECK(parse_sensor("pose 1700000000.5 1 2 0.1 0.01 0.02 0.03", m).empty());
@@ -73,6 +160,19 @@ std::string write_tmp(const std::string& text) {
   const std::string p = "/tmp/augerd-unit-" + std::to_string(getpid()) + "-" + std::to_string(n++) + ".toml";
   std::ofstream(p) << text;
   return p;
+}
+// The configuration text must be refused with a message containing `where`.
+void expect_config_error(const std::string& text, const std::string& where) {
+  const std::string q = write_tmp(text);
+  INFO(text);
+  try {
+    load_daemon_config(q);
+    FAIL("accepted");
+  } catch (const std::exception& e) {
+    INFO(e.what());
+    CHECK(std::string(e.what()).find(where) != std::string::npos);
+  }
+  unlink(q.c_str());
 }
 const std::string kGood =
     "schema = 1\n"
@@ -112,16 +212,7 @@ TEST_CASE("configuration file", "[daemon][unit]") {
                        Bad{replace(kGood, "schema = 1", "schema = 2"), ":1:"},
                        Bad{replace(kGood, "[serial]", "[serial]\nbaud = \"fast\""), ":3:"},
                        Bad{replace(kGood, "models/robot.toml", "models/none.toml"), "none.toml"}}) {
-    const std::string q = write_tmp(b.text);
-    INFO(b.text);
-    try {
-      load_daemon_config(q);
-      FAIL("accepted");
-    } catch (const std::exception& e) {
-      INFO(e.what());
-      CHECK(std::string(e.what()).find(b.where) != std::string::npos);
-    }
-    unlink(q.c_str());
+    expect_config_error(b.text, b.where);
   }
 }
 
@@ -153,4 +244,103 @@ TEST_CASE("module words for augerd's messages and event log", "[daemon][unit]") 
     CHECK(std::string(e.what()).find("/dev/ttyUSB0: the module (firmware 0.2.0) speaks protocol 1, augerd protocol 2") == 0);
     CHECK(std::string(e.what()).find("make flash PORT=/dev/ttyUSB0") != std::string::npos);
   }
+}
+
+TEST_CASE("configuration: related values are ordered, socket modes and groups explicit", "[daemon][unit]") {
+  auto replace = [](std::string s, const std::string& from, const std::string& to) {
+    return s.replace(s.find(from), from.size(), to);
+  };
+  struct Bad {
+    std::string text, where;
+  };
+  const char* group_name = nullptr;
+  if (const struct group* g = getgrgid(getegid())) group_name = g->gr_name;
+  REQUIRE(group_name);
+  {
+    const std::string p = write_tmp(replace(kGood, "sensors = \"/run/s.sock\"\n",
+                                            "sensors = \"/run/s.sock\"\nsensors_mode = 0o620\nsensors_group = \"" +
+                                                std::string(group_name) + "\"\nidle_timeout_s = 2\n"));
+    const DaemonConfig c = load_daemon_config(p);
+    CHECK(c.sensors_mode == 0620);
+    CHECK(c.commands_mode == 0660);  // the default, whatever the umask
+    CHECK(c.sensors_group == group_name);
+    CHECK(socket_gid(c.sensors_group) == long(getegid()));
+    CHECK(socket_gid(c.commands_group) == -1);  // none given: augerd's own
+    CHECK_FALSE(socket_gid("no-such-group-x"));
+    CHECK(c.idle_timeout_s == 2);
+    unlink(p.c_str());
+  }
+  for (const Bad& b :
+       {Bad{replace(kGood, "omega_max_rpm = 20", "omega_max_rpm = 20\nomega_min_rpm = 25"),
+            ":10:1: omega_min_rpm = 25 (" },
+        Bad{replace(kGood, "omega_max_rpm = 20", "omega_max_rpm = 2"), "is above omega_max_rpm = 2"},
+        Bad{replace(replace(kGood, "[serial]", "[serial]\ntelemetry_timeout_s = 0.03"), "[control]",
+                    "[control]\nperiod_s = 0.02"),
+            ":3:1: telemetry_timeout_s = 0.03 is shorter than two loop periods"},
+        Bad{replace(kGood, "sensors = \"/run/s.sock\"", "sensors = \"/run/s.sock\"\nsensors_mode = 0o666"),
+            ":14:16: 'sensors_mode' must not let every user write"},
+        Bad{replace(kGood, "sensors = \"/run/s.sock\"", "sensors = \"/run/s.sock\"\ncommands_mode = 0o060"),
+            "'commands_mode' must give augerd's user read and write"},
+        Bad{replace(kGood, "sensors = \"/run/s.sock\"", "sensors = \"/run/s.sock\"\nsensors_group = 7"),
+            ":14:17: 'sensors_group' must be a string"}}) {
+    expect_config_error(b.text, b.where);
+  }
+}
+
+TEST_CASE("start-up checks: what augerd --check must catch before anything is opened", "[daemon][unit]") {
+  char templ[] = "/tmp/augerd-startup-XXXXXX";
+  REQUIRE(mkdtemp(templ));
+  const std::string d = templ;
+  REQUIRE(mkdir((d + "/log").c_str(), 0755) == 0);
+  std::ofstream(d + "/regular") << "not a port\n";
+  DaemonConfig c;
+  c.ports = {"/dev/null", "/dev/null", "/dev/null", "/dev/null"};  // character devices
+  c.log_dir = d + "/log";
+  c.commands_socket = d + "/c.sock";
+  c.sensors_socket = d + "/s.sock";
+  CHECK(check_startup(c).empty());
+
+  auto problems = [&](const DaemonConfig& x) {
+    std::string all;
+    bool final = false;
+    for (const auto& p : check_startup(x)) all += p.text + "\n", final |= p.final;
+    return std::make_pair(final, all);
+  };
+  DaemonConfig x = c;
+  x.ports[1] = d + "/ttyUSB9";  // missing: may appear (unplugged module), not final
+  auto r = problems(x);
+  CHECK_FALSE(r.first);
+  CHECK(r.second.find(d + "/ttyUSB9 does not exist") != std::string::npos);
+  x = c;
+  x.ports[2] = d + "/regular";
+  r = problems(x);
+  CHECK(r.first);
+  CHECK(r.second.find("is not a character device") != std::string::npos);
+  x = c;
+  x.log_dir = d + "/nolog";
+  r = problems(x);
+  CHECK(r.first);
+  CHECK(r.second.find("log directory " + d + "/nolog does not exist") != std::string::npos);
+  x = c;
+  x.log_dir = d + "/regular";
+  CHECK(problems(x).second.find("is not a directory") != std::string::npos);
+  x = c;
+  x.commands_socket = d + "/regular";
+  r = problems(x);
+  CHECK(r.first);
+  CHECK(r.second.find("exists and is not a socket") != std::string::npos);
+  x = c;
+  x.sensors_socket = d + "/./log/../c.sock";  // the same file spelled otherwise
+  CHECK(problems(x).second.find("are the same file") != std::string::npos);
+  x = c;
+  x.sensors_socket = d + "/nodir/s.sock";
+  CHECK(problems(x).second.find("directory " + d + "/nodir does not exist") != std::string::npos);
+  x = c;
+  x.path = "/etc/augerd.toml";
+  x.sensors_group = "no-such-group-x";
+  x.line_sensors_group = 17;
+  r = problems(x);
+  CHECK(r.first);  // the group must be created (sysusers) before augerd can start
+  CHECK(r.second.find("/etc/augerd.toml:17: sensors_group: no group named 'no-such-group-x'") != std::string::npos);
+  [[maybe_unused]] int rc = std::system(("rm -rf '" + d + "'").c_str());
 }

@@ -193,3 +193,67 @@ TEST_CASE("a model with pose_time_offset makes the estimator take each pose as o
   CHECK(plain_m > 0.005);
   CHECK(offset_m < 0.25 * plain_m);
 }
+
+TEST_CASE("an absurd sensor value latches an estimator fault instead of poisoning the estimate") {
+  // Issue 13: a pose with standard deviations of 1e300, or an IMU rate of 1e100, turned the EKF
+  // state into NaN for good, and every setpoint followed. augerd refuses such lines
+  // (input_limits.hpp); this is the controller's own guard behind that.
+  const Model m = make_model(RobotParams{}, kSand);
+  struct Poison {
+    const char* what;
+    SensorInput in;
+  };
+  std::vector<Poison> cases;
+  {
+    SensorInput s;
+    s.has_pose = true;
+    s.pose = Vec3(0.1, 0.0, 0.0);
+    s.pose_cov = Vec3(1e300, 1e300, 1e300).cwiseAbs2().asDiagonal();  // inf
+    cases.push_back({"pose sd 1e300", s});
+  }
+  {
+    SensorInput s;
+    s.has_imu_r = true;
+    s.imu_r_radps = 1e100;
+    cases.push_back({"imu rate 1e100", s});
+  }
+  {
+    SensorInput s;
+    s.has_imu_r = true;
+    s.imu_r_radps = 1e20;
+    cases.push_back({"imu rate 1e20", s});
+  }
+  for (const auto& p : cases) {
+    INFO(p.what);
+    ControllerConfig cfg;
+    cfg.gamma_per_s = Vec3::Constant(1.0);
+    Loop loop(m, cfg);
+    loop.c.set_waypoints({{0.0, Vec3(0.3, 0.0, 0.0)}});
+    loop.c.set_enabled(true);
+    loop.run(0.0, 200);
+    const Vec3 before = loop.c.eta_estimate();
+    REQUIRE(loop.c.fault().empty());
+    const auto& sp = loop.c.step(2.0, loop.tel, p.in);
+    CHECK_FALSE(loop.c.fault().empty());
+    CHECK_FALSE(loop.c.enabled());
+    for (double w : sp) CHECK(w == 0.0);
+    // The estimate restarted at the last good one, finite.
+    CHECK(loop.c.eta_estimate().allFinite());
+    CHECK((loop.c.eta_estimate() - before).norm() < 0.05);
+    // Latched: valid camera poses keep the estimate sane, setpoints stay 0 until cleared.
+    loop.c.set_enabled(true);
+    SensorInput good;
+    good.has_pose = true;
+    good.pose = loop.eta;
+    for (int k = 1; k <= 20; ++k) {
+      const auto& s2 = loop.c.step(2.0 + 0.01 * k, loop.tel, good);
+      for (double w : s2) CHECK(w == 0.0);
+    }
+    CHECK((loop.c.eta_estimate() - loop.eta).norm() < 0.02);
+    loop.c.clear_fault();
+    loop.c.set_enabled(true);
+    loop.run(2.3, 300);
+    CHECK(loop.c.fault().empty());
+    CHECK(loop.c.eta_estimate().allFinite());
+  }
+}

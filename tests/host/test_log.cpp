@@ -200,3 +200,54 @@ TEST_CASE("gantry log round trip, streamed over many rows") {
   CHECK(all_same);
   CHECK(k == n);
 }
+
+TEST_CASE("a last row cut short is dropped with a warning; the rows before it are read") {
+  // Issue 13: a full disk cut augerd's last row mid-field and every reader refused the file.
+  const std::string head = "# format: auger-robot-log v1\nt_s,omega_rpm_0,omega_rpm_1,omega_rpm_2,omega_rpm_3,x_m,y_m,psi_rad\n";
+  const std::string rows = "0,1,2,3,4,,,\n0.01,1,2,3,4,0.5,0.25,0.125\n";
+  auto count = [](const std::string& text, bool* cut) {
+    std::stringstream ss(text);
+    RobotLogReader r(ss, "cut.csv");
+    RobotSample s;
+    int n = 0;
+    while (r.next(s)) ++n;
+    *cut = r.csv().last_row_cut();
+    return n;
+  };
+  bool cut = false;
+  for (const std::string& tail : {std::string("0.02,1,2,3"), std::string("0.02,1,2,3,4,0.5,0.2"),
+                                   std::string("0.02,1,2,3,4,0.5,0.25,1e"), std::string("0.0")}) {
+    INFO(tail);
+    CHECK(count(head + rows + tail, &cut) == 2);
+    CHECK(cut);
+  }
+  // A whole last row without its newline (some programs write that) is a row.
+  CHECK(count(head + rows + "0.02,1,2,3,4,0.5,0.25,0.125", &cut) == 3);
+  CHECK_FALSE(cut);
+  // The same cut anywhere but at the end of the file is an error as before.
+  bool unused = false;
+  CHECK(log_error([&] { count(head + "0.02,1,2,3\n" + rows, &unused); }).line() == 3);
+}
+
+TEST_CASE("hostile logs: long fields are cut in messages, a huge header reads in linear time, devices refused") {
+  const std::string huge(10u << 20, '7');
+  std::stringstream ss("t_s,x_m\n0,1\n" + huge + "x,2\n");
+  CsvLogReader r(ss, "huge.csv");
+  REQUIRE(r.next());
+  const LogError e = log_error([&] { r.next(); });
+  CHECK(std::string(e.what()).size() < 300);
+  CHECK_THAT(e.what(), Catch::Contains("... (10485761 bytes)"));
+
+  // 200 000 columns: a quadratic duplicate check took minutes; linear takes milliseconds.
+  std::string header = "t_s";
+  for (int i = 0; i < 200000; ++i) header += ",c" + std::to_string(i);
+  std::stringstream wide(header + "\n");
+  CsvLogReader w(wide, "wide.csv");
+  CHECK(w.columns().size() == 200001);
+  CHECK(w.column_index("c199999") == 200000);
+  std::stringstream dup(header + ",c5\n");
+  CHECK_THAT(log_error([&] { CsvLogReader d(dup, "dup.csv"); }).what(), Catch::Contains("duplicate column 'c5'"));
+
+  CHECK_THAT(log_error([&] { CsvLogReader d("/dev/zero"); }).what(), Catch::Contains("not a log file"));
+  CHECK_THAT(log_error([&] { CsvLogReader d("/tmp"); }).what(), Catch::Contains("is a directory"));
+}

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <array>
+#include <string>
 #include <vector>
 
 #include "auger/allocation.hpp"
@@ -75,7 +76,17 @@ class Controller {
   long stale_poses() const { return stale_poses_; }
   bool enabled() const { return enabled_; }
 
+  // A step whose estimate is not finite or leaves the bounds of input_limits.hpp (the EKF has
+  // diverged), or whose setpoints are not finite, latches a fault: the estimator restarts at the
+  // last good estimate (at rest, with its initial uncertainty, so the next camera pose corrects
+  // it), the controller disables itself and commands 0 until clear_fault(). "" when none.
+  const std::string& fault() const { return fault_; }
+  void clear_fault() { fault_.clear(); }
+
  private:
+  void restart_estimator(const Vec3& eta);
+  void latch_fault(const std::string& what);
+
   const Model& model_;
   ControllerConfig config_;
   DeadReckoning dr_;
@@ -95,6 +106,8 @@ class Controller {
   bool trajectory_running_ = false;
   bool enabled_ = false;
   Vec3 eta_ = Vec3::Zero(), zeta_ = Vec3::Zero();
+  Vec3 last_good_eta_ = Vec3::Zero();
+  std::string fault_;
   Vec4 omega_meas_rpm_ = Vec4::Zero();
   std::array<double, 4> setpoints_rpm_{};
 };

@@ -14,9 +14,11 @@
 #include <ostream>
 #include <stdexcept>
 #include <string>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
+#include "auger/input_limits.hpp"
 #include "auger/measured.hpp"
 
 namespace auger {
@@ -64,9 +66,14 @@ class CsvLogReader {
   void require_columns(const std::vector<std::string>& required) const;
   // Throws LogError if `# format:` is present and differs from expected.
   void check_format(const std::string& expected) const;
+  // A metadata value as a number within bound; else LogError at its line.
+  double metadata_number(const MetadataEntry& m, const InputBound& bound) const;
 
-  // Reads the next row; false at end of file. Checks field count, numbers, t_s.
+  // Reads the next row; false at end of file. Checks field count, numbers, t_s. A last row cut
+  // short (the file ends without its newline inside the row: a full disk, a killed writer) is
+  // not an error: it is dropped with a warning on stderr naming its line (last_row_cut()).
   bool next();
+  bool last_row_cut() const { return last_row_cut_; }
   int line() const { return line_; }  // line of the current row
   double value(int column) const { return values_[static_cast<std::size_t>(column)]; }
   const std::string& field_text(int column) const { return fields_[static_cast<std::size_t>(column)]; }
@@ -77,13 +84,17 @@ class CsvLogReader {
  private:
   void parse_header();
   bool read_line(std::string& line);
+  bool row_is_cut(std::size_t n_fields) const;
 
   std::unique_ptr<std::ifstream> owned_;
   std::istream* in_;
   std::string name_;
   std::vector<MetadataEntry> metadata_;
   std::vector<std::string> columns_;
+  std::unordered_map<std::string, int> column_of_;
   int header_line_ = 0;
+  bool unterminated_ = false;  // the line just read ended at the end of the file, without '\n'
+  bool last_row_cut_ = false;
   int line_ = 0;
   int t_col_ = -1;
   double last_t_s_ = -std::numeric_limits<double>::infinity();

@@ -41,8 +41,10 @@ int active_waypoint(const std::vector<Waypoint>& waypoints, double t_s, int hint
 void check_waypoints(const std::vector<Waypoint>& waypoints);
 
 // Reads waypoints from a CSV in the log conventions (docs/log-format.md): `#` lines, a header
-// with t_s, x_m, y_m, psi_rad (any order, other columns ignored). Throws LogError.
+// with t_s, x_m, y_m, psi_rad (any order, other columns ignored). Throws LogError, also at the
+// row beyond max_rows.
 std::vector<Waypoint> load_waypoints_csv(const std::string& path);
-std::vector<Waypoint> read_waypoints_csv(std::istream& in, const std::string& name);
+std::vector<Waypoint> read_waypoints_csv(std::istream& in, const std::string& name,
+                                         std::size_t max_rows = static_cast<std::size_t>(-1));
 
 }  // namespace auger

@@ -1,7 +1,8 @@
 // Bad input for every workbench command, at the command line: a corpus of broken logs made
-// here (missing required column, non-increasing time, text in a number, empty file, truncated
-// last line), each expected to exit 2 with "file:line:column:" on stderr and nothing but
-// (at most) an empty stdout; and sparse pose rows with NaN gaps, which are normal data.
+// here (missing required column, non-increasing time, text in a number, empty file), each
+// expected to exit 2 with "file:line:column:" on stderr and nothing but (at most) an empty
+// stdout; a last line cut short (a full disk), which is read up to it with a warning; and
+// sparse pose rows with NaN gaps, which are normal data. test_hostile_input.cpp has the rest.
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -48,32 +49,6 @@ std::string replace_field(const std::string& line, int field, const std::string&
   return line.substr(0, b) + text + (e == std::string::npos ? "" : line.substr(e));
 }
 
-// A valid robot log, 60 s at 100 Hz: the screws turn at slowly changing speeds, the camera pose
-// every 5th row with a gap of NaN rows, the IMU rate every row.
-std::string good_robot_log() {
-  std::ostringstream os;
-  os << "# format: auger-robot-log v1\n# terrain: sand\n"
-     << "t_s,omega_rpm_0,omega_rpm_1,omega_rpm_2,omega_rpm_3,x_m,y_m,psi_rad,imu_r_radps\n";
-  double x = 0;
-  for (int k = 0; k < 6000; ++k) {
-    const double t = 0.01 * k, w = 10 * std::sin(0.2 * t);
-    x += 0.004 * w * 0.01;
-    os << t << ',' << -w << ',' << -w << ',' << w << ',' << w << ',';
-    if (k % 5 == 0 && !(k > 2000 && k < 2300)) os << x << ",0,0";
-    else if (k % 5 == 0) os << "nan,NaN,";
-    else os << ",,";
-    os << ',' << (k % 50 == 7 ? std::string() : "0") << '\n';
-  }
-  return os.str();
-}
-
-std::string camera_log() {
-  std::ostringstream os;
-  os << "# format: auger-robot-log v1\nt_s,x_m,y_m,psi_rad\n";
-  for (int k = 0; k < 1200; ++k) os << 0.05 * k << ',' << 0.01 * k << ",0," << 0.1 * std::sin(0.05 * k) << '\n';
-  return os.str();
-}
-
 // The broken variants of a valid log: header at header_line (1-based), a data line to spoil,
 // the column of a field that must be numeric and the name of one required column.
 std::vector<BadFile> corpus(const std::string& good, int header_line, int text_field,
@@ -103,15 +78,6 @@ std::vector<BadFile> corpus(const std::string& good, int header_line, int text_f
     c.push_back({"text in a number", join_lines(l), bad_row, field_column(row, text_field), "twelve"});
   }
   c.push_back({"empty file", "", 1, 1, "no header"});
-  {  // the last line cut in the middle (a full disk, a killed logger)
-    auto l = lines;
-    auto& last = l.back();
-    last = last.substr(0, static_cast<std::size_t>(field_column(last, 2)));
-    std::string text = join_lines(l);
-    text.pop_back();  // no newline at the end either
-    c.push_back({"truncated last line", text, static_cast<int>(l.size()), static_cast<int>(last.size()) + 1,
-                 "fields where the header has"});
-  }
   return c;
 }
 
@@ -130,8 +96,8 @@ void expect_bad(const std::string& dir, const std::string& command, const BadFil
 TEST_CASE("robot-log commands refuse broken logs naming file, line and column (exit 2)") {
   const tools_test::TempDir tmp("bad");
   const std::string dir = tmp.path;
-  const std::string good = good_robot_log();
-  tools_test::write_text(dir + "/camera.csv", camera_log());
+  const std::string good = tools_test::good_robot_log();
+  tools_test::write_text(dir + "/camera.csv", tools_test::camera_log());
   tools_test::write_text(dir + "/good.csv", good);
   int k = 0;
   for (const BadFile& bad : corpus(good, 3, 2, "omega_rpm_2")) {
@@ -146,7 +112,7 @@ TEST_CASE("robot-log commands refuse broken logs naming file, line and column (e
     }
   }
   // merge's camera log: its own required columns (t_s, x_m, y_m, psi_rad).
-  for (const BadFile& bad : corpus(camera_log(), 2, 1, "psi_rad")) {
+  for (const BadFile& bad : corpus(tools_test::camera_log(), 2, 1, "psi_rad")) {
     const std::string path = dir + "/badcam" + std::to_string(k++) + ".csv";
     tools_test::write_text(path, bad.text);
     expect_bad(dir, "merge", bad, path, dir + "/good.csv " + path + " --json");
@@ -173,10 +139,43 @@ TEST_CASE("identify refuses broken gantry logs and a log without its axis (exit 
   }
 }
 
+namespace {
+// The last line cut in the middle (a full disk, a killed logger): the rows before it are data.
+std::string cut_last_line(const std::string& good, int* line) {
+  auto l = split_lines(good);
+  auto& last = l.back();
+  last = last.substr(0, static_cast<std::size_t>(field_column(last, 2)));
+  *line = static_cast<int>(l.size());
+  std::string text = join_lines(l);
+  text.pop_back();  // no newline at the end either
+  return text;
+}
+}  // namespace
+
+TEST_CASE("a last line cut short is read up to it, with a warning naming the line") {
+  const tools_test::TempDir tmp("cut");
+  const std::string dir = tmp.path;
+  int line = 0;
+  tools_test::write_text(dir + "/cut.csv", cut_last_line(tools_test::good_robot_log(), &line));
+  auto r = tools_test::run_auger(dir, "compare " + dir + "/cut.csv --json");
+  INFO(r.err);
+  CHECK(r.code == 0);
+  CHECK_THAT(r.err, Catch::Contains(dir + "/cut.csv:" + std::to_string(line) + ": warning: the last row is cut short"));
+  CHECK(tools_test::json_number(dir, r.out, "d['samples']") == 5999);
+  tools_test::GantryTruth tr;
+  tr.reps = 1;
+  tools_test::write_text(dir + "/gcut.csv",
+                         cut_last_line(tools_test::gantry_log_text(tools_test::make_gantry(tr, 1)), &line));
+  r = tools_test::run_auger(dir, "identify " + dir + "/gcut.csv --json");
+  INFO(r.err);
+  CHECK(r.code == 0);
+  CHECK_THAT(r.err, Catch::Contains("gcut.csv:" + std::to_string(line) + ": warning: the last row is cut short"));
+}
+
 TEST_CASE("sparse pose rows and NaN gaps are data, not errors") {
   const tools_test::TempDir tmp("sparse");
   const std::string dir = tmp.path;
-  tools_test::write_text(dir + "/good.csv", good_robot_log());
+  tools_test::write_text(dir + "/good.csv", tools_test::good_robot_log());
   for (const std::string cmd : {"compare", "diagnose"}) {
     const auto r = tools_test::run_auger(dir, cmd + " " + dir + "/good.csv --json");
     INFO(cmd << ": " << r.err);

@@ -5,6 +5,7 @@
 
 #include <sys/wait.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -91,6 +92,32 @@ inline std::string json_eval(const std::string& dir, const std::string& text, co
   while (!r.empty() && (r.back() == '\n' || r.back() == '\r')) r.pop_back();
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) throw std::runtime_error("json_eval(" + expr + "): " + r);
   return r;
+}
+
+// A valid robot log, 60 s at 100 Hz: the screws turn at slowly changing speeds, the camera pose
+// every 5th row with a gap of NaN rows, the IMU rate every row.
+inline std::string good_robot_log() {
+  std::ostringstream os;
+  os << "# format: auger-robot-log v1\n# terrain: sand\n"
+     << "t_s,omega_rpm_0,omega_rpm_1,omega_rpm_2,omega_rpm_3,x_m,y_m,psi_rad,imu_r_radps\n";
+  double x = 0;
+  for (int k = 0; k < 6000; ++k) {
+    const double t = 0.01 * k, w = 10 * std::sin(0.2 * t);
+    x += 0.004 * w * 0.01;
+    os << t << ',' << -w << ',' << -w << ',' << w << ',' << w << ',';
+    if (k % 5 == 0 && !(k > 2000 && k < 2300)) os << x << ",0,0";
+    else if (k % 5 == 0) os << "nan,NaN,";
+    else os << ",,";
+    os << ',' << (k % 50 == 7 ? std::string() : "0") << '\n';
+  }
+  return os.str();
+}
+
+inline std::string camera_log() {
+  std::ostringstream os;
+  os << "# format: auger-robot-log v1\nt_s,x_m,y_m,psi_rad\n";
+  for (int k = 0; k < 1200; ++k) os << 0.05 * k << ',' << 0.01 * k << ",0," << 0.1 * std::sin(0.05 * k) << '\n';
+  return os.str();
 }
 
 inline double json_number(const std::string& dir, const std::string& text, const std::string& expr) {

@@ -1,0 +1,211 @@
+// What a line on augerd's sockets does (docs/daemon-protocol.md), `status`, and arrival.
+#include <cinttypes>
+#include <cmath>
+#include <cstdio>
+
+#include "daemon.hpp"
+#include "lines.hpp"
+
+namespace augerd {
+
+std::optional<std::string> Daemon::command(const std::string& line) {
+  Command c;
+  const std::string err = parse_command(line, c);
+  if (!err.empty()) return "error: " + err;
+  const std::string not_enabled = "error: not enabled (send enable first): " + quote_line(line);
+  switch (c.kind) {
+    case CommandKind::status:
+      return c.text == "all" ? status_line() + bus_.status_fields(t_s_) + sensors_status() + ros2_status()
+                           : status_line();
+    case CommandKind::enable: {
+      const int bad = bus_.first_not_answering();
+      if (bad >= 0)
+        return "error: module " + std::to_string(bad) + " (" + port_of(bad) + ") is not answering; cannot enable";
+      bus_.clear_faults();
+      if (fault_reason_ != "none") {
+        const std::string what = fault_module_ >= 0 ? fault_reason_ : "estimator (" + controller_->fault() + ")";
+        std::fprintf(stderr, "augerd: t=%.3f s: enable: clearing fault %s\n", t_s_, what.c_str());
+        event(fault_module_, "re-enabled", "fault " + fault_reason_ + " cleared by enable from " + commands_->current_peer());
+      } else if (!enabled_) {
+        event(-1, "enable", "enabled by " + commands_->current_peer());
+      }
+      controller_->clear_fault();
+      estimator_fault_reported_ = false;
+      fault_module_ = -1;
+      fault_reason_ = "none";
+      enabled_ = true;
+      ++motion_epoch_;
+      enter(Mode::idle);
+      disable_controller();
+      return "ok";
+    }
+    case CommandKind::stop:
+      if (enabled_)
+        event(-1, "stop", std::string("all screws stopped (was ") + mode_name(mode_) + ") by " + commands_->current_peer());
+      enabled_ = false;
+      ++motion_epoch_;
+      enter(Mode::stopped);
+      disable_controller();
+      return "ok";
+    case CommandKind::spin:
+      if (!enabled_) return not_enabled;
+      if (tracking(mode_))
+        return std::string("error: cannot spin one module during ") + mode_name(mode_) + " (stop first): " + quote_line(line);
+      // One module alone (step responses, calibration): the robot is not tracking, and the
+      // command expires like `vel` (the dead-man).
+      if (mode_ != Mode::spin) event(int(c.a), "spin", "one module driven alone by " + commands_->current_peer());
+      disable_controller();
+      spin_module_ = int(c.a);
+      spin_rpm_ = c.b;
+      vel_until_s_ = t_s_ + cfg_.vel_timeout_s;
+      ++motion_epoch_;
+      enter(Mode::spin);
+      return "ok";
+    case CommandKind::vel:
+      if (!enabled_) return not_enabled;
+      disable_controller();
+      vel_cmd_ = auger::Vec3(c.a, c.b, c.c);
+      vel_until_s_ = t_s_ + cfg_.vel_timeout_s;
+      ++motion_epoch_;
+      enter(Mode::vel);
+      return "ok";
+    case CommandKind::go_to: {
+      if (!enabled_) return not_enabled;
+      final_waypoint_ = auger::Waypoint{0.0, auger::Vec3(c.a, c.b, c.c)};
+      controller_->set_waypoints({final_waypoint_});
+      controller_->set_enabled(true);
+      ctrl_events_ |= kEvWaypoints;
+      goal_ = final_waypoint_.eta_p;
+      traj_logged_ = -1;
+      motion_t0_s_ = t_s_;
+      arrived_ = false;
+      ++motion_epoch_;
+      enter(Mode::go_to);
+      return "ok";
+    }
+    case CommandKind::follow: {
+      if (!enabled_) return not_enabled;
+      if (loader_.busy()) return "error: another follow file is still being read: " + quote_line(line);
+      // Read off the loop (waypoint_loader.hpp); the answer comes when the file has been read.
+      follow_traj_n_ = traj_n_++;
+      const std::string copy =
+          cfg_.log_dir + "/" + run_name_ + "-follow-" + std::to_string(follow_traj_n_) + ".waypoints";
+      loader_.start(c.text, copy, t_s_);
+      follow_client_ = commands_->current_client();
+      follow_epoch_ = motion_epoch_;
+      return std::nullopt;
+    }
+    case CommandKind::allocator: {
+      // The core's controller takes its configuration at construction: a new one, started
+      // from the current estimate. Only between motions, so no trajectory restarts.
+      if (tracking(mode_))
+        return std::string("error: cannot switch the allocator during ") + mode_name(mode_) +
+               " (stop or wait): " + quote_line(line);
+      ctrl_cfg_.allocator.kind =
+          c.text == "pinv" ? auger::AllocatorKind::pseudo_inverse : auger::AllocatorKind::null_space;
+      const auger::Vec3 eta = controller_->eta_estimate();
+      controller_ = std::make_unique<auger::Controller>(model_, ctrl_cfg_);
+      controller_->reset(eta);
+      ctrl_events_ |= kEvRebuilt;
+      return "ok";
+    }
+  }
+  return "error: internal";
+}
+
+void Daemon::follow_loaded() {
+  std::optional<WaypointLoader::Result> r = loader_.poll(t_s_);
+  if (!r) return;
+  if (!r->error.empty()) return commands_->reply(follow_client_, "error: " + r->error);
+  // Another command (or a fault) came while the file was read: it wins.
+  if (!enabled_ || motion_epoch_ != follow_epoch_)
+    return commands_->reply(follow_client_, "error: a later command or a fault came while the follow file was read");
+  final_waypoint_ = r->waypoints.back();
+  try {
+    controller_->set_waypoints(std::move(r->waypoints));
+  } catch (const std::exception& e) {
+    return commands_->reply(follow_client_, std::string("error: ") + e.what());
+  }
+  controller_->set_enabled(true);
+  ctrl_events_ |= kEvWaypoints;
+  traj_logged_ = r->copied ? follow_traj_n_ : -1;
+  motion_t0_s_ = t_s_;
+  arrived_ = false;
+  enter(Mode::follow);
+  commands_->reply(follow_client_, "ok");
+}
+
+std::string Daemon::sensor(const std::string& line) {
+  SensorMessage m;
+  const std::string err = parse_sensor(line, m);
+  if (!err.empty()) return "error: " + err;
+  // Wall-clock stamp to the loop's clock (CLOCK_MONOTONIC since start).
+  const double t_loop_s = m.t_unix_s - mono_to_unix_s_ - t0_mono_s_;
+  const double age_s = t_s_ - t_loop_s;
+  if (age_s < -0.5)
+    return "error: timestamp " + std::to_string(m.t_unix_s) + " is in the future by " + std::to_string(-age_s) +
+           " s (clocks in sync?): " + quote_line(line);
+  if (age_s > 2.0)
+    return "error: timestamp " + std::to_string(m.t_unix_s) + " is " + std::to_string(age_s) + " s old: " + quote_line(line);
+  if (m.kind == SensorKind::pose) {
+    sensors_in_.has_pose = true;
+    sensors_in_.pose = auger::Vec3(m.x_m, m.y_m, m.psi_rad);
+    sensors_in_.pose_cov = auger::Vec3(m.sx_m * m.sx_m, m.sy_m * m.sy_m, m.spsi_rad * m.spsi_rad).asDiagonal();
+    sensors_in_.pose_t_s = t_loop_s;  // the EKF compares it with its prediction for that time
+    pose_sd_ = auger::Vec3(m.sx_m, m.sy_m, m.spsi_rad);
+    last_pose_ = sensors_in_.pose;
+    last_pose_t_s_ = t_loop_s;
+  } else {
+    sensors_in_.has_imu_psi = sensors_in_.has_imu_r = true;
+    sensors_in_.imu_psi_rad = m.imu_psi_rad;
+    sensors_in_.imu_r_radps = m.imu_r_radps;
+    last_imu_t_s_ = t_loop_s;
+    last_imu_psi_rad_ = m.imu_psi_rad;
+    last_imu_r_radps_ = m.imu_r_radps;
+  }
+  return "";
+}
+
+// A goto or follow has arrived once its waypoint clock is past the last waypoint and the
+// estimate is within tolerance of the final pose; the controller keeps tracking that pose
+// (mode hold) until the next command. Before, follow stayed "follow" for ever.
+void Daemon::check_arrival() {
+  if (!enabled_ || (mode_ != Mode::go_to && mode_ != Mode::follow)) return;
+  if (t_s_ - motion_t0_s_ < final_waypoint_.t_s) return;
+  const auger::Vec3 e = final_waypoint_.eta_p - controller_->eta_estimate();
+  if (!(std::hypot(e[0], e[1]) <= kArrivedM) || !(std::fabs(auger::wrap_angle(e[2])) <= kArrivedRad)) return;
+  arrived_ = true;
+  char what[160];
+  std::snprintf(what, sizeof what, "%s arrived at x=%.3f y=%.3f psi=%.3f; holding the final pose", mode_name(mode_),
+                final_waypoint_.eta_p[0], final_waypoint_.eta_p[1], final_waypoint_.eta_p[2]);
+  event(-1, "arrived", what);
+  std::fprintf(stderr, "augerd: t=%.3f s: %s\n", t_s_, what);
+  enter(Mode::hold);
+}
+
+std::string Daemon::sensors_status() const {
+  char buf[320];
+  std::snprintf(buf, sizeof buf,
+                " imu_age_s=%.3f imu_psi_rad=%.4f imu_r_radps=%.4f pose_age_s=%.3f cam_x_m=%.4f cam_y_m=%.4f "
+                "cam_psi_rad=%.4f",
+                t_s_ - last_imu_t_s_, last_imu_psi_rad_, last_imu_r_radps_, t_s_ - last_pose_t_s_, last_pose_[0],
+                last_pose_[1], last_pose_[2]);
+  return buf;
+}
+
+std::string Daemon::status_line() const {
+  const auto& eta = controller_->eta_estimate();
+  const auto& eta_d = controller_->reference().eta_d;
+  char buf[512];
+  const std::string fault = fault_module_ >= 0 ? std::to_string(fault_module_) + ":" + fault_reason_
+                                               : fault_reason_ == "none" ? "none" : fault_reason_;
+  const DataLog::Stats ls = log_ ? log_->stats() : DataLog::Stats{};
+  std::snprintf(buf, sizeof buf,
+                "status t_s=%.3f enabled=%d mode=%s x_m=%.4f y_m=%.4f psi_rad=%.4f xd_m=%.4f yd_m=%.4f "
+                "psid_rad=%.4f fault=%s loop_dt_s=%.5f loop_jitter_max_s=%.5f arrived=%d log_ok=%d",
+                t_s_, enabled_ ? 1 : 0, mode_name(mode_), eta[0], eta[1], eta[2], eta_d[0], eta_d[1], eta_d[2],
+                fault.c_str(), loop_dt_s_, jitter_max_s_, arrived_ ? 1 : 0, ls.ok ? 1 : 0);
+  return buf;
+}
+
+}  // namespace augerd

@@ -1,0 +1,320 @@
+// augerd's loop (daemon.hpp): modules in, safety, sockets, the core's step, setpoints out, log.
+#include "daemon.hpp"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <stdexcept>
+
+#include <sched.h>
+#include <sys/mman.h>
+
+#include "auger/effect.hpp"
+#include "clock.hpp"
+#include "auger/log.hpp"
+#include "lines.hpp"
+
+namespace augerd {
+namespace {
+
+
+// The reserved connection of the commands socket takes these only (LineServerOptions).
+bool reserved_command(const std::string& line) {
+  const auto f = split_fields(line);
+  return !f.empty() && (f[0] == "stop" || f[0] == "status");
+}
+
+}  // namespace
+
+Daemon::Daemon(const DaemonConfig& cfg, auger::Model model)
+    : cfg_(cfg),
+      model_(std::move(model)),
+      ctrl_cfg_(cfg.controller),
+      bus_(cfg.ports, cfg.baud, cfg.identity_timeout_s, cfg.telemetry_timeout_s,
+           [this](int m, const std::string& reason, const std::string& detail) { fault(m, reason, detail); },
+           [this](int m, const std::string& what, const std::string& action) { event(m, what, action); }) {
+  controller_ = std::make_unique<auger::Controller>(model_, ctrl_cfg_);
+}
+
+Daemon::~Daemon() = default;
+
+void Daemon::open_sockets() {
+  auto gid = [](const std::string& group) {
+    const std::optional<long> g = socket_gid(group);
+    if (!g) throw std::runtime_error("no group named '" + group + "'");
+    return *g;
+  };
+  LineServerOptions o;
+  o.idle_timeout_s = cfg_.idle_timeout_s;
+  o.mode = cfg_.commands_mode;
+  o.gid = gid(cfg_.commands_group);
+  o.reserved_allows = reserved_command;  // `stop` always gets through (docs/daemon.md)
+  commands_ = std::make_unique<LineServer>(cfg_.commands_socket, o);
+  LineServerOptions s;
+  s.idle_timeout_s = cfg_.idle_timeout_s;
+  s.mode = cfg_.sensors_mode;
+  s.gid = gid(cfg_.sensors_group);
+  sensors_ = std::make_unique<LineServer>(cfg_.sensors_socket, s);
+}
+
+void Daemon::open_log() {
+  t0_unix_s_ = clock_s(CLOCK_REALTIME);
+  char stamp[32];
+  const std::time_t now = std::time(nullptr);
+  std::tm tm_utc;
+  gmtime_r(&now, &tm_utc);
+  std::strftime(stamp, sizeof stamp, "%Y%m%dT%H%M%SZ", &tm_utc);
+  run_name_ = std::string("augerd-") + stamp;
+  char t0[64];
+  std::snprintf(t0, sizeof t0, "%.6f", t0_unix_s_);
+  DataLogConfig lc;
+  lc.dir = cfg_.log_dir;
+  lc.run = run_name_;
+  lc.metadata = {{"format", auger::kRobotLogFormat},
+                 {"terrain", cfg_.terrain},
+                 {"t0_unix_s", t0},
+                 {"writer", "augerd"},
+                 {"run", run_name_}};
+  lc.rotate_bytes = cfg_.log_rotate_bytes;
+  lc.flush_interval_s = cfg_.log_flush_interval_s;
+  lc.fsync_interval_s = cfg_.log_fsync_interval_s;
+  log_ = std::make_unique<DataLog>(lc);
+  log_->open();
+  std::fprintf(stderr, "augerd: logging to %s\n", log_->first_path().c_str());
+  event(-1, "start", "augerd started, robot stopped; data log " + log_->first_path());
+}
+
+void Daemon::event(int module, const std::string& what, const std::string& action) {
+  if (!log_) return;
+  const double wall = t0_unix_s_ + t_s_;
+  const std::time_t sec = std::time_t(wall);
+  std::tm tm_utc;
+  gmtime_r(&sec, &tm_utc);
+  char stamp[40];
+  std::strftime(stamp, sizeof stamp, "%Y-%m-%dT%H:%M:%S", &tm_utc);
+  const std::string mod = module >= 0 ? std::to_string(module) : "-";
+  char head[160];
+  std::snprintf(head, sizeof head, "%s.%03dZ t_s=%.3f module=%s port=%s event=", stamp,
+                int((wall - double(sec)) * 1000), t_s_, mod.c_str(), port_of(module).c_str());
+  log_->event(head + what + " action=\"" + action + "\"");
+}
+
+void Daemon::fault(int module, const std::string& reason_token, const std::string& detail) {
+  const bool first = fault_module_ < 0 && fault_reason_ == "none";
+  if (first || enabled_) {
+    fault_module_ = module;
+    fault_reason_ = reason_token;
+  }
+  // Every event is printed; `status` keeps the one that stopped the robot.
+  if (module >= 0)
+    std::fprintf(stderr, "augerd: t=%.3f s: module %d (%s): %s; all screws stopped until `enable`\n", t_s_, module,
+                 port_of(module).c_str(), detail.c_str());
+  else
+    std::fprintf(stderr, "augerd: t=%.3f s: %s; all screws stopped until `enable`\n", t_s_, detail.c_str());
+  event(module, reason_token,
+        detail + (enabled_ ? std::string("; stopped all screws (was ") + mode_name(mode_) + "), waiting for enable"
+                           : "; already stopped, waiting for enable"));
+  enabled_ = false;
+  arrived_ = false;
+  ++motion_epoch_;
+  enter(Mode::stopped);
+  disable_controller();
+}
+
+// What each mode sends (docs/daemon.md "The loop").
+std::array<double, 4> Daemon::setpoints(const std::array<double, 4>& ctrl_rpm) {
+  std::array<double, 4> cmd_rpm{};
+  if (!enabled_) return cmd_rpm;
+  const double lim = ctrl_cfg_.allocator.omega_max_rpm;
+  switch (mode_) {
+    case Mode::spin:
+      if (t_s_ > vel_until_s_) enter(Mode::idle);  // dead-man, as for vel
+      else cmd_rpm[std::size_t(spin_module_)] = std::clamp(spin_rpm_, -lim, lim);
+      break;
+    case Mode::vel:
+      if (t_s_ > vel_until_s_) {
+        enter(Mode::idle);  // dead-man: the command was not repeated
+      } else {
+        // Open loop, eq. (4): the core's controller tracks poses only.
+        const auger::Vec4 w = auger::kinematic_screw_speeds_rpm(model_, vel_cmd_);
+        const double peak = w.cwiseAbs().maxCoeff();
+        const double scale = peak > lim ? lim / peak : 1.0;  // keep the direction when saturated
+        for (std::size_t i = 0; i < 4; ++i) cmd_rpm[i] = w[int(i)] * scale;
+      }
+      break;
+    case Mode::go_to:
+    case Mode::follow:
+    case Mode::hold:
+      cmd_rpm = ctrl_rpm;
+      break;
+    case Mode::stopped:
+    case Mode::idle:
+      break;
+  }
+  return cmd_rpm;
+}
+
+void Daemon::write_log(const std::array<double, 4>& cmd_rpm) {
+  auger::RobotSample s;
+  s.t_s = t_s_;
+  for (int i = 0; i < 4; ++i) {
+    const Module& m = bus_.module(i);
+    const auto k = std::size_t(i);
+    s.cmd_rpm[k] = cmd_rpm[k];
+    if (!m.have_tm || m.lost) continue;
+    s.omega_rpm[k] = m.tm.omega_crpm / 100.0;
+    s.current_a[k] = m.tm.current_ma / 1000.0;
+    s.voltage_v[k] = m.tm.voltage_mv / 1000.0;
+    s.pwm[k] = m.tm.duty_x10000 / 10000.0;
+    s.status[k] = m.tm.status;
+    s.seq_ack[k] = m.tm.seq_ack;
+  }
+  if (sensors_in_.has_pose) {
+    s.x_m = sensors_in_.pose[0];
+    s.y_m = sensors_in_.pose[1];
+    s.psi_rad = sensors_in_.pose[2];
+  }
+  if (sensors_in_.has_imu_psi) s.imu_psi_rad = sensors_in_.imu_psi_rad;
+  if (sensors_in_.has_imu_r) s.imu_r_radps = sensors_in_.imu_r_radps;
+  if (controller_->enabled()) {
+    const auto& eta_d = controller_->reference().eta_d;
+    s.xd_m = eta_d[0];
+    s.yd_m = eta_d[1];
+    s.psid_rad = eta_d[2];
+  }
+  s.loop_dt_s = loop_dt_s_;
+  static thread_local std::vector<double> extra(replay_columns().size());
+  const auto& eta = controller_->eta_estimate();
+  const bool vel = mode_ == Mode::vel, spin = mode_ == Mode::spin;
+  const double goal_x = (ctrl_events_ & kEvWaypoints) && traj_logged_ < 0 ? goal_[0] : NAN;
+  const double values[] = {double(mode_code(mode_)),
+                           double(ctrl_events_),
+                           controller_->enabled() ? 1.0 : 0.0,
+                           ctrl_cfg_.allocator.kind == auger::AllocatorKind::null_space ? 1.0 : 0.0,
+                           goal_x,
+                           std::isnan(goal_x) ? NAN : goal_[1],
+                           std::isnan(goal_x) ? NAN : goal_[2],
+                           traj_logged_ >= 0 ? double(traj_logged_) : NAN,
+                           bus_.module(0).fresh ? 1.0 : 0.0,
+                           bus_.module(1).fresh ? 1.0 : 0.0,
+                           bus_.module(2).fresh ? 1.0 : 0.0,
+                           bus_.module(3).fresh ? 1.0 : 0.0,
+                           sensors_in_.has_pose ? pose_sd_[0] : NAN,
+                           sensors_in_.has_pose ? pose_sd_[1] : NAN,
+                           sensors_in_.has_pose ? pose_sd_[2] : NAN,
+                           sensors_in_.has_pose ? sensors_in_.pose_t_s : NAN,
+                           vel ? vel_cmd_[0] : NAN,
+                           vel ? vel_cmd_[1] : NAN,
+                           vel ? vel_cmd_[2] : NAN,
+                           spin ? double(spin_module_) : NAN,
+                           spin ? spin_rpm_ : NAN,
+                           eta[0],
+                           eta[1],
+                           eta[2]};
+  static_assert(sizeof values / sizeof values[0] == 24, "one value per replay column");
+  std::copy(std::begin(values), std::end(values), extra.begin());
+  log_->write(s, extra);
+}
+
+void Daemon::run(volatile const std::sig_atomic_t* stop) {
+  if (cfg_.realtime_priority > 0) {
+    // Fewer late cycles on a busy machine; needs CAP_SYS_NICE (or an rtprio limit), so a
+    // refusal is a warning: the loop still runs, with more jitter.
+    sched_param sp{};
+    sp.sched_priority = cfg_.realtime_priority;
+    if (sched_setscheduler(0, SCHED_FIFO, &sp) != 0)
+      std::fprintf(stderr, "augerd: warning: SCHED_FIFO priority %d refused (%s); running without\n",
+                   cfg_.realtime_priority, std::strerror(errno));
+    if (mlockall(MCL_CURRENT | MCL_FUTURE) != 0)
+      std::fprintf(stderr, "augerd: warning: mlockall refused (%s)\n", std::strerror(errno));
+  }
+  const long period_ns = std::lround(cfg_.period_s * 1e9);
+  timespec next;
+  clock_gettime(CLOCK_MONOTONIC, &next);
+  t0_mono_s_ = double(next.tv_sec) + 1e-9 * double(next.tv_nsec);
+  bus_.start_clock(t0_mono_s_);
+  double prev_s = 0;
+  // Period statistics for the exit report.
+  long cycles = 0;
+  double sum_dt = 0, sum_dt2 = 0, max_dt = 0, min_dt = 1e9, jitter_window_max = 0, window_start = 0;
+  while (!*stop) {
+    next.tv_nsec += period_ns;
+    while (next.tv_nsec >= 1000000000L) next.tv_nsec -= 1000000000L, ++next.tv_sec;
+    while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr) == EINTR && !*stop) {
+    }
+    const double mono = clock_s(CLOCK_MONOTONIC);
+    mono_to_unix_s_ = clock_s(CLOCK_REALTIME) - mono;
+    t_s_ = mono - t0_mono_s_;
+    loop_dt_s_ = t_s_ - prev_s;
+    prev_s = t_s_;
+    // A stall longer than a period (debugger, overloaded machine): restart the schedule
+    // from now instead of running the missed cycles back to back.
+    const double late_s = mono - (double(next.tv_sec) + 1e-9 * double(next.tv_nsec));
+    if (late_s > cfg_.period_s) clock_gettime(CLOCK_MONOTONIC, &next);
+    if (cycles > 0) {
+      sum_dt += loop_dt_s_;
+      sum_dt2 += loop_dt_s_ * loop_dt_s_;
+      max_dt = std::max(max_dt, loop_dt_s_);
+      min_dt = std::min(min_dt, loop_dt_s_);
+      jitter_window_max = std::max(jitter_window_max, std::fabs(loop_dt_s_ - cfg_.period_s));
+      if (t_s_ - window_start >= 1.0) {
+        jitter_max_s_ = jitter_window_max;
+        jitter_window_max = 0;
+        window_start = t_s_;
+      }
+    }
+    ++cycles;
+
+    bus_.pump(t_s_, enabled_);
+    commands_->serve(t_s_, [this](const std::string& l) { return command(l); });
+    sensors_->serve(t_s_, [this](const std::string& l) -> std::optional<std::string> { return sensor(l); });
+    follow_loaded();
+    if (ros2_) ros2_inputs();
+
+    std::array<auger::ScrewTelemetry, 4> tel;
+    for (int i = 0; i < 4; ++i) {
+      tel[std::size_t(i)].valid = bus_.module(i).fresh;
+      tel[std::size_t(i)].omega_rpm = bus_.module(i).tm.omega_crpm / 100.0;
+    }
+    const std::array<double, 4>& ctrl_rpm = controller_->step(t_s_, tel, sensors_in_);
+    // The controller refused its own state (an estimate that diverged): a fault like a module's.
+    if (!controller_->fault().empty() && !estimator_fault_reported_) {
+      estimator_fault_reported_ = true;
+      fault(-1, "estimator", controller_->fault());
+    }
+
+    check_arrival();
+    const std::array<double, 4> cmd_rpm = setpoints(ctrl_rpm);
+    bus_.send(t_s_, cmd_rpm, enabled_);
+    write_log(cmd_rpm);
+    if (ros2_) ros2_publish();
+    sensors_in_ = auger::SensorInput{};
+    ctrl_events_ = 0;
+    traj_logged_ = -1;
+  }
+  // Leave the motors stopped at once rather than after the modules' timeout.
+  enabled_ = false;
+  bus_.send(t_s_, std::array<double, 4>{}, false);
+  event(-1, "exit", "augerd stopped by signal; setpoints 0 sent");
+  log_->close();
+  ros2_report();
+  if (cycles > 1) {
+    const double n = double(cycles - 1), mean = sum_dt / n;
+    std::fprintf(stderr,
+                 "augerd: %ld cycles; loop period mean %.4f ms, std %.4f ms, min %.4f ms, max %.4f ms\n", cycles,
+                 1e3 * mean, 1e3 * std::sqrt(std::max(0.0, sum_dt2 / n - mean * mean)), 1e3 * min_dt, 1e3 * max_dt);
+  }
+  const DataLog::Stats ls = log_->stats();
+  std::fprintf(stderr,
+               "augerd: log: %llu rows written, %llu lost, %llu files, %llu write failures; %llu fdatasync, longest "
+               "%.1f ms, mean %.1f ms\n",
+               static_cast<unsigned long long>(ls.rows_written), static_cast<unsigned long long>(ls.rows_lost),
+               static_cast<unsigned long long>(ls.files), static_cast<unsigned long long>(ls.failures),
+               static_cast<unsigned long long>(ls.fsyncs), 1e3 * ls.fsync_max_s,
+               ls.fsyncs ? 1e3 * ls.fsync_total_s / double(ls.fsyncs) : 0.0);
+}
+
+}  // namespace augerd

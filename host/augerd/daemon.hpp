@@ -1,0 +1,139 @@
+// augerd: the I/O shell around auger_core's controller (DESIGN.md): the 100 Hz loop on
+// CLOCK_MONOTONIC over the module bus (module_bus.hpp), the command and sensor sockets
+// (line_server.hpp, docs/daemon-protocol.md), the logs (data_log.hpp), the safety rules
+// (docs/daemon.md) and the ROS 2 interface (docs/ros2.md). The loop is daemon.cpp; what a
+// command or sensor line does, commands.cpp; what ROS 2 messages do and see, ros2_link.cpp.
+#pragma once
+
+#include <array>
+#include <csignal>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "auger/controller.hpp"
+#include "auger/model.hpp"
+#include "config.hpp"
+#include "data_log.hpp"
+#include "line_server.hpp"
+#include "mode.hpp"
+#include "module_bus.hpp"
+#include "ros2.hpp"
+#include "waypoint_loader.hpp"
+
+namespace augerd {
+
+class Daemon {
+ public:
+  Daemon(const DaemonConfig& cfg, auger::Model model);
+  ~Daemon();
+
+  // Start-up, in this order; each throws std::runtime_error naming the port, file or socket.
+  void open_modules() { bus_.open(); }
+  void open_sockets();
+  void open_log();
+  // The ROS 2 interface when [ros2] enabled (docs/ros2.md); its threads, not the loop, do the DDS
+  // I/O. Throws std::runtime_error.
+  void open_ros2();
+  // Runs until *stop becomes non-zero (SIGINT/SIGTERM), then leaves the modules stopped.
+  void run(volatile const std::sig_atomic_t* stop);
+
+ private:
+  // commands.cpp
+  std::optional<std::string> command(const std::string& line);
+  std::string sensor(const std::string& line);
+  std::string status_line() const;
+  std::string sensors_status() const;
+  void check_arrival();
+  void follow_loaded();  // a `follow` file's contents arrived from the loader
+  void enter(Mode m) { mode_ = m; }
+
+  // ros2_link.cpp: ROS 2 inputs through command() and sensor(), the cycle's state out.
+  void ros2_inputs();
+  void ros2_publish();
+  void ros2_refused(const std::string& why);
+  std::string ros2_status() const;  // status all's ros2_* fields ("" without ROS 2)
+  void ros2_report() const;         // the exit report's ROS 2 line
+
+  // daemon.cpp
+  void fault(int module, const std::string& reason_token, const std::string& detail);
+  void event(int module, const std::string& what, const std::string& action);
+  void disable_controller() {
+    controller_->set_enabled(false);
+    ctrl_events_ |= kEvDisabled;
+  }
+  std::array<double, 4> setpoints(const std::array<double, 4>& ctrl_rpm);
+  void write_log(const std::array<double, 4>& cmd_rpm);
+  std::string port_of(int module) const { return module >= 0 ? bus_.module(module).port : "-"; }
+
+  static constexpr double kArrivedM = 0.02, kArrivedRad = 0.05;  // docs/daemon.md, "arrived"
+
+  const DaemonConfig& cfg_;
+  auger::Model model_;
+  auger::ControllerConfig ctrl_cfg_;
+  std::unique_ptr<auger::Controller> controller_;
+  ModuleBus bus_;
+  std::unique_ptr<LineServer> commands_, sensors_;
+  std::unique_ptr<DataLog> log_;
+  WaypointLoader loader_;
+
+  double t0_mono_s_ = 0, t0_unix_s_ = 0;
+  double t_s_ = 0;            // loop time of this cycle (CLOCK_MONOTONIC since start)
+  double mono_to_unix_s_ = 0; // CLOCK_REALTIME - CLOCK_MONOTONIC now, for sensor timestamps
+  double loop_dt_s_ = 0;
+  double jitter_max_s_ = 0;   // over the last second, for `status`
+
+  bool enabled_ = false;
+  Mode mode_ = Mode::stopped;
+  auger::Vec3 vel_cmd_ = auger::Vec3::Zero();
+  double vel_until_s_ = 0;
+  auger::Waypoint final_waypoint_;  // goto/follow: the last waypoint (arrival)
+  double motion_t0_s_ = 0;    // goto/follow: loop time the motion started (its waypoint clock)
+  bool arrived_ = false;      // goto/follow: past the last waypoint and at the final pose
+  int spin_module_ = -1;      // `spin`: one module at spin_rpm_, the others 0 (auger step, calib)
+  double spin_rpm_ = 0;
+  int fault_module_ = -1;     // -1 with fault_reason_ != "none": the estimator
+  std::string fault_reason_ = "none";
+  bool estimator_fault_reported_ = false;  // the controller's latched fault, until `enable`
+  std::uint64_t follow_client_ = 0;  // the client waiting for its `follow` answer
+  int follow_traj_n_ = -1;           // the copy's number for that request
+  // Counts commands that change the motion, and faults: a `follow` whose file arrives after
+  // another such event is refused (the later command wins).
+  std::uint64_t motion_epoch_ = 0, follow_epoch_ = 0;
+
+  auger::SensorInput sensors_in_;
+  auger::Vec3 pose_sd_ = auger::Vec3::Constant(NAN);  // standard deviations of this cycle's pose
+  // Latest sensor values whenever they came (status all: calib and teleop checks).
+  double last_imu_t_s_ = NAN, last_imu_r_radps_ = NAN, last_imu_psi_rad_ = NAN;
+  double last_pose_t_s_ = NAN;
+  auger::Vec3 last_pose_ = auger::Vec3::Constant(NAN);
+
+  // What changed the core controller's state this cycle, before its step (log column
+  // ctrl_events, so that auger replay applies the same changes in the same cycle).
+  static constexpr int kEvDisabled = 1, kEvWaypoints = 2, kEvRebuilt = 4;
+  int ctrl_events_ = 0;
+  auger::Vec3 goal_ = auger::Vec3::Constant(NAN);  // goto of this cycle
+  int traj_n_ = 0;          // follow files copied beside the log (…-follow-N.waypoints)
+  int traj_logged_ = -1;    // the follow file of this cycle, -1 none
+  std::string run_name_;    // augerd-<UTC start>: names the log files of this run
+
+  // ROS 2 (null unless enabled): what its inputs did, and the time the loop spends on it.
+  std::unique_ptr<auger::ros2::Bridge> ros2_;
+  auger::ros2::Snapshot ros2_out_;
+  long ros2_applied_ = 0, ros2_refused_ = 0;
+  std::string ros2_last_refusal_;
+  double ros2_said_at_s_ = -1e9;  // refusals are printed at most every 5 s
+  long ros2_unsaid_ = 0;
+  // The loop's time inside Bridge::poll and Bridge::publish (docs/benchmarks.md): this cycle's,
+  // the longest over the last whole second (status all, diagnostics), and over the run; wall
+  // time, and the loop thread's CPU time (wall minus CPU: the thread was preempted, not
+  // waiting: nothing in there waits).
+  double ros2_cycle_us_ = 0, ros2_window_max_us_ = 0, ros2_window_start_s_ = 0, ros2_hook_us_max_ = 0;
+  double ros2_sum_us_ = 0, ros2_max_all_us_ = 0;
+  double ros2_cycle_cpu_us_ = 0, ros2_sum_cpu_us_ = 0, ros2_max_cpu_us_ = 0;
+  long ros2_cycles_ = 0;
+};
+
+}  // namespace augerd

@@ -1,0 +1,265 @@
+// augerd's logs, written off the loop (data_log.hpp).
+#include "data_log.hpp"
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <stdexcept>
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include "clock.hpp"
+
+namespace augerd {
+namespace {
+
+// Data and event files: readable by the group (the operators), nobody else.
+constexpr mode_t kFileMode = 0640;
+
+}  // namespace
+
+const std::vector<std::string>& replay_columns() {
+  static const std::vector<std::string> cols = {
+      "mode",      "ctrl_events", "ctrl_enabled", "alloc_nullspace", "goal_x_m",  "goal_y_m",
+      "goal_psi_rad", "traj_n",   "tm_fresh_0",  "tm_fresh_1",      "tm_fresh_2", "tm_fresh_3",
+      "pose_sx_m", "pose_sy_m",   "pose_spsi_rad", "pose_capture_t_s", "vel_u_mps",     "vel_v_mps", "vel_r_radps",
+      "spin_module", "spin_rpm",  "xe_m",        "ye_m",            "psie_rad"};
+  return cols;
+}
+
+DataLog::DataLog(DataLogConfig config) : cfg_(std::move(config)) {
+  if (!cfg_.write) cfg_.write = [](int fd, const void* b, std::size_t n) { return ::write(fd, b, n); };
+}
+
+DataLog::~DataLog() { close(); }
+
+void DataLog::open() {
+  formatter_ = std::make_unique<auger::RobotLogWriter>(row_text_, cfg_.metadata, replay_columns());
+  header_ = row_text_.str();
+  row_text_.str("");
+  events_path_ = cfg_.dir + "/" + cfg_.run + "-events.log";
+  events_fd_ = ::open(events_path_.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, kFileMode);
+  if (events_fd_ < 0)
+    throw std::runtime_error("cannot create the event log " + events_path_ + ": " + std::strerror(errno));
+  const std::string head =
+      "# auger event log v1: wall-clock UTC, t_s (the data log's clock), module, port, event, action\n";
+  std::size_t w = 0;
+  write_all(events_fd_, head, w);
+  if (!start_file(clock_s(CLOCK_MONOTONIC)))
+    throw std::runtime_error("cannot create the log file " + path_ + ": " + std::strerror(errno));
+  first_path_ = path_;
+  thread_ = std::thread(&DataLog::run, this);
+}
+
+void DataLog::write(const auger::RobotSample& sample, const std::vector<double>& extra) {
+  if (!formatter_) return;
+  formatter_->write(sample, extra);
+  const std::string row = row_text_.str();
+  row_text_.str("");
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (queued_rows_.size() + row.size() > cfg_.max_queued_bytes) {
+    ++dropped_full_queue_;  // the disk has not taken a row for a long time: counted as lost
+    return;
+  }
+  queued_rows_ += row;
+}
+
+void DataLog::event(const std::string& line) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    queued_events_ += line;
+    queued_events_ += '\n';
+  }
+  wake_.notify_one();
+}
+
+void DataLog::close() {
+  if (!thread_.joinable()) return;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+  }
+  wake_.notify_one();
+  thread_.join();
+}
+
+DataLog::Stats DataLog::stats() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  Stats s = stats_;
+  s.rows_lost += dropped_full_queue_;
+  return s;
+}
+
+std::vector<std::string> DataLog::files() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return files_;
+}
+
+bool DataLog::write_all(int fd, const std::string& data, std::size_t& written) {
+  written = 0;
+  while (written < data.size()) {
+    const ssize_t n = cfg_.write(fd, data.data() + written, data.size() - written);
+    if (n > 0) {
+      written += std::size_t(n);
+      continue;
+    }
+    if (n < 0 && errno == EINTR) continue;
+    if (n == 0) errno = EIO;
+    return false;
+  }
+  return true;
+}
+
+bool DataLog::start_file(double now_s) {
+  char stamp[32];
+  const std::time_t now = std::time(nullptr);
+  std::tm tm_utc;
+  gmtime_r(&now, &tm_utc);
+  std::strftime(stamp, sizeof stamp, "%Y%m%dT%H%M%SZ", &tm_utc);
+  path_ = cfg_.dir + "/augerd-" + stamp + "-" + std::to_string(index_++) + ".csv";
+  const int fd = ::open(path_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, kFileMode);
+  if (fd < 0) return false;
+  std::size_t w = 0;
+  if (!write_all(fd, header_, w)) {
+    // A file that cannot take its header is not left behind (no empty files on every retry).
+    const int err = errno;
+    ::close(fd);
+    ::unlink(path_.c_str());
+    errno = err;
+    return false;
+  }
+  fd_ = fd;
+  size_ = header_.size();
+  synced_at_s_ = now_s;
+  std::lock_guard<std::mutex> lock(mutex_);
+  files_.push_back(path_);
+  ++stats_.files;
+  stats_.ok = true;
+  return true;
+}
+
+void DataLog::fail(const char* what, int err, double now_s) {
+  if (fd_ >= 0) ::close(fd_);
+  fd_ = -1;
+  retry_at_s_ = now_s + cfg_.retry_s;
+  lost_since_failure_ = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++stats_.failures;
+    stats_.ok = false;
+  }
+  std::fprintf(stderr,
+               "augerd: log %s: %s failed (%s); the file ends at its last whole row; control goes on without the "
+               "log, a new file is tried every %g s\n",
+               path_.c_str(), what, std::strerror(err), cfg_.retry_s);
+}
+
+void DataLog::sync(double now_s) {
+  if (fd_ < 0) return;
+  const double t0 = clock_s(CLOCK_MONOTONIC);
+  ::fdatasync(fd_);
+  const double dt = clock_s(CLOCK_MONOTONIC) - t0;
+  synced_at_s_ = now_s;
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++stats_.fsyncs;
+  stats_.fsync_total_s += dt;
+  stats_.fsync_max_s = std::max(stats_.fsync_max_s, dt);
+}
+
+void DataLog::write_rows(const std::string& rows, double now_s) {
+  // The rows of one flush, split where the file reaches rotate_bytes: a file ends with the first
+  // row at or beyond that size, as when the loop wrote every row itself.
+  for (std::size_t begin = 0; begin < rows.size();) {
+    std::size_t end = rows.size();
+    if (fd_ >= 0 && size_ < cfg_.rotate_bytes && cfg_.rotate_bytes - size_ < end - begin) {
+      const std::size_t nl = rows.find('\n', begin + std::size_t(cfg_.rotate_bytes - size_) - 1);
+      if (nl != std::string::npos) end = nl + 1;
+    }
+    const std::string chunk = rows.substr(begin, end - begin);
+    write_chunk(chunk, std::size_t(std::count(chunk.begin(), chunk.end(), '\n')), now_s);
+    begin = end;
+  }
+}
+
+void DataLog::write_chunk(const std::string& rows, std::size_t n_rows, double now_s) {
+  if (n_rows == 0) return;
+  auto lost = [&](std::uint64_t n) {
+    lost_since_failure_ += n;
+    std::lock_guard<std::mutex> lock(mutex_);
+    stats_.rows_lost += n;
+  };
+  if (fd_ < 0) {
+    if (now_s < retry_at_s_) return lost(n_rows);
+    if (!start_file(now_s)) {
+      retry_at_s_ = now_s + cfg_.retry_s;
+      return lost(n_rows);
+    }
+    std::fprintf(stderr, "augerd: logging again, to %s (%llu rows were not logged)\n", path_.c_str(),
+                 static_cast<unsigned long long>(lost_since_failure_));
+  }
+  std::size_t written = 0;
+  if (!write_all(fd_, rows, written)) {
+    const int err = errno;
+    // Cut the file back to the last whole row it received: readers never see half a row.
+    const std::size_t nl = written ? rows.rfind('\n', written - 1) : std::string::npos;
+    const std::size_t keep = nl == std::string::npos ? 0 : nl + 1;
+    if (written != keep && ::ftruncate(fd_, off_t(size_ + keep)) != 0)
+      std::fprintf(stderr, "augerd: log %s: cannot cut the last row back (%s)\n", path_.c_str(), std::strerror(errno));
+    const auto kept_rows = std::uint64_t(std::count(rows.begin(), rows.begin() + std::ptrdiff_t(keep), '\n'));
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stats_.rows_written += kept_rows;
+    }
+    fail("write", err, now_s);
+    lost(n_rows - kept_rows);
+    return;
+  }
+  size_ += rows.size();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stats_.rows_written += n_rows;
+  }
+  if (size_ >= cfg_.rotate_bytes) {
+    sync(now_s);
+    ::close(fd_);
+    fd_ = -1;
+    if (!start_file(now_s)) fail("rotation", errno, now_s);
+  }
+}
+
+void DataLog::run() {
+  for (;;) {
+    std::string rows, events;
+    bool stopping;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      wake_.wait_for(lock, std::chrono::duration<double>(cfg_.flush_interval_s),
+                     [&] { return stop_ || !queued_events_.empty(); });
+      rows.swap(queued_rows_);
+      events.swap(queued_events_);
+      stopping = stop_;
+    }
+    const double now = clock_s(CLOCK_MONOTONIC);
+    if (!events.empty() && events_fd_ >= 0) {
+      // A fault is what one reads after a crash or a power cut: written and synced at once.
+      std::size_t w = 0;
+      if (write_all(events_fd_, events, w)) ::fdatasync(events_fd_);
+    }
+    write_rows(rows, now);
+    if (fd_ >= 0 && now - synced_at_s_ >= cfg_.fsync_interval_s) sync(now);
+    if (stopping) break;
+  }
+  sync(clock_s(CLOCK_MONOTONIC));
+  if (fd_ >= 0) ::close(fd_);
+  fd_ = -1;
+  if (events_fd_ >= 0) {
+    ::fdatasync(events_fd_);
+    ::close(events_fd_);
+  }
+  events_fd_ = -1;
+}
+
+}  // namespace augerd

@@ -1,0 +1,95 @@
+// augerd's entry: arguments, the configuration and the start-up checks, then the daemon
+// (daemon.hpp). Exit codes (docs/daemon.md): 0 stopped by a signal; 1 a start-up failure that
+// may pass on a retry (a module unplugged or not answering, a socket in use); 2 a configuration
+// or usage error, which the service does not restart (RestartPreventExitStatus=2).
+#include <csignal>
+#include <cstdio>
+#include <optional>
+#include <string>
+
+#include "auger/effect.hpp"
+#include "auger/model_file.hpp"
+#include "config.hpp"
+#include "daemon.hpp"
+
+namespace {
+
+constexpr int kExitOk = 0, kExitStartup = 1, kExitConfig = 2;
+
+volatile std::sig_atomic_t g_stop = 0;
+void on_signal(int) { g_stop = 1; }
+
+void usage(std::FILE* f) {
+  std::fprintf(f,
+               "usage: augerd [--config PATH] [--check]\n"
+               "  --config PATH  configuration file (default /etc/augerd.toml; docs/daemon.md)\n"
+               "  --check        check the configuration, the model and what start-up needs (ports,\n"
+               "                 log directory, socket paths, groups), then exit: 0 ready, 1 not now\n"
+               "                 (a port missing), 2 a configuration error\n");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace augerd;
+  std::string config_path = "/etc/augerd.toml";
+  bool check_only = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--config" && i + 1 < argc) config_path = argv[++i];
+    else if (a == "--check") check_only = true;
+    else if (a == "--help" || a == "-h") {
+      usage(stdout);
+      return kExitOk;
+    } else {
+      std::fprintf(stderr, "augerd: unknown argument '%s'\n", a.c_str());
+      usage(stderr);
+      return kExitConfig;
+    }
+  }
+  DaemonConfig cfg;
+  std::optional<auger::Model> model;
+  try {
+    cfg = load_daemon_config(config_path);
+    const auger::ModelFile mf = auger::load_model_file(cfg.model_file);
+    model = auger::build_model(mf, cfg.terrain);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "augerd: configuration error: %s\n", e.what());
+    return kExitConfig;
+  }
+  if (check_only) std::printf("augerd: %s: the configuration and the model are valid\n", config_path.c_str());
+  // Before anything is opened: a configuration certain to fail is reported whole, once, and
+  // exits 2 (final for the service); a missing port may appear later (exit 1, retried).
+  int code = kExitOk;
+  for (const StartupProblem& p : check_startup(cfg)) {
+    std::fprintf(stderr, "augerd: %s: %s\n", p.final ? "configuration error" : "not ready", p.text.c_str());
+    code = p.final ? kExitConfig : (code == kExitOk ? kExitStartup : code);
+  }
+  if (code != kExitOk) return code;
+  if (check_only) {
+    std::printf("augerd: everything start-up needs is in place\n");
+    return kExitOk;
+  }
+  struct sigaction sa{};
+  sa.sa_handler = on_signal;
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+  std::signal(SIGPIPE, SIG_IGN);
+  // A file-size limit reached by the log is a write error to survive, like a full disk.
+  std::signal(SIGXFSZ, SIG_IGN);
+  try {
+    Daemon d(cfg, std::move(*model));
+    d.open_modules();
+    d.open_sockets();
+    d.open_log();
+    d.open_ros2();
+    std::fprintf(stderr, "augerd: running (commands %s, sensors %s)\n", cfg.commands_socket.c_str(),
+                 cfg.sensors_socket.c_str());
+    d.run(&g_stop);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "augerd: %s\n", e.what());
+    return kExitStartup;
+  }
+  std::fprintf(stderr, "augerd: stopped\n");
+  return kExitOk;
+}
