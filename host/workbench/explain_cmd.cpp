@@ -4,9 +4,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <stdexcept>
 #include <string>
 
 #include "args.hpp"
+#include "checks.hpp"
 #include "cli_text.hpp"
 #include "commands.hpp"
 #include "workbench.hpp"
@@ -82,11 +84,17 @@ int run_explain(int argc, char** argv) {
     double seconds = 0;
     for (const auto& path : a.positional) {
       logs.push_back(load_dataset(path));
+      require_fit_data(logs.back(), "explain");
       seconds += logs.back().duration_s();
     }
     std::vector<std::string> warnings;
     for (const auto& d : logs) {
       models.push_back(choose_model(d, a.get("--model")));
+      // The model as given must predict numbers before minutes of search start from it (a
+      // model of NaN scores a "perfect" 0).
+      const CompareResult given = compare(d, models.back());
+      require_noise_floor(d, given.noise_floor);
+      require_finite(d, given.segments_err, models.back(), "segments of 25 s (the model as given)");
       const std::string w = terrain_warning(d, models.back());
       if (!w.empty()) warnings.push_back(logs.size() > 1 ? d.path + ": " + w : w);
     }
@@ -94,15 +102,33 @@ int run_explain(int argc, char** argv) {
     o.progress = a.has("--progress") || (!a.has("--quiet") && !a.has("--json"));
     o.progress_detail = a.has("--progress");
     const ExplainResult r = explain(logs, models, o);
+    // Numbers, or nothing is written (a model of NaN would load and mislead).
+    for (std::size_t i = 0; i < logs.size() && i < r.noise_floor.size(); ++i) require_noise_floor(logs[i], r.noise_floor[i]);
+    for (int c = 0; c < kChannels; ++c)
+      if (r.active[static_cast<std::size_t>(c)] && !std::isfinite(r.final_ratio[static_cast<std::size_t>(c)]))
+        throw std::runtime_error(std::string("the explained model predicts no finite ") + channel_name(c) +
+                                 " for the logs: nothing written");
+    for (const auto& e : r.final_fitted)
+      for (const auto& p : e.params)
+        if (!std::isfinite(p.value))
+          throw std::runtime_error("the fit of " + e.effect + " gave " + p.name + " = " + std::to_string(p.value) +
+                                   ": nothing written");
     const std::string out = a.get("--out");
     if (!out.empty()) {
       std::ofstream f(out);
       if (!(f << r.model_toml)) {
+        f.close();
+        std::remove(out.c_str());  // no half-written model left behind
         std::fprintf(stderr, "auger explain: cannot write %s\n", out.c_str());
         return 2;
       }
       f.close();
-      choose_model(logs.front(), out);  // it must load back
+      try {
+        choose_model(logs.front(), out);  // it must load back
+      } catch (...) {
+        std::remove(out.c_str());  // a file that does not load back is not left behind
+        throw;
+      }
     } else {
       parse_model_file(r.model_toml, "(explained model)");
     }

@@ -1,8 +1,8 @@
 // Every workbench subcommand on a corpus of hostile inputs (issue 13): each run must exit 2 with
 // one short message naming the problem on stderr, never crash (no uncaught exception, no abort),
 // never print half a JSON object, never exit 0 on nonsense, and leave no output file or
-// directory behind. The subcommands are a table: a new one (`explain`) is one line in
-// kCommands; a new kind of hostile input is one entry in corpus().
+// directory behind. The subcommands are a table: a new one is one line in kCommands; a new kind
+// of hostile input is one entry in corpus().
 #include <catch2/catch.hpp>
 
 #include <sys/stat.h>
@@ -36,6 +36,7 @@ const std::vector<Command> kCommands = {
     {"merge-robot", "merge", "{LOG} {GOOD} --out {OUT}/merged.csv --json"},
     {"merge-camera", "merge", "{GOOD} {LOG} --out {OUT}/merged.csv --json"},
     {"effects", "effects", "{LOG}"},
+    {"explain", "explain", "{LOG} {MODEL} --threads 1 --out {OUT}/explain.toml --json"},
 };
 
 struct Hostile {
@@ -195,12 +196,12 @@ TEST_CASE("every workbench subcommand refuses hostile input with exit 2 and leav
       CHECK((r.code == 0 || r.code == 1 || r.err.find("auger " + std::string(c.name) + ": ") != std::string::npos));
       CHECK(r.err.size() < 4000);  // one message, long fields cut
       if (r.code != 0) {
-        for (const char* made : {"/fit.toml", "/report", "/merged.csv"}) {
+        for (const char* made : {"/fit.toml", "/report", "/merged.csv", "/explain.toml"}) {
           INFO(made);
           CHECK_FALSE(exists(out + made));
         }
       }
-      for (const char* made : {"/fit.toml", "/merged.csv"}) std::remove((out + made).c_str());
+      for (const char* made : {"/fit.toml", "/merged.csv", "/explain.toml"}) std::remove((out + made).c_str());
       if (exists(out + "/report")) [[maybe_unused]] int rc = std::system(("rm -rf " + out + "/report").c_str());
     }
   }
