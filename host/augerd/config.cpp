@@ -10,6 +10,7 @@
 #include <toml++/toml.h>
 
 #include "auger/effect.hpp"
+#include "auger/input_limits.hpp"
 #include "auger/model_file.hpp"
 
 namespace augerd {
@@ -154,7 +155,11 @@ void read_ros2(const Reader& r, const toml::table& t, const std::string& path, a
           {"imu_topic", topic(s.imu_topic, true)},
           {"pose_std",
            [&](const toml::node& v) {
-             const auger::Vec3 sd = r.vec3(v, "pose_std", 1e-6, 100);
+             // The sensors socket's bounds (input_limits.hpp): a value every pose would be refused for
+             // is an error here, not a silent refusal of every PoseStamped.
+             const auger::Vec3 sd = r.vec3(v, "pose_std", auger::limits::kPositionSd.lo, auger::limits::kPositionSd.hi);
+             if (const std::string e = auger::check_bound("pose_std[2]", sd[2], auger::limits::kHeadingSd); !e.empty())
+               r.fail(v, e);
              s.pose_std = {sd[0], sd[1], sd[2]};
            }},
           {"odom_topic", topic(s.odom_topic, false)},

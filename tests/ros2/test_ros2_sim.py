@@ -251,6 +251,17 @@ def send(writer, sample, hz, seconds):
         time.sleep(1 / hz)
 
 
+def last_refusal(col):
+    """The last refused ROS 2 input, as the first diagnostics published from now on name it."""
+    t = time.time()
+    while True:
+        d = col.latest("DiagnosticArray")
+        if stamp_s(d.header) > t:
+            break
+    kv = {x.key: x.value for x in d.status[4].values}
+    return kv["ros2_last_refusal"]
+
+
 def test_twist_refused_until_enabled(dds):
     _, _, w = dds
     before = int(status()["ros2_refused"])
@@ -309,6 +320,18 @@ def test_twist_stamped(dds):
     assert status()["mode"] == "idle"
 
 
+def test_twist_outside_the_bounds_refused(dds):
+    # Enabled, a Twist of 1e308 m/s (once a NaN setpoint) goes through `vel`'s bounds
+    # (auger/input_limits.hpp): refused, the robot does not move.
+    _, col, w = dds
+    command("enable")
+    before = int(status()["ros2_refused"])
+    send(w["Twist"], m.Twist(linear=m.Vector3(x=1e308)), 20, 0.2)
+    st = status()
+    assert st["mode"] == "idle" and int(st["ros2_refused"]) > before, st
+    assert "u_mps = 1e+308 m/s is outside -10..10 m/s" in last_refusal(col)
+
+
 def test_pose_and_imu_inputs(dds):
     _, col, w = dds
     command("stop")
@@ -344,6 +367,11 @@ def test_pose_and_imu_inputs(dds):
     cov = [0.0] * 36
     cov[0], cov[7], cov[35] = -1e-6, 1e-6, 1e-6
     refused(w["PoseWithCovarianceStamped"], m.PoseWithCovarianceStamped(header=stamp_now(), pose=m.PoseWithCovariance(pose=good, covariance=cov)), "negative variance")
+    # ... and values outside the bounds of auger/input_limits.hpp, which once made the estimate
+    # NaN for good: a standard deviation of 1e100 m, a position of 1e300 m.
+    cov[0] = 1e200
+    refused(w["PoseWithCovarianceStamped"], m.PoseWithCovarianceStamped(header=stamp_now(), pose=m.PoseWithCovariance(pose=good, covariance=cov)), "sd 1e100 m")
+    refused(w["PoseStamped"], m.PoseStamped(header=stamp_now(), pose=m.Pose(position=m.Point(x=1e300, y=y0), orientation=quat(psi0))), "x 1e300 m")
     # The bridge's own: an orientation that is not a rotation (a message never filled in).
     refused(w["PoseStamped"], m.PoseStamped(header=stamp_now(), pose=m.Pose(orientation=m.Quaternion(w=0.0))), "zero quaternion")
     # A valid PoseWithCovarianceStamped is taken, with its standard deviations.
@@ -357,14 +385,11 @@ def test_pose_and_imu_inputs(dds):
     time.sleep(0.15)
     st = status()
     assert abs(float(st["imu_psi_rad"]) - 0.3) < 1e-4 and abs(float(st["imu_r_radps"]) - 0.01) < 1e-4
+    # A yaw rate of 1e100 rad/s (beyond any gyro's full scale) is refused, and the diagnostics say why.
+    refused(w["Imu"], m.Imu(header=stamp_now(), orientation=quat(0.3), angular_velocity=m.Vector3(z=1e100)), "imu rate 1e100")
+    assert "r_radps = 1e+100 rad/s is outside -35..35 rad/s" in last_refusal(col)
     # An IMU without an orientation estimate (covariance[0] = -1) is refused: augerd needs it.
     no_orientation = m.Imu(header=stamp_now(), orientation=quat(0.5), orientation_covariance=[-1.0] + [0.0] * 8)
     refused(w["Imu"], no_orientation, "imu without orientation")
     # The diagnostics name the last refusal.
-    t = time.time()
-    while True:
-        d = col.latest("DiagnosticArray")
-        if stamp_s(d.header) > t:
-            break
-    kv = {x.key: x.value for x in d.status[4].values}
-    assert "no orientation" in kv["ros2_last_refusal"], kv
+    assert "no orientation" in last_refusal(col)

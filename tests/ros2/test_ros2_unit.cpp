@@ -141,6 +141,8 @@ TEST_CASE("the [ros2] configuration section", "[ros2][unit]") {
                        Bad{"[ros2]\nbase_frame = \"base link\"\n", "space"},
                        Bad{"[ros2]\nodom_rate_hz = 200\n", "outside 0..100"},
                        Bad{"[ros2]\nenabled = 1\n", "true or false"},
+                       // The sensors socket's bounds (input_limits.hpp): 20 rad would refuse every pose.
+                       Bad{"[ros2]\npose_std = [0.01, 0.01, 20]\n", "pose_std[2] = 20 rad is outside 1e-06..10 rad"},
                        Bad{"[ros2]\nqos = \"fast\"\n", "unknown key 'qos' in [ros2]"}}) {
     const std::string q = write_tmp(kBase + b.text);
     INFO(b.text);
