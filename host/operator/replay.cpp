@@ -23,7 +23,7 @@
 namespace auger::op {
 namespace {
 
-// Mode codes of augerd's `mode` column (augerd.cpp mode_code).
+// Mode codes of augerd's `mode` column (host/augerd/mode.hpp, mode_code).
 enum Mode { kStopped = 0, kIdle, kVel, kGoto, kFollow, kHold, kSpin };
 constexpr int kEvDisabled = 1, kEvWaypoints = 2, kEvRebuilt = 4;
 
@@ -190,7 +190,7 @@ int run_replay(int argc, char** argv) {
           sin.imu_r_radps = v("imu_r_radps");
         }
         const std::array<double, 4> ctrl_rpm = ctrl->step(r.t_s(), tel, sin);
-        // What augerd sent (augerd.cpp's loop): the controller in goto/follow/hold, eq. (4)
+        // What augerd sent (Daemon::setpoints, host/augerd/daemon.cpp): the controller in goto/follow/hold, eq. (4)
         // scaled to omega_max_rpm in vel, one module in spin, else 0.
         std::array<double, 4> cmd{};
         const int mode = int(v("mode"));
