@@ -156,6 +156,13 @@ class Explainer {
         return score(a) < score(b);
       });
       if (static_cast<int>(next.size()) > opt_.beam) next.resize(static_cast<std::size_t>(opt_.beam));
+      // A branch more than 1.5 times worse than the best is not carried (it would need to gain
+      // more than the best can in later steps).
+      if (!next.empty()) {
+        const double best_score = score(next.front());
+        next.erase(std::remove_if(next.begin() + 1, next.end(), [&](const State& x) { return score(x) > 1.5 * best_score; }),
+                   next.end());
+      }
       // A structure that ended at the noise floor ends the search for every branch that is not
       // already better than it: more effects could only match it.
       double done_at_noise = std::numeric_limits<double>::infinity();
@@ -404,8 +411,16 @@ class Explainer {
     std::sort(gains.begin(), gains.end(), std::greater<>());
     std::vector<std::size_t> joint;
     // (Even one that gains nothing held on top: the state's own fit may have absorbed it.)
-    for (std::size_t k = 0; k < gains.size(); ++k)
+    // Stick-slip that gains no more than the Coulomb friction it contains is that friction, with
+    // its breakaway unidentified: not refitted (it was the costliest joint fit).
+    double coulomb_cost = std::numeric_limits<double>::infinity();
+    for (const Task& t : tasks)
+      if (t.id == kCoulomb && std::isfinite(t.first.cost)) coulomb_cost = t.first.cost;
+    for (std::size_t k = 0; k < gains.size(); ++k) {
+      const Task& t = tasks[gains[k].second];
+      if (t.id == kStickSlip && t.first.cost >= coulomb_cost * (1.0 - 1e-3)) continue;
       if (k < 5 || (gains[k].first > 0 && gains[k].first >= 0.1 * best_gain)) joint.push_back(gains[k].second);
+    }
     for (Task& t : tasks) t.wait_for = -1;
     finished = 0;
     // Each effect's fit on the paper's model alone (the first step's), kept as a start.
@@ -419,6 +434,7 @@ class Explainer {
       Task& t = tasks[i];
       t.out = refit_joint(train_, state, candidate_part(t), t.first, 10);
       t.out = from_scratch(std::move(t.out));
+      if (t.id == kTerrainChange) t.out = change_from_alone(std::move(t.out), t.log);
       t.joint = true;
       ++structures_;
       detail("explain: step %d: %zu/%zu refitted jointly (%s, %d simulations)", step, ++finished, joint.size(),
@@ -453,6 +469,33 @@ class Explainer {
         if (std::find(p.free.begin(), p.free.end(), static_cast<int>(i)) != p.free.end()) p.values[i] = it->second.values[i];
     }
     FitOutcome again = refit(train_, start, 10, 1);
+    ++structures_;
+    again.sims += o.sims;
+    if (again.cost < o.cost) return again;
+    o.sims = again.sims;
+    return o;
+  }
+
+  // A change of terrain placed on top of other effects may settle where it imitates them; the
+  // time its own fit on the paper's model found (the first step's) is tried as a start too.
+  FitOutcome change_from_alone(FitOutcome o, int log) {
+    Part alone;
+    {
+      std::lock_guard<std::mutex> lock(alone_mutex_);
+      const auto it = alone_.find(std::string(kTerrainChange) + "@" + std::to_string(log));
+      if (it == alone_.end()) return o;
+      alone = it->second;
+    }
+    if (!std::isfinite(o.cost)) return o;
+    std::vector<Part> start = o.parts;
+    bool changed = false;
+    for (Part& p : start)
+      if (p.id == kTerrainChange && p.log == log && std::fabs(p.values[0] - alone.values[0]) > 1.0) {
+        p.values = alone.values;
+        changed = true;
+      }
+    if (!changed) return o;
+    FitOutcome again = research_change_times(train_, refit(train_, start, 10, 1), 10);
     ++structures_;
     again.sims += o.sims;
     if (again.cost < o.cost) return again;
@@ -631,7 +674,7 @@ class Explainer {
     res.final_heldout = s.held;
     State f = s;
     if (!s.parts.empty()) {
-      FitOutcome o = refit(all_, s.parts, 15, 1);
+      FitOutcome o = research_change_times(all_, refit(all_, s.parts, 15, 1), 15);
       ++structures_;
       if (std::isfinite(o.cost)) {
         // Polish on the full logs (10 ms rows, 25 s segments), as fit does.

@@ -565,8 +565,8 @@ FitOutcome research_change_times(const Problem& pr, FitOutcome o, int max_iter) 
   // inverted can imitate another effect over a stretch). Searched over the whole log again with
   // the others held, then everything refitted.
   if (!std::isfinite(o.cost)) return o;
-  // Alternately (the others refitted to each new time) until the time stays, at most three times.
-  for (int round = 0; round < 3; ++round) {
+  // Alternately (the others refitted to each new time) until the time stays, at most twice.
+  for (int round = 0; round < 2; ++round) {
   bool moved_any = false;
   for (std::size_t c = 0; c < o.parts.size(); ++c) {
     if (o.parts[c].id != kTerrainChange || !o.parts[c].entry) continue;
@@ -621,7 +621,9 @@ FitOutcome refit_joint(const Problem& pr, const std::vector<Part>& state, const 
                std::fabs(p.values[i] - search_upper(sp)) <= 1e-3 * span;
     }
   }
-  o = research_change_times(pr, std::move(o), max_iter);
+  // (Only when the change is the candidate: with it in the state already, its time was searched
+  // when it came in, and again at the end.)
+  if (candidate.id == kTerrainChange) o = research_change_times(pr, std::move(o), max_iter);
   if (at_end) {
     std::vector<Part> fresh = joint;
     for (Part& p : fresh)
