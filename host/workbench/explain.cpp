@@ -157,10 +157,19 @@ class Explainer {
       });
       if (static_cast<int>(next.size()) > opt_.beam) next.resize(static_cast<std::size_t>(opt_.beam));
       // A branch more than 1.5 times worse than the best is not carried (it would need to gain
-      // more than the best can in later steps).
+      // more than the best can in later steps), nor one that is the same explanation in other
+      // words (as many effects, held-out error within 1 % and BIC within 10 of the best's: an IMU
+      // bias and a drift with its bias, say).
       if (!next.empty()) {
-        const double best_score = score(next.front());
-        next.erase(std::remove_if(next.begin() + 1, next.end(), [&](const State& x) { return score(x) > 1.5 * best_score; }),
+        const State& top = next.front();
+        const double n_eff = top.fit.r.size() ? n_eff_of(top.fit) : 1.0;
+        next.erase(std::remove_if(next.begin() + 1, next.end(),
+                                  [&](const State& x) {
+                                    const bool same = effects_in(x) == effects_in(top) &&
+                                                      std::fabs(x.h - top.h) <= 0.01 * top.h &&
+                                                      std::fabs(delta_bic(top, x, n_eff)) < 10.0;
+                                    return score(x) > 1.5 * score(top) || same;
+                                  }),
                    next.end());
       }
       // A structure that ended at the noise floor ends the search for every branch that is not
@@ -380,8 +389,8 @@ class Explainer {
 
   // Two passes: every candidate fitted on top of the state held (cheap: only its own
   // parameters), then the promising ones refitted jointly with everything (the expensive part).
-  // Promising: the five best by training cost and any that gains at least 10 % of what the best
-  // gains.
+  // Promising: the five best by training cost on the first step (three later) and any that gains
+  // at least 10 % of what the best gains.
   void run_tasks(std::vector<Task>& tasks, const State& s, int step) {
     std::vector<std::size_t> all(tasks.size());
     for (std::size_t i = 0; i < tasks.size(); ++i) all[i] = i;
@@ -419,7 +428,8 @@ class Explainer {
     for (std::size_t k = 0; k < gains.size(); ++k) {
       const Task& t = tasks[gains[k].second];
       if (t.id == kStickSlip && t.first.cost >= coulomb_cost * (1.0 - 1e-3)) continue;
-      if (k < 5 || (gains[k].first > 0 && gains[k].first >= 0.1 * best_gain)) joint.push_back(gains[k].second);
+      if (k < (s.parts.empty() ? 5u : 3u) || (gains[k].first > 0 && gains[k].first >= 0.1 * best_gain))
+        joint.push_back(gains[k].second);
     }
     for (Task& t : tasks) t.wait_for = -1;
     finished = 0;

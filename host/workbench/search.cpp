@@ -565,8 +565,8 @@ FitOutcome research_change_times(const Problem& pr, FitOutcome o, int max_iter) 
   // inverted can imitate another effect over a stretch). Searched over the whole log again with
   // the others held, then everything refitted.
   if (!std::isfinite(o.cost)) return o;
-  // Alternately (the others refitted to each new time) until the time stays, at most twice.
-  for (int round = 0; round < 2; ++round) {
+  // Once (a second round, the others refitted to the new time, moved it by less than the grid).
+  for (int round = 0; round < 1; ++round) {
   bool moved_any = false;
   for (std::size_t c = 0; c < o.parts.size(); ++c) {
     if (o.parts[c].id != kTerrainChange || !o.parts[c].entry) continue;

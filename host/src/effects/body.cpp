@@ -99,6 +99,7 @@ class ScrewBlocking final : public Effect {
     for (auto& p : phi) p.setZero();
     const Eigen::DiagonalMatrix<double, 3> G(ctx.gain);
     for (int sweep = 0; sweep < 6; ++sweep) {
+      double moved = 0;
       for (std::size_t i = 0; i < 4; ++i) {
         if (!(limit_n[i] > 0)) continue;
         const Vec3 others = force_n - Q[i].transpose() * phi[i];
@@ -109,8 +110,10 @@ class ScrewBlocking final : public Effect {
         const double n = stick.norm();
         const Eigen::Vector2d next = n <= limit_n[i] ? stick : Eigen::Vector2d(stick * (limit_n[i] / n));
         force_n += Q[i].transpose() * (next - phi[i]);
+        moved = std::max(moved, (next - phi[i]).norm());
         phi[i] = next;
       }
+      if (moved <= 1e-6 * force_n_) break;  // converged
     }
   }
 
