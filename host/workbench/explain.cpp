@@ -8,13 +8,11 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <condition_variable>
 #include <cstdio>
 #include <map>
 #include <mutex>
 #include <set>
 #include <sstream>
-#include <thread>
 
 #include "search.hpp"
 
@@ -356,35 +354,9 @@ class Explainer {
     return t;
   }
 
-  // Runs fn(task index) for every index in `which` on the thread pool; tasks with wait_for run
-  // after that task is done.
   template <typename Fn>
   void run_parallel(std::vector<Task>& tasks, const std::vector<std::size_t>& which, Fn fn) {
-    std::atomic<std::size_t> next{0};
-    std::vector<char> done(tasks.size(), 1);
-    for (std::size_t i : which) done[i] = 0;
-    std::condition_variable cv;
-    std::mutex m;
-    auto worker = [&]() {
-      for (std::size_t n; (n = next++) < which.size();) {
-        const std::size_t i = which[n];
-        const int w = tasks[i].wait_for;
-        if (w >= 0) {
-          std::unique_lock<std::mutex> lock(m);
-          cv.wait(lock, [&] { return done[static_cast<std::size_t>(w)] != 0; });
-        }
-        fn(i);
-        {
-          std::lock_guard<std::mutex> lock(m);
-          done[i] = 1;
-        }
-        cv.notify_all();
-      }
-    };
-    std::vector<std::thread> pool;
-    for (int t = 1; t < std::max(1, opt_.threads); ++t) pool.emplace_back(worker);
-    worker();
-    for (auto& th : pool) th.join();
+    search::run_parallel(opt_.threads, which, [&](std::size_t i) { return tasks[i].wait_for; }, fn);
   }
 
   // Two passes: every candidate fitted on top of the state held (cheap: only its own
@@ -707,6 +679,19 @@ class Explainer {
         f.cost = o.cost;
         f.n_params = o.n_params;
         f.fit = std::move(o);
+      }
+    }
+    if (s.parts.empty() || f.fit.r.size() != static_cast<Eigen::Index>(all_.size())) {
+      // Nothing refitted: the residuals of the model as it is, over every segment (the state's
+      // are the training segments').
+      Eigen::VectorXd r;
+      Workspace w;
+      if (residuals(all_, f.parts, r, w)) {
+        f.fit.r = r;
+        f.fit.cost = f.cost = r.squaredNorm();
+        f.fit.JtJ.resize(0, 0);
+      } else {
+        f.fit.r.resize(0);
       }
     }
     const double n = static_cast<double>(f.fit.r.size());

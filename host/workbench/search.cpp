@@ -5,9 +5,14 @@
 #include "search.hpp"
 
 #include <algorithm>
+#include <atomic>
+#include <condition_variable>
 #include <cmath>
 #include <cstdio>
+#include <mutex>
+#include <set>
 #include <sstream>
+#include <thread>
 
 #include <Eigen/Cholesky>
 
@@ -635,6 +640,36 @@ FitOutcome refit_joint(const Problem& pr, const std::vector<Part>& state, const 
     o.sims = again.sims;
   }
   return o;
+}
+
+// ---------------------------------------------------------------- threads
+void run_parallel(int threads, const std::vector<std::size_t>& which, const std::function<int(std::size_t)>& wait_for,
+                  const std::function<void(std::size_t)>& fn) {
+  std::atomic<std::size_t> next{0};
+  std::set<std::size_t> done;
+  std::condition_variable cv;
+  std::mutex m;
+  auto worker = [&]() {
+    for (std::size_t n; (n = next++) < which.size();) {
+      const std::size_t i = which[n];
+      const int w = wait_for(i);
+      // (Waiting is only for an index that is also run: a job scheduled earlier in `which`.)
+      if (w >= 0 && std::find(which.begin(), which.end(), static_cast<std::size_t>(w)) != which.end()) {
+        std::unique_lock<std::mutex> lock(m);
+        cv.wait(lock, [&] { return done.count(static_cast<std::size_t>(w)) != 0; });
+      }
+      fn(i);
+      {
+        std::lock_guard<std::mutex> lock(m);
+        done.insert(i);
+      }
+      cv.notify_all();
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < std::max(1, threads); ++t) pool.emplace_back(worker);
+  worker();
+  for (auto& th : pool) th.join();
 }
 
 // ---------------------------------------------------------------- statistics
