@@ -8,13 +8,11 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <condition_variable>
 #include <cstdio>
 #include <map>
 #include <mutex>
 #include <set>
 #include <sstream>
-#include <thread>
 
 #include "search.hpp"
 
@@ -156,6 +154,22 @@ class Explainer {
         return score(a) < score(b);
       });
       if (static_cast<int>(next.size()) > opt_.beam) next.resize(static_cast<std::size_t>(opt_.beam));
+      // A branch more than 1.5 times worse than the best is not carried (it would need to gain
+      // more than the best can in later steps), nor one that is the same explanation in other
+      // words (as many effects, held-out error within 1 % and BIC within 10 of the best's: an IMU
+      // bias and a drift with its bias, say).
+      if (!next.empty()) {
+        const State& top = next.front();
+        const double n_eff = top.fit.r.size() ? n_eff_of(top.fit) : 1.0;
+        next.erase(std::remove_if(next.begin() + 1, next.end(),
+                                  [&](const State& x) {
+                                    const bool same = effects_in(x) == effects_in(top) &&
+                                                      std::fabs(x.h - top.h) <= 0.01 * top.h &&
+                                                      std::fabs(delta_bic(top, x, n_eff)) < 10.0;
+                                    return score(x) > 1.5 * score(top) || same;
+                                  }),
+                   next.end());
+      }
       // A structure that ended at the noise floor ends the search for every branch that is not
       // already better than it: more effects could only match it.
       double done_at_noise = std::numeric_limits<double>::infinity();
@@ -340,41 +354,15 @@ class Explainer {
     return t;
   }
 
-  // Runs fn(task index) for every index in `which` on the thread pool; tasks with wait_for run
-  // after that task is done.
   template <typename Fn>
   void run_parallel(std::vector<Task>& tasks, const std::vector<std::size_t>& which, Fn fn) {
-    std::atomic<std::size_t> next{0};
-    std::vector<char> done(tasks.size(), 1);
-    for (std::size_t i : which) done[i] = 0;
-    std::condition_variable cv;
-    std::mutex m;
-    auto worker = [&]() {
-      for (std::size_t n; (n = next++) < which.size();) {
-        const std::size_t i = which[n];
-        const int w = tasks[i].wait_for;
-        if (w >= 0) {
-          std::unique_lock<std::mutex> lock(m);
-          cv.wait(lock, [&] { return done[static_cast<std::size_t>(w)] != 0; });
-        }
-        fn(i);
-        {
-          std::lock_guard<std::mutex> lock(m);
-          done[i] = 1;
-        }
-        cv.notify_all();
-      }
-    };
-    std::vector<std::thread> pool;
-    for (int t = 1; t < std::max(1, opt_.threads); ++t) pool.emplace_back(worker);
-    worker();
-    for (auto& th : pool) th.join();
+    search::run_parallel(opt_.threads, which, [&](std::size_t i) { return tasks[i].wait_for; }, fn);
   }
 
   // Two passes: every candidate fitted on top of the state held (cheap: only its own
   // parameters), then the promising ones refitted jointly with everything (the expensive part).
-  // Promising: the five best by training cost and any that gains at least 10 % of what the best
-  // gains.
+  // Promising: the five best by training cost on the first step (three later) and any that gains
+  // at least 10 % of what the best gains.
   void run_tasks(std::vector<Task>& tasks, const State& s, int step) {
     std::vector<std::size_t> all(tasks.size());
     for (std::size_t i = 0; i < tasks.size(); ++i) all[i] = i;
@@ -404,8 +392,17 @@ class Explainer {
     std::sort(gains.begin(), gains.end(), std::greater<>());
     std::vector<std::size_t> joint;
     // (Even one that gains nothing held on top: the state's own fit may have absorbed it.)
-    for (std::size_t k = 0; k < gains.size(); ++k)
-      if (k < 5 || (gains[k].first > 0 && gains[k].first >= 0.1 * best_gain)) joint.push_back(gains[k].second);
+    // Stick-slip that gains no more than the Coulomb friction it contains is that friction, with
+    // its breakaway unidentified: not refitted (it was the costliest joint fit).
+    double coulomb_cost = std::numeric_limits<double>::infinity();
+    for (const Task& t : tasks)
+      if (t.id == kCoulomb && std::isfinite(t.first.cost)) coulomb_cost = t.first.cost;
+    for (std::size_t k = 0; k < gains.size(); ++k) {
+      const Task& t = tasks[gains[k].second];
+      if (t.id == kStickSlip && t.first.cost >= coulomb_cost * (1.0 - 1e-3)) continue;
+      if (k < (s.parts.empty() ? 5u : 3u) || (gains[k].first > 0 && gains[k].first >= 0.1 * best_gain))
+        joint.push_back(gains[k].second);
+    }
     for (Task& t : tasks) t.wait_for = -1;
     finished = 0;
     // Each effect's fit on the paper's model alone (the first step's), kept as a start.
@@ -419,6 +416,7 @@ class Explainer {
       Task& t = tasks[i];
       t.out = refit_joint(train_, state, candidate_part(t), t.first, 10);
       t.out = from_scratch(std::move(t.out));
+      if (t.id == kTerrainChange) t.out = change_from_alone(std::move(t.out), t.log);
       t.joint = true;
       ++structures_;
       detail("explain: step %d: %zu/%zu refitted jointly (%s, %d simulations)", step, ++finished, joint.size(),
@@ -453,6 +451,33 @@ class Explainer {
         if (std::find(p.free.begin(), p.free.end(), static_cast<int>(i)) != p.free.end()) p.values[i] = it->second.values[i];
     }
     FitOutcome again = refit(train_, start, 10, 1);
+    ++structures_;
+    again.sims += o.sims;
+    if (again.cost < o.cost) return again;
+    o.sims = again.sims;
+    return o;
+  }
+
+  // A change of terrain placed on top of other effects may settle where it imitates them; the
+  // time its own fit on the paper's model found (the first step's) is tried as a start too.
+  FitOutcome change_from_alone(FitOutcome o, int log) {
+    Part alone;
+    {
+      std::lock_guard<std::mutex> lock(alone_mutex_);
+      const auto it = alone_.find(std::string(kTerrainChange) + "@" + std::to_string(log));
+      if (it == alone_.end()) return o;
+      alone = it->second;
+    }
+    if (!std::isfinite(o.cost)) return o;
+    std::vector<Part> start = o.parts;
+    bool changed = false;
+    for (Part& p : start)
+      if (p.id == kTerrainChange && p.log == log && std::fabs(p.values[0] - alone.values[0]) > 1.0) {
+        p.values = alone.values;
+        changed = true;
+      }
+    if (!changed) return o;
+    FitOutcome again = research_change_times(train_, refit(train_, start, 10, 1), 10);
     ++structures_;
     again.sims += o.sims;
     if (again.cost < o.cost) return again;
@@ -631,7 +656,7 @@ class Explainer {
     res.final_heldout = s.held;
     State f = s;
     if (!s.parts.empty()) {
-      FitOutcome o = refit(all_, s.parts, 15, 1);
+      FitOutcome o = research_change_times(all_, refit(all_, s.parts, 15, 1), 15);
       ++structures_;
       if (std::isfinite(o.cost)) {
         // Polish on the full logs (10 ms rows, 25 s segments), as fit does.
@@ -654,6 +679,19 @@ class Explainer {
         f.cost = o.cost;
         f.n_params = o.n_params;
         f.fit = std::move(o);
+      }
+    }
+    if (s.parts.empty() || f.fit.r.size() != static_cast<Eigen::Index>(all_.size())) {
+      // Nothing refitted: the residuals of the model as it is, over every segment (the state's
+      // are the training segments').
+      Eigen::VectorXd r;
+      Workspace w;
+      if (residuals(all_, f.parts, r, w)) {
+        f.fit.r = r;
+        f.fit.cost = f.cost = r.squaredNorm();
+        f.fit.JtJ.resize(0, 0);
+      } else {
+        f.fit.r.resize(0);
       }
     }
     const double n = static_cast<double>(f.fit.r.size());

@@ -5,9 +5,14 @@
 #include "search.hpp"
 
 #include <algorithm>
+#include <atomic>
+#include <condition_variable>
 #include <cmath>
 #include <cstdio>
+#include <mutex>
+#include <set>
 #include <sstream>
+#include <thread>
 
 #include <Eigen/Cholesky>
 
@@ -565,8 +570,8 @@ FitOutcome research_change_times(const Problem& pr, FitOutcome o, int max_iter) 
   // inverted can imitate another effect over a stretch). Searched over the whole log again with
   // the others held, then everything refitted.
   if (!std::isfinite(o.cost)) return o;
-  // Alternately (the others refitted to each new time) until the time stays, at most three times.
-  for (int round = 0; round < 3; ++round) {
+  // Once (a second round, the others refitted to the new time, moved it by less than the grid).
+  for (int round = 0; round < 1; ++round) {
   bool moved_any = false;
   for (std::size_t c = 0; c < o.parts.size(); ++c) {
     if (o.parts[c].id != kTerrainChange || !o.parts[c].entry) continue;
@@ -621,7 +626,9 @@ FitOutcome refit_joint(const Problem& pr, const std::vector<Part>& state, const 
                std::fabs(p.values[i] - search_upper(sp)) <= 1e-3 * span;
     }
   }
-  o = research_change_times(pr, std::move(o), max_iter);
+  // (Only when the change is the candidate: with it in the state already, its time was searched
+  // when it came in, and again at the end.)
+  if (candidate.id == kTerrainChange) o = research_change_times(pr, std::move(o), max_iter);
   if (at_end) {
     std::vector<Part> fresh = joint;
     for (Part& p : fresh)
@@ -633,6 +640,36 @@ FitOutcome refit_joint(const Problem& pr, const std::vector<Part>& state, const 
     o.sims = again.sims;
   }
   return o;
+}
+
+// ---------------------------------------------------------------- threads
+void run_parallel(int threads, const std::vector<std::size_t>& which, const std::function<int(std::size_t)>& wait_for,
+                  const std::function<void(std::size_t)>& fn) {
+  std::atomic<std::size_t> next{0};
+  std::set<std::size_t> done;
+  std::condition_variable cv;
+  std::mutex m;
+  auto worker = [&]() {
+    for (std::size_t n; (n = next++) < which.size();) {
+      const std::size_t i = which[n];
+      const int w = wait_for(i);
+      // (Waiting is only for an index that is also run: a job scheduled earlier in `which`.)
+      if (w >= 0 && std::find(which.begin(), which.end(), static_cast<std::size_t>(w)) != which.end()) {
+        std::unique_lock<std::mutex> lock(m);
+        cv.wait(lock, [&] { return done.count(static_cast<std::size_t>(w)) != 0; });
+      }
+      fn(i);
+      {
+        std::lock_guard<std::mutex> lock(m);
+        done.insert(i);
+      }
+      cv.notify_all();
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < std::max(1, threads); ++t) pool.emplace_back(worker);
+  worker();
+  for (auto& th : pool) th.join();
 }
 
 // ---------------------------------------------------------------- statistics

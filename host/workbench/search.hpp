@@ -4,6 +4,7 @@
 // simulation error over segments of one or more logs (a Problem) with Levenberg-Marquardt.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -111,6 +112,11 @@ FitOutcome research_change_times(const Problem& pr, FitOutcome o, int max_iter);
 // fit_joint's second half: everything refitted from `first`, fit_candidate's result.
 FitOutcome refit_joint(const Problem& pr, const std::vector<Part>& state, const Part& candidate, FitOutcome first,
                        int max_iter);
+
+// Runs fn(i) for every index of `which` on `threads` threads (the caller's included); an index
+// whose wait_for is another index (>= 0) starts only when that one is done.
+void run_parallel(int threads, const std::vector<std::size_t>& which, const std::function<int(std::size_t)>& wait_for,
+                  const std::function<void(std::size_t)>& fn);
 
 // Lag-1 autocorrelation of residuals, within each (log, segment, channel) run.
 double lag1_autocorrelation(const Problem& pr, const Eigen::VectorXd& r);

@@ -1,13 +1,10 @@
 // The engines of `diagnose` and `fit` (docs/workbench.md) on the search machinery of
 // search.hpp, and the model file they write.
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <condition_variable>
 #include <cstdio>
 #include <mutex>
 #include <sstream>
-#include <thread>
 
 #include "search.hpp"
 
@@ -102,35 +99,25 @@ DiagnoseResult diagnose(const Dataset& full, ModelChoice mc, const DiagnoseOptio
   const auto coulomb_at = std::find(ids.begin(), ids.end(), kCoulomb);
   const std::size_t coulomb_i = static_cast<std::size_t>(coulomb_at - ids.begin());
   std::vector<FitOutcome> outcomes(ids.size());
-  std::vector<char> fitted(ids.size(), 0);
-  std::condition_variable fitted_cv;
-  std::atomic<std::size_t> next{0};
+  std::vector<std::size_t> all(ids.size());
+  for (std::size_t i = 0; i < all.size(); ++i) all[i] = i;
   std::mutex print;
   std::size_t done = 0;
-  auto worker = [&]() {
-    for (std::size_t i; (i = next++) < ids.size();) {
-      const FitOutcome* coulomb_fit = nullptr;
-      if (ids[i] == kStickSlip && coulomb_i < ids.size()) {
-        std::unique_lock<std::mutex> lock(print);
-        fitted_cv.wait(lock, [&] { return fitted[coulomb_i] != 0; });
-        coulomb_fit = &outcomes[coulomb_i];  // not written again once fitted
-      }
-      const Part cand = make_part(ids[i], base, data);
-      FitOutcome o = state.empty() ? fit_candidate(pr, {}, cand, 20, coulomb_fit)
-                                   : fit_joint(pr, state, cand, 20, coulomb_fit);
-      std::lock_guard<std::mutex> lock(print);
-      ++done;
-      if (opt.progress)
-        std::fprintf(stderr, "diagnose: %zu/%zu %s fitted (%d simulations)\n", done, ids.size(), ids[i].c_str(), o.sims);
-      outcomes[i] = std::move(o);
-      fitted[i] = 1;
-      fitted_cv.notify_all();
-    }
-  };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < std::max(1, opt.threads); ++t) pool.emplace_back(worker);
-  worker();
-  for (auto& t : pool) t.join();
+  run_parallel(
+      opt.threads, all,
+      [&](std::size_t i) { return ids[i] == kStickSlip && coulomb_i < ids.size() ? static_cast<int>(coulomb_i) : -1; },
+      [&](std::size_t i) {
+        // The Coulomb fit is done when stick-slip runs (not written again once fitted).
+        const FitOutcome* coulomb_fit = ids[i] == kStickSlip && coulomb_i < ids.size() ? &outcomes[coulomb_i] : nullptr;
+        const Part cand = make_part(ids[i], base, data);
+        FitOutcome o = state.empty() ? fit_candidate(pr, {}, cand, 20, coulomb_fit)
+                                     : fit_joint(pr, state, cand, 20, coulomb_fit);
+        std::lock_guard<std::mutex> lock(print);
+        ++done;
+        if (opt.progress)
+          std::fprintf(stderr, "diagnose: %zu/%zu %s fitted (%d simulations)\n", done, ids.size(), ids[i].c_str(), o.sims);
+        outcomes[i] = std::move(o);
+      });
 
   // n_eff from the best candidate's residuals (what is left is closest to the noise there).
   std::size_t best_i = 0;

@@ -506,3 +506,28 @@ TEST_CASE("every effect parameter states a physical range, inside its bounds") {
       CHECK(p.physical_upper <= p.upper);
     }
 }
+
+TEST_CASE("explain: several logs of one robot are explained together with shared parameters") {
+  SynthOptions o;
+  o.seconds = 60;
+  const Model truth = make_model(RobotParams{}, kSand, {std::make_shared<CoulombFriction>(Vec3(8, 5, 0.3))});
+  std::vector<Dataset> logs;
+  for (unsigned seed : {11u, 12u}) {
+    o.seed = seed;
+    logs.push_back(synth(truth, o));
+    logs.back().path = "synthetic-" + std::to_string(seed);
+  }
+  ExplainOptions eo;
+  eo.only = {"coulomb_friction", "quadratic_drag", "terrain_change"};
+  const ExplainResult r = explain(logs, {nominal(), nominal()}, eo);
+  INFO(r.verdict);
+  REQUIRE(r.logs.size() == 2);
+  REQUIRE(r.effects.size() == 1);
+  CHECK(r.effects[0] == "coulomb_friction");
+  CHECK(r.final_models.size() == 2);
+  // One friction for both logs: the same parameters in both models.
+  const auto a = r.final_models[0].model.effects.back()->params(), b = r.final_models[1].model.effects.back()->params();
+  CHECK(a[0].second == b[0].second);
+  CHECK(a[0].second == Approx(8).epsilon(0.15));
+  for (int c = 0; c < kChannels; ++c) CHECK(r.final_ratio[static_cast<std::size_t>(c)] < 1.2);
+}
