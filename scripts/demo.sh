@@ -70,7 +70,7 @@ dds_config = \"$root/tests/ros2/dds-loopback.xml\""
   augerd_start "$d" sand "allocator = \"$alloc\"
 gamma_per_s = [0.2, 0.2, 0.2]
 omega_min_rpm = 3.0
-engage_rpm = 1.5" "" "$sections"
+engage_rpm = 1.5" "mcap = true" "$sections"
   local augerd_pid=$AUGERD_PID
   [[ -z $ros2 ]] || (cd "$root/tests/ros2" && "$py" odom_echo.py "$ros2_domain" rt/odom "$seconds" 6) &
   "$auger" cmd --socket "$d/commands.sock" enable "follow $work/$traj.csv" > "$d/commands.out"
@@ -119,4 +119,6 @@ echo
 echo "\$ auger explain $sand_log --out explained.toml"
 "$auger" explain "$sand_log" --out explained.toml
 echo
+echo "augerd wrote MCAP beside each CSV log ([log] mcap = true): open $work/${sand_log%.csv}.mcap"
+echo "in Foxglove or PlotJuggler (docs/formats.md)."
 echo "demo: done in $(($(date +%s) - start)) s; logs, configurations and the explained model under $work"

@@ -366,9 +366,11 @@ DaemonConfig load_daemon_config(const std::string& path) {
                       [&](const toml::node& v) {
                         c.log_flush_interval_s = r.number(v, "flush_interval_s", 0.01, 1.0);
                       }},
-                     {"fsync_interval_s", [&](const toml::node& v) {
+                     {"fsync_interval_s",
+                      [&](const toml::node& v) {
                         c.log_fsync_interval_s = r.number(v, "fsync_interval_s", 0.1, 3600);
-                      }}});
+                      }},
+                     {"mcap", [&](const toml::node& v) { c.log_mcap = r.boolean(v, "mcap"); }}});
            }}});
 
   auto missing = [&](const std::string& what) { throw ConfigError(path, 1, 1, "missing " + what); };

@@ -48,6 +48,7 @@ struct DaemonConfig {
   std::uint64_t log_rotate_bytes = 64ull << 20;
   double log_flush_interval_s = 1.0;
   double log_fsync_interval_s = 10.0;
+  bool log_mcap = false;  // an MCAP file beside each CSV file (docs/formats.md)
 
   // Lines of keys whose values are checked against each other after the model file's defaults
   // (0: not in this file).

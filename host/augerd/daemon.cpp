@@ -81,6 +81,7 @@ void Daemon::open_log() {
   lc.rotate_bytes = cfg_.log_rotate_bytes;
   lc.flush_interval_s = cfg_.log_flush_interval_s;
   lc.fsync_interval_s = cfg_.log_fsync_interval_s;
+  lc.mcap = cfg_.log_mcap;
   log_ = std::make_unique<DataLog>(lc);
   log_->open();
   std::fprintf(stderr, "augerd: logging to %s\n", log_->first_path().c_str());

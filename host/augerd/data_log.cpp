@@ -65,6 +65,7 @@ void DataLog::write(const auger::RobotSample& sample, const std::vector<double>&
     return;
   }
   queued_rows_ += row;
+  if (cfg_.mcap) queued_samples_.push_back({sample, extra});
 }
 
 void DataLog::event(const std::string& line) {
@@ -113,6 +114,31 @@ bool DataLog::write_all(int fd, const std::string& data, std::size_t& written) {
   return true;
 }
 
+void DataLog::start_mcap() {
+  // The CSV file is the record; an MCAP file that cannot be written is reported and skipped.
+  mcap_path_ = path_.substr(0, path_.size() - 4) + ".mcap";
+  // Created with the CSV file's mode before the stream opens it (no moment readable by others).
+  const int fd = ::open(mcap_path_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, kFileMode);
+  if (fd >= 0) ::close(fd), mcap_file_.open(mcap_path_, std::ios::binary | std::ios::trunc);
+  if (fd < 0 || !mcap_file_) {
+    std::fprintf(stderr, "augerd: cannot create %s (%s); this CSV file has no MCAP file beside it\n",
+                 mcap_path_.c_str(), std::strerror(errno));
+    mcap_file_.clear();
+    return;
+  }
+  mcap_ = std::make_unique<auger::RobotLogMcapWriter>(mcap_file_, cfg_.metadata,
+                                                      auger::RobotLogMcapWriter::RobotColumnsAnd{replay_columns()});
+}
+
+void DataLog::end_mcap() {
+  if (!mcap_) return;
+  mcap_->finish();
+  mcap_.reset();
+  mcap_file_.close();
+  if (!mcap_file_) std::fprintf(stderr, "augerd: %s: writing failed; the file may be cut short\n", mcap_path_.c_str());
+  mcap_file_.clear();
+}
+
 bool DataLog::start_file(double now_s) {
   char stamp[32];
   const std::time_t now = std::time(nullptr);
@@ -134,6 +160,7 @@ bool DataLog::start_file(double now_s) {
   fd_ = fd;
   size_ = header_.size();
   synced_at_s_ = now_s;
+  if (cfg_.mcap) start_mcap();
   std::lock_guard<std::mutex> lock(mutex_);
   files_.push_back(path_);
   ++stats_.files;
@@ -142,6 +169,7 @@ bool DataLog::start_file(double now_s) {
 }
 
 void DataLog::fail(const char* what, int err, double now_s) {
+  end_mcap();
   if (fd_ >= 0) ::close(fd_);
   fd_ = -1;
   retry_at_s_ = now_s + cfg_.retry_s;
@@ -169,9 +197,10 @@ void DataLog::sync(double now_s) {
   stats_.fsync_max_s = std::max(stats_.fsync_max_s, dt);
 }
 
-void DataLog::write_rows(const std::string& rows, double now_s) {
+void DataLog::write_rows(const std::string& rows, const std::vector<Sample>& samples, double now_s) {
   // The rows of one flush, split where the file reaches rotate_bytes: a file ends with the first
   // row at or beyond that size, as when the loop wrote every row itself.
+  std::size_t row = 0;
   for (std::size_t begin = 0; begin < rows.size();) {
     std::size_t end = rows.size();
     if (fd_ >= 0 && size_ < cfg_.rotate_bytes && cfg_.rotate_bytes - size_ < end - begin) {
@@ -179,12 +208,14 @@ void DataLog::write_rows(const std::string& rows, double now_s) {
       if (nl != std::string::npos) end = nl + 1;
     }
     const std::string chunk = rows.substr(begin, end - begin);
-    write_chunk(chunk, std::size_t(std::count(chunk.begin(), chunk.end(), '\n')), now_s);
+    const auto n = std::size_t(std::count(chunk.begin(), chunk.end(), '\n'));
+    write_chunk(chunk, n, row + n <= samples.size() ? samples.data() + row : nullptr, now_s);
+    row += n;
     begin = end;
   }
 }
 
-void DataLog::write_chunk(const std::string& rows, std::size_t n_rows, double now_s) {
+void DataLog::write_chunk(const std::string& rows, std::size_t n_rows, const Sample* samples, double now_s) {
   if (n_rows == 0) return;
   auto lost = [&](std::uint64_t n) {
     lost_since_failure_ += n;
@@ -209,6 +240,8 @@ void DataLog::write_chunk(const std::string& rows, std::size_t n_rows, double no
     if (written != keep && ::ftruncate(fd_, off_t(size_ + keep)) != 0)
       std::fprintf(stderr, "augerd: log %s: cannot cut the last row back (%s)\n", path_.c_str(), std::strerror(errno));
     const auto kept_rows = std::uint64_t(std::count(rows.begin(), rows.begin() + std::ptrdiff_t(keep), '\n'));
+    if (mcap_ && samples)
+      for (std::uint64_t k = 0; k < kept_rows; ++k) mcap_->write(samples[k].sample, samples[k].extra);
     {
       std::lock_guard<std::mutex> lock(mutex_);
       stats_.rows_written += kept_rows;
@@ -218,11 +251,16 @@ void DataLog::write_chunk(const std::string& rows, std::size_t n_rows, double no
     return;
   }
   size_ += rows.size();
+  if (mcap_ && samples) {
+    for (std::size_t k = 0; k < n_rows; ++k) mcap_->write(samples[k].sample, samples[k].extra);
+    mcap_->flush();  // a chunk per flush interval: what a crash may lose, as for the CSV file
+  }
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stats_.rows_written += n_rows;
   }
   if (size_ >= cfg_.rotate_bytes) {
+    end_mcap();
     sync(now_s);
     ::close(fd_);
     fd_ = -1;
@@ -233,12 +271,14 @@ void DataLog::write_chunk(const std::string& rows, std::size_t n_rows, double no
 void DataLog::run() {
   for (;;) {
     std::string rows, events;
+    std::vector<Sample> samples;
     bool stopping;
     {
       std::unique_lock<std::mutex> lock(mutex_);
       wake_.wait_for(lock, std::chrono::duration<double>(cfg_.flush_interval_s),
                      [&] { return stop_ || !queued_events_.empty(); });
       rows.swap(queued_rows_);
+      samples.swap(queued_samples_);
       events.swap(queued_events_);
       stopping = stop_;
     }
@@ -248,10 +288,11 @@ void DataLog::run() {
       std::size_t w = 0;
       if (write_all(events_fd_, events, w)) ::fdatasync(events_fd_);
     }
-    write_rows(rows, now);
+    write_rows(rows, samples, now);
     if (fd_ >= 0 && now - synced_at_s_ >= cfg_.fsync_interval_s) sync(now);
     if (stopping) break;
   }
+  end_mcap();
   sync(clock_s(CLOCK_MONOTONIC));
   if (fd_ >= 0) ::close(fd_);
   fd_ = -1;

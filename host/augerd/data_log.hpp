@@ -8,12 +8,16 @@
 //   new file can be started (tried every retry_s; a new file that cannot take its header is
 //   removed, so retries leave no empty files), and says how many rows were lost;
 // - fdatasync every fsync_interval_s, at rotation and at the end (what a power cut may lose),
-//   with the time each took.
+//   with the time each took;
+// - optionally an MCAP file beside each CSV file (same rows, same name with .mcap; docs/formats.md
+//   "MCAP"), written by the same thread; it is complete (summary and footer) at rotation and at
+//   exit, and after a crash a recovering reader gets every flush interval but the last.
 #pragma once
 
 #include <sys/types.h>
 
 #include <condition_variable>
+#include <fstream>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -25,6 +29,7 @@
 #include <vector>
 
 #include "auger/log.hpp"
+#include "auger/log_mcap.hpp"
 
 namespace augerd {
 
@@ -41,6 +46,7 @@ struct DataLogConfig {
   double fsync_interval_s = 10.0;
   double retry_s = 10.0;                     // a new file after a write error, this often
   std::size_t max_queued_bytes = 16u << 20;  // rows waiting for the disk beyond this are dropped
+  bool mcap = false;                         // an MCAP file beside each CSV file
   // The system call that writes (tests inject a full disk here).
   std::function<ssize_t(int fd, const void* buf, std::size_t n)> write = nullptr;
 };
@@ -77,8 +83,15 @@ class DataLog {
  private:
   void run();
   bool start_file(double now_s);  // writer thread; false: could not (and nothing left behind)
-  void write_rows(const std::string& rows, double now_s);
-  void write_chunk(const std::string& rows, std::size_t n_rows, double now_s);
+  struct Sample {
+    auger::RobotSample sample;
+    std::vector<double> extra;
+  };
+  // rows and, with MCAP, their samples (one per row, in the same order)
+  void write_rows(const std::string& rows, const std::vector<Sample>& samples, double now_s);
+  void write_chunk(const std::string& rows, std::size_t n_rows, const Sample* samples, double now_s);
+  void start_mcap();
+  void end_mcap();
   void fail(const char* what, int err, double now_s);
   bool write_all(int fd, const std::string& data, std::size_t& written);
   void sync(double now_s);
@@ -91,6 +104,7 @@ class DataLog {
   mutable std::mutex mutex_;
   std::condition_variable wake_;
   std::string queued_rows_, queued_events_;
+  std::vector<Sample> queued_samples_;
   std::uint64_t dropped_full_queue_ = 0;
   bool stop_ = false;
   std::thread thread_;
@@ -104,6 +118,9 @@ class DataLog {
   double retry_at_s_ = 0, synced_at_s_ = 0;
   std::uint64_t lost_since_failure_ = 0;
   std::string first_path_, events_path_, path_;
+  std::ofstream mcap_file_;
+  std::unique_ptr<auger::RobotLogMcapWriter> mcap_;
+  std::string mcap_path_;
 };
 
 }  // namespace augerd

@@ -22,7 +22,7 @@ void on_signal(int) { g_stop = 1; }
 void usage(std::FILE* f) {
   std::fprintf(f,
                "usage: augerd [--config PATH] [--check]\n"
-               "  --config PATH  configuration file (default /etc/augerd.toml; docs/daemon.md)\n"
+               "  --config PATH  configuration file (default /etc/auger/augerd.toml; docs/daemon.md)\n"
                "  --check        check the configuration, the model and what start-up needs (ports,\n"
                "                 log directory, socket paths, groups), then exit: 0 ready, 1 not now\n"
                "                 (a port missing), 2 a configuration error\n");
@@ -32,7 +32,7 @@ void usage(std::FILE* f) {
 
 int main(int argc, char** argv) {
   using namespace augerd;
-  std::string config_path = "/etc/augerd.toml";
+  std::string config_path = "/etc/auger/augerd.toml";
   bool check_only = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];

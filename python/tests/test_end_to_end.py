@@ -76,7 +76,7 @@ def yaw(q):
     return math.atan2(2 * (q["w"] * q["z"] + q["x"] * q["y"]), 1 - 2 * (q["y"] ** 2 + q["z"] ** 2))
 
 
-def assert_mcap_matches_log(mcap_path, log_path, t0_ns):
+def assert_mcap_matches_log(mcap_path, log_path, t0_ns, min_chunks=2):
     """Every value of the log in its channel of the MCAP file (and nothing else there), the pose
     as foxglove.PoseInFrame and on /tf; CRCs checked. Returns {topic: [(log_time, message)]}."""
     meta, cols = read_log(log_path)
@@ -87,7 +87,7 @@ def assert_mcap_matches_log(mcap_path, log_path, t0_ns):
         schemas = {c.topic: summary.schemas[c.schema_id].name for c in summary.channels.values()}
         assert schemas["/pose"] == "foxglove.PoseInFrame" and schemas["/tf"] == "foxglove.FrameTransform"
         assert all(c.message_encoding == "json" for c in summary.channels.values())
-        assert summary.statistics.chunk_count >= 2 and len(summary.chunk_indexes) == summary.statistics.chunk_count
+        assert summary.statistics.chunk_count >= min_chunks and len(summary.chunk_indexes) == summary.statistics.chunk_count
         (m,) = list(reader.iter_metadata())
         assert m.name == "auger-log" and m.metadata == meta
         for schema, channel, msg in reader.iter_messages():
@@ -175,3 +175,20 @@ def test_mcap_sample_writer_matches_the_csv_writer(tmp_path):
     by_topic = assert_mcap_matches_log(tmp_path / "s.mcap", tmp_path / "s.csv", 1767225600000250000)
     assert len(by_topic["/status"]) == 500 and isinstance(by_topic["/status"][-1][1]["status_0"], int)
     assert len(by_topic["/reference/pose"]) == 399 and len(by_topic["/other"]) == 500
+
+
+def test_augerd_writes_mcap_beside_each_csv_file(tmp_path):
+    """augerd's log writer with [log] mcap = true: each rotated CSV file has an MCAP file of the
+    same name holding exactly its rows (the replay columns in /other), complete with summary."""
+    run(binary("MCAP_SAMPLES_BIN"), "--augerd", tmp_path)
+    csvs = sorted(tmp_path.glob("augerd-*.csv"), key=lambda p: int(p.stem.rsplit("-", 1)[1]))
+    assert len(csvs) >= 3
+    rows = 0
+    for csv_path in csvs:
+        mcap_path = csv_path.with_suffix(".mcap")
+        assert mcap_path.exists(), mcap_path
+        by_topic = assert_mcap_matches_log(mcap_path, csv_path, 1767225600000250000, min_chunks=1)
+        rows += len(by_topic["/status"])
+        assert {"goal_x_m", "psie_rad", "mode"} <= set().union(*(m.keys() for _, m in by_topic["/other"]))
+    assert rows == 500
+    assert len(list(tmp_path.glob("*.mcap"))) == len(csvs)

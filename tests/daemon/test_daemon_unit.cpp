@@ -194,7 +194,13 @@ TEST_CASE("configuration file", "[daemon][unit]") {
   CHECK(c.controller.gains.kp[2] == 3);
   CHECK(c.commands_socket == "/tmp/c.sock");  // relative to the file
   CHECK(c.sensors_socket == "/run/s.sock");
+  CHECK_FALSE(c.log_mcap);
   unlink(p.c_str());
+  {
+    const std::string with_mcap = write_tmp(kGood + "mcap = true\n");  // the last table is [log]
+    CHECK(load_daemon_config(with_mcap).log_mcap);
+    unlink(with_mcap.c_str());
+  }
 
   struct Bad {
     std::string text, where;
@@ -211,6 +217,7 @@ TEST_CASE("configuration file", "[daemon][unit]") {
                        Bad{replace(kGood, "[log]\ndir = \"/tmp\"\n", ""), "missing [log] dir"},
                        Bad{replace(kGood, "schema = 1", "schema = 2"), ":1:"},
                        Bad{replace(kGood, "[serial]", "[serial]\nbaud = \"fast\""), ":3:"},
+                       Bad{kGood + "mcap = 1\n", ":16:8: 'mcap' must be true or false"},
                        Bad{replace(kGood, "models/robot.toml", "models/none.toml"), "none.toml"}}) {
     expect_config_error(b.text, b.where);
   }
@@ -336,11 +343,11 @@ TEST_CASE("start-up checks: what augerd --check must catch before anything is op
   x.sensors_socket = d + "/nodir/s.sock";
   CHECK(problems(x).second.find("directory " + d + "/nodir does not exist") != std::string::npos);
   x = c;
-  x.path = "/etc/augerd.toml";
+  x.path = "/etc/auger/augerd.toml";
   x.sensors_group = "no-such-group-x";
   x.line_sensors_group = 17;
   r = problems(x);
   CHECK(r.first);  // the group must be created (sysusers) before augerd can start
-  CHECK(r.second.find("/etc/augerd.toml:17: sensors_group: no group named 'no-such-group-x'") != std::string::npos);
+  CHECK(r.second.find("/etc/auger/augerd.toml:17: sensors_group: no group named 'no-such-group-x'") != std::string::npos);
   [[maybe_unused]] int rc = std::system(("rm -rf '" + d + "'").c_str());
 }
