@@ -93,14 +93,16 @@ const std::array<double, 4>& Controller::step(double t_s, const std::array<Screw
       ekf_predict(model_, config_.ekf, ekf_, dr_.dyn, omega_meas_rpm_, dt);
       if (sensors.has_imu_psi) ekf_update_imu_psi(model_, config_.ekf, ekf_, sensors.imu_psi_rad);
       if (sensors.has_imu_r) ekf_update_imu_r(model_, config_.ekf, ekf_, sensors.imu_r_radps);
-      if (sensors.has_pose) {
-        if (std::isnan(sensors.pose_t_s) && pose_delay_s_ == 0)
-          ekf_update_pose(model_, ekf_, sensors.pose, sensors.pose_cov);
-        else if (!ekf_update_pose_delayed(model_, ekf_, pose_history_, sensors.pose, sensors.pose_cov,
-                                          (std::isnan(sensors.pose_t_s) ? t_s : sensors.pose_t_s) - pose_delay_s_))
-          ++stale_poses_;
-      }
+      // The prediction for now joins the history before a pose is taken: a pose captured during
+      // the past cycle (a camera faster than the loop, or a loop running late) lies between the
+      // last cycle's entry and this one, not beyond the history; the update's shift moves it too.
       pose_history_.push(t_s, ekf_h_pose(model_, ekf_.x, nullptr));
+      // A pose without a capture time is taken as of now (the history's newest entry: the same
+      // update as without a history).
+      if (sensors.has_pose &&
+          !ekf_update_pose_delayed(model_, ekf_, pose_history_, sensors.pose, sensors.pose_cov,
+                                   (std::isnan(sensors.pose_t_s) ? t_s : sensors.pose_t_s) - pose_delay_s_))
+        ++stale_poses_;
       eta_ = ekf_.x.head<3>();
       zeta_ = ekf_.x.tail<3>();
       break;
