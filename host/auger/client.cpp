@@ -11,9 +11,9 @@
 
 namespace {
 
-using auger::cli::AugerdClient;
-using auger::cli::kDefaultCommandsSocket;
-using auger::cli::kDefaultSensorsSocket;
+using auger::io::AugerdClient;
+using auger::io::kDefaultCommandsSocket;
+using auger::io::kDefaultSensorsSocket;
 
 int client_usage(std::FILE* f, int code) {
   std::fprintf(f,

@@ -1,6 +1,6 @@
-// The `auger` command-line tool is one binary with subcommands (DESIGN.md: workbench, control
-// client, operator tools). Each group lives in its own directory and hands its subcommands to
-// main.cpp through one of the functions below, so groups are added without touching each other.
+// The `auger` command-line tool is one binary with subcommands: the workbench, the field tools,
+// import/export (each a library in its own directory, exporting its entry points) and augerd's
+// client (client.cpp). main.cpp registers them all; only this front includes this header.
 #pragma once
 
 #include <vector>
@@ -18,8 +18,5 @@ struct Subcommand {
 };
 
 std::vector<Subcommand> client_subcommands();     // host/auger/client.cpp: augerd's sockets
-std::vector<Subcommand> workbench_subcommands();  // host/workbench/: the model workbench
-std::vector<Subcommand> operator_subcommands();   // host/operator/: field tools
-std::vector<Subcommand> interop_subcommands();    // host/interop/: import, export
 
 }  // namespace auger::cli

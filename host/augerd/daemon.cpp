@@ -15,7 +15,6 @@
 #include "auger/effect.hpp"
 #include "clock.hpp"
 #include "auger/log.hpp"
-#include "lines.hpp"
 
 namespace augerd {
 namespace {

@@ -30,7 +30,7 @@
 #include "auger/model_file.hpp"
 #include "augerd_client.hpp"
 #include "common.hpp"
-#include "lines.hpp"
+#include "daemon_lines.hpp"
 #include "module_link.hpp"
 #include "operator.hpp"
 
@@ -85,9 +85,9 @@ class SensorFeed {
     }
     std::size_t nl;
     while ((nl = in_.find('\n')) != std::string::npos) {
-      augerd::SensorMessage m;
-      if (augerd::parse_sensor(in_.substr(0, nl), m).empty()) {
-        if (m.kind == augerd::SensorKind::imu) {
+      io::SensorMessage m;
+      if (io::parse_sensor(in_.substr(0, nl), m).empty()) {
+        if (m.kind == io::SensorKind::imu) {
           r_sum_ += m.imu_r_radps;
           ++r_n_;
         } else {
@@ -185,7 +185,7 @@ struct Spinner {
 };
 
 int check_motion(const std::string& socket, double speed_mps, double seconds) {
-  cli::AugerdClient c(socket);
+  io::AugerdClient c(socket);
   if (c.request("enable") != "ok") throw std::runtime_error("augerd refused enable");
   struct Dof {
     const char* name;
@@ -198,12 +198,12 @@ int check_motion(const std::string& socket, double speed_mps, double seconds) {
   int wrong = 0;
   for (const auto& d : dofs) {
     auto pose = [&] {
-      const auto kv = cli::parse_status(c.request("status all"));
+      const auto kv = io::parse_status(c.request("status all"));
       // The camera when it is fresh (the truth the estimate is fused from), else the estimate.
-      if (cli::status_number(kv, "pose_age_s") < 0.5)
-        return Vec3(cli::status_number(kv, "cam_x_m"), cli::status_number(kv, "cam_y_m"),
-                    cli::status_number(kv, "cam_psi_rad"));
-      return Vec3(cli::status_number(kv, "x_m"), cli::status_number(kv, "y_m"), cli::status_number(kv, "psi_rad"));
+      if (io::status_number(kv, "pose_age_s") < 0.5)
+        return Vec3(io::status_number(kv, "cam_x_m"), io::status_number(kv, "cam_y_m"),
+                    io::status_number(kv, "cam_psi_rad"));
+      return Vec3(io::status_number(kv, "x_m"), io::status_number(kv, "y_m"), io::status_number(kv, "psi_rad"));
     };
     const Vec3 p0 = pose();
     char line[96];
@@ -233,7 +233,7 @@ int check_motion(const std::string& socket, double speed_mps, double seconds) {
 }  // namespace
 
 int run_calib(int argc, char** argv) {
-  std::string ports_arg, model_path, terrain = "sand", sensors, socket = cli::kDefaultCommandsSocket, modules_arg = "0,1,2,3";
+  std::string ports_arg, model_path, terrain = "sand", sensors, socket = io::kDefaultCommandsSocket, modules_arg = "0,1,2,3";
   double rpm = 8, seconds = 2.5, turns = 0, speed_mps = 0.03;
   bool dry = false, motion = false, seconds_given = false;
   try {

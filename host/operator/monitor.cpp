@@ -44,13 +44,13 @@ void draw(const Status& kv, const std::string& socket, const std::string& error,
   printw("%s", fault.c_str());
   if (fault != "none") attroff(highlight);
   ++row;
-  const double dt_ms = 1e3 * cli::status_number(kv, "loop_dt_s");
-  const double jit_ms = 1e3 * cli::status_number(kv, "loop_jitter_max_s");
+  const double dt_ms = 1e3 * io::status_number(kv, "loop_dt_s");
+  const double jit_ms = 1e3 * io::status_number(kv, "loop_jitter_max_s");
   mvprintw(row++, 0, "loop period %.2f ms, jitter (max |dt-period|, last 1 s) %.2f ms", dt_ms, jit_ms);
   mvprintw(row++, 0, "pose estimate x=%s m  y=%s m  psi=%s rad    reference x=%s y=%s psi=%s",
            field(kv, "x_m").c_str(), field(kv, "y_m").c_str(), field(kv, "psi_rad").c_str(),
            field(kv, "xd_m").c_str(), field(kv, "yd_m").c_str(), field(kv, "psid_rad").c_str());
-  const double imu_age = cli::status_number(kv, "imu_age_s"), cam_age = cli::status_number(kv, "pose_age_s");
+  const double imu_age = io::status_number(kv, "imu_age_s"), cam_age = io::status_number(kv, "pose_age_s");
   if (std::isfinite(imu_age))
     mvprintw(row++, 0, "imu psi=%s rad r=%s rad/s (%.2f s ago)", field(kv, "imu_psi_rad").c_str(),
              field(kv, "imu_r_radps").c_str(), imu_age);
@@ -91,7 +91,7 @@ void draw(const Status& kv, const std::string& socket, const std::string& error,
 }  // namespace
 
 int run_monitor(int argc, char** argv) {
-  std::string socket = cli::kDefaultCommandsSocket;
+  std::string socket = io::kDefaultCommandsSocket;
   double period_s = 0.1;
   try {
     for (int i = 1; i < argc; ++i) {
@@ -99,7 +99,7 @@ int run_monitor(int argc, char** argv) {
       if (a == "--help" || a == "-h") {
         std::printf("usage: auger monitor [--socket PATH] [--period S]\n"
                     "Live view of augerd (default socket %s), refreshed every S (default 0.1) s; q quits.\n",
-                    cli::kDefaultCommandsSocket);
+                    io::kDefaultCommandsSocket);
         return 0;
       }
       if (a == "--socket") socket = option_value(argc, argv, i);
@@ -111,9 +111,9 @@ int run_monitor(int argc, char** argv) {
     std::fprintf(stderr, "auger monitor: %s\n", e.what());
     return 2;
   }
-  std::unique_ptr<cli::AugerdClient> c;
+  std::unique_ptr<io::AugerdClient> c;
   try {
-    c = std::make_unique<cli::AugerdClient>(socket);
+    c = std::make_unique<io::AugerdClient>(socket);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "auger monitor: %s\n", e.what());
     return 3;
@@ -135,7 +135,7 @@ int run_monitor(int argc, char** argv) {
     Status kv;
     if (c) {
       try {
-        kv = cli::parse_status(c->request("status all", 2000));
+        kv = io::parse_status(c->request("status all", 2000));
         error.clear();
       } catch (const std::exception& e) {
         error = std::string(e.what()) + "; reconnecting";
@@ -143,7 +143,7 @@ int run_monitor(int argc, char** argv) {
       }
     } else {
       try {
-        c = std::make_unique<cli::AugerdClient>(socket);
+        c = std::make_unique<io::AugerdClient>(socket);
         continue;
       } catch (const std::exception& e) {
         error = std::string("augerd gone: ") + e.what();

@@ -33,7 +33,7 @@ void step_usage(std::FILE* f) {
                "enabled and not tracking; --enable sends enable first and stop after). Prints rise time\n"
                "(10-90 %%), overshoot, steady-state error (mean over the last 0.5 s) and settling time (5 %%\n"
                "band) against the firmware's criteria; exit 1 if one fails. --plot - draws in the terminal.\n",
-               auger::cli::kDefaultCommandsSocket);
+               auger::io::kDefaultCommandsSocket);
 }
 
 struct Recorder {
@@ -102,7 +102,7 @@ void run_direct(const std::string& port, unsigned baud, int module, double from_
 // polled every cycle; answers come once per augerd cycle, so the loop runs at its rate.
 void run_augerd(const std::string& socket, bool enable, int module, double from_rpm, double to_rpm, double hold_s,
                 Recorder& rec, double& t_step_s) {
-  cli::AugerdClient c(socket);
+  io::AugerdClient c(socket);
   const std::string m = "m" + std::to_string(module) + "_";
   if (enable) {
     const std::string a = c.request("enable");
@@ -124,11 +124,11 @@ void run_augerd(const std::string& socket, bool enable, int module, double from_
     if (!c.read_line(a) || !c.read_line(st)) throw std::runtime_error("augerd did not answer");
     if (a != "ok") throw std::runtime_error("augerd: " + a);
     send_pair();
-    const auto kv = cli::parse_status(st);
+    const auto kv = io::parse_status(st);
     if (kv.count("fault") && kv.at("fault") != "none") throw std::runtime_error("augerd reports fault=" + kv.at("fault"));
-    const double tms = cli::status_number(kv, m + "time_ms"), cmd = cli::status_number(kv, m + "omega_cmd_rpm");
+    const double tms = io::status_number(kv, m + "time_ms"), cmd = io::status_number(kv, m + "omega_cmd_rpm");
     if (std::isnan(tms)) throw std::runtime_error("augerd's status all has no " + m + "time_ms (an older augerd?)");
-    rec.add(uint32_t(tms), cli::status_number(kv, m + "omega_rpm"), cmd);
+    rec.add(uint32_t(tms), io::status_number(kv, m + "omega_rpm"), cmd);
     if (!stepped && std::fabs(cmd - to_rpm) < 0.01 && !rec.samples.empty()) {
       t_step_s = rec.samples.back().t_s;
       stepped = true;
@@ -156,7 +156,7 @@ void write_csv(const std::string& path, const Recorder& rec) {
 int run_step(int argc, char** argv) {
   try {
     std::vector<std::string> pos;
-    std::string port, socket = cli::kDefaultCommandsSocket, out, plot;
+    std::string port, socket = io::kDefaultCommandsSocket, out, plot;
     unsigned baud = io::ModuleLink::kDefaultBaud;
     double from_rpm = 0, hold_s = 1.5;
     bool enable = false;

@@ -30,7 +30,7 @@ constexpr int kSteps = sizeof kSpeedSteps_mps / sizeof kSpeedSteps_mps[0];
 }  // namespace
 
 int run_teleop(int argc, char** argv) {
-  std::string socket = cli::kDefaultCommandsSocket, joystick = "/dev/input/js0";
+  std::string socket = io::kDefaultCommandsSocket, joystick = "/dev/input/js0";
   try {
     for (int i = 1; i < argc; ++i) {
       const std::string a = argv[i];
@@ -54,9 +54,9 @@ int run_teleop(int argc, char** argv) {
     std::fprintf(stderr, "auger teleop: %s\n", e.what());
     return 2;
   }
-  std::unique_ptr<cli::AugerdClient> c;
+  std::unique_ptr<io::AugerdClient> c;
   try {
-    c = std::make_unique<cli::AugerdClient>(socket);
+    c = std::make_unique<io::AugerdClient>(socket);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "auger teleop: %s\n", e.what());
     return 3;
@@ -130,7 +130,7 @@ int run_teleop(int argc, char** argv) {
       }
       status_at_s = now_s();
     }
-    const auto kv = cli::parse_status(status_text);
+    const auto kv = io::parse_status(status_text);
     erase();
     mvprintw(0, 0, "auger teleop  %s   joystick: %s", socket.c_str(), js.is_open() ? joystick.c_str() : "none");
     mvprintw(2, 0, "speed step %d/%d: u,v %.2f m/s, r %.2f rad/s", step + 1, kSteps, lin, yaw);

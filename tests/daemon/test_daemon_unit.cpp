@@ -15,11 +15,12 @@
 
 #include "auger/effect.hpp"
 #include "config.hpp"
-#include "lines.hpp"
+#include "daemon_lines.hpp"
 #include "setpoint.hpp"
 #include "status_text.hpp"
 
 using namespace augerd;
+using namespace auger::io;
 
 namespace {
 // A string literal with its embedded NUL bytes (without the terminating one).
