@@ -31,6 +31,7 @@
 #include "augerd_client.hpp"
 #include "common.hpp"
 #include "daemon_lines.hpp"
+#include "module_adapter.hpp"
 #include "module_link.hpp"
 #include "operator.hpp"
 
@@ -139,25 +140,20 @@ std::string motion_text(const Vec3& zeta) {
 struct Spinner {
   io::ModuleLink& link;
   uint16_t seq = 0;
-  proto_telemetry_t last{};
-  bool have = false;
+  io::ModuleTelemetry tm;  // the latest frame
   void send(double rpm, bool enable, bool clear = false) {
-    proto_setpoint_t sp{};
-    sp.seq = seq++;
-    sp.omega_crpm = int16_t(std::lround(rpm * 100));
-    sp.flags = uint8_t((enable ? PROTO_SP_ENABLE : 0) | (clear ? PROTO_SP_CLEAR_FAULTS : 0));
     uint8_t buf[PROTO_MAX_FRAME];
-    link.send_frame(buf, proto_encode_setpoint(&sp, buf));
+    link.send_frame(buf, io::encode_setpoint(seq++, rpm, enable, clear, buf));
   }
   void pump() {
     std::vector<proto_frame_t> frames;
     link.pump(frames);
     for (const auto& f : frames) {
-      proto_telemetry_t tm;
-      if (proto_decode_telemetry(&f, &tm)) last = tm, have = true;
+      proto_telemetry_t frame;
+      if (proto_decode_telemetry(&f, &frame)) tm.take(frame);
     }
-    if (have && (last.status & PROTO_F_MASK))
-      throw std::runtime_error(link.port() + ": module reports " + fault_bits_text(last.status));
+    if (tm.received && (tm.frame.status & PROTO_F_MASK))
+      throw std::runtime_error(link.port() + ": module reports " + fault_bits_text(tm.frame.status));
   }
   // Spins at rpm for seconds (or until stop() says so), feeding sensors meanwhile.
   template <class Stop>
@@ -296,7 +292,7 @@ int run_calib(int argc, char** argv) {
       if (!by_id[std::size_t(k)]) throw std::runtime_error("module " + std::to_string(k) + " is on none of the ports");
       io::ModuleLink& link = *by_id[std::size_t(k)];
       proto_config_t cfg = link.read_config();
-      Spinner sp{link};
+      Spinner sp{link, 0, {}};
       Vec4 w = Vec4::Zero();
       w[k] = rpm;
       const Vec3 zeta = kinematic_body_velocity(model, w);  // eq. (4) inverted: this screw alone
@@ -304,7 +300,7 @@ int run_calib(int argc, char** argv) {
                   link.port().c_str(), cfg.dir_sign, cfg.counts_per_rev_x100 / 100.0, rpm, seconds);
       std::printf("  expected motion (model): %s\n", motion_text(zeta).c_str());
       sp.spin(rpm, seconds, feed.get(), 0.4 * seconds, [] { return false; });
-      const double omega_rpm = sp.last.omega_crpm / 100.0;
+      const double omega_rpm = sp.tm.omega_rpm();
       // Measured sign: the IMU yaw rate when the model expects a clear rotation, else the camera.
       int verdict = 0;  // +1 right, -1 wrong, 0 undecided
       if (feed && feed->imu_count() >= 5 && std::fabs(zeta[2]) > 0.002) {
@@ -341,15 +337,15 @@ int run_calib(int argc, char** argv) {
       if (turns > 0) {
         const double cpr = cfg.counts_per_rev_x100 / 100.0;
         sp.pump();
-        const int32_t start = sp.last.position_counts;
+        const int32_t start = sp.tm.frame.position_counts;
         const double target = turns * cpr;
         std::printf("  counts per revolution: spinning %.1f turns by the module's count (%.0f counts)\n", turns, target);
         // The last 20 % slowly, so that the screw stops close to the mark (it coasts).
-        sp.spin(rpm, 120.0, nullptr, 0, [&] { return std::fabs(double(sp.last.position_counts - start)) >= 0.8 * target; });
+        sp.spin(rpm, 120.0, nullptr, 0, [&] { return std::fabs(double(sp.tm.frame.position_counts - start)) >= 0.8 * target; });
         sp.spin(std::min(rpm, 1.5), 120.0, nullptr, 0,
-                [&] { return std::fabs(double(sp.last.position_counts - start)) >= target; });
+                [&] { return std::fabs(double(sp.tm.frame.position_counts - start)) >= target; });
         sp.off();
-        const double counted = double(sp.last.position_counts - start);
+        const double counted = double(sp.tm.frame.position_counts - start);
         std::printf("  How many turns did the marked screw make? ");
         std::fflush(stdout);
         std::string a;

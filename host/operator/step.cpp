@@ -14,6 +14,7 @@
 
 #include "augerd_client.hpp"
 #include "common.hpp"
+#include "module_adapter.hpp"
 #include "module_link.hpp"
 #include "operator.hpp"
 #include "step_metrics.hpp"
@@ -67,22 +68,21 @@ void run_direct(const std::string& port, unsigned baud, int module, double from_
   for (double next = t0; now_s() - t0 < kBefore_s + hold_s; next += 0.01) {
     const double t = now_s() - t0;
     const double rpm = t < kBefore_s ? from_rpm : to_rpm;
-    proto_setpoint_t sp{};
-    sp.seq = seq++;
-    sp.omega_crpm = int16_t(std::lround(rpm * 100));
-    sp.flags = uint8_t(PROTO_SP_ENABLE | (seq == 1 ? PROTO_SP_CLEAR_FAULTS : 0));
     uint8_t buf[PROTO_MAX_FRAME];
-    link.send_frame(buf, proto_encode_setpoint(&sp, buf));
+    link.send_frame(buf, io::encode_setpoint(seq, rpm, true, seq == 0, buf));
+    ++seq;
     frames.clear();
     link.pump(frames);
     for (const auto& f : frames) {
-      proto_telemetry_t tm;
-      if (!proto_decode_telemetry(&f, &tm)) continue;
-      rec.add(tm.time_ms, tm.omega_crpm / 100.0, tm.omega_cmd_crpm / 100.0);
-      if (tm.status & PROTO_F_MASK) throw std::runtime_error(port + ": module reports " + fault_bits_text(tm.status));
+      proto_telemetry_t frame;
+      if (!proto_decode_telemetry(&f, &frame)) continue;
+      io::ModuleTelemetry tm;
+      tm.take(frame);
+      rec.add(frame.time_ms, tm.omega_rpm(), tm.omega_cmd_rpm());
+      if (frame.status & PROTO_F_MASK) throw std::runtime_error(port + ": module reports " + fault_bits_text(frame.status));
       if (!stepped && rpm == to_rpm && !rec.samples.empty()) {
         // The step is the first frame whose setpoint in use is the new one.
-        if (std::fabs(tm.omega_cmd_crpm / 100.0 - to_rpm) < 0.01) {
+        if (std::fabs(tm.omega_cmd_rpm() - to_rpm) < 0.01) {
           t_step_s = rec.samples.back().t_s;
           stepped = true;
         }
@@ -91,10 +91,8 @@ void run_direct(const std::string& port, unsigned baud, int module, double from_
     sleep_s(next + 0.01 - now_s());
   }
   // Motor off: a setpoint 0 without ENABLE.
-  proto_setpoint_t sp{};
-  sp.seq = seq++;
   uint8_t buf[PROTO_MAX_FRAME];
-  link.send_frame(buf, proto_encode_setpoint(&sp, buf));
+  link.send_frame(buf, io::encode_setpoint(seq++, 0.0, false, false, buf));
   if (!stepped) throw std::runtime_error(port + ": the module never applied the new setpoint");
 }
 

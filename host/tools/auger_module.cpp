@@ -6,6 +6,7 @@
 //   auger-module PORT show
 //   auger-module PORT set KEY=VALUE...     keys: see usage()
 //   options: --baud N (default 250000), --timeout S (identity wait, default 4)
+#include "module_adapter.hpp"
 #include "module_link.hpp"
 #include "status_text.hpp"
 
@@ -112,7 +113,7 @@ void print_config(const proto_config_t& c)
                 "undervoltage_hyst_v=%.3f motor_rated_v=%.3f cmd_timeout_ms=%u foldback_a=%.3f "
                 "stall_current_a=%.3f stall_time_ms=%u telemetry_period_ms=%u\n",
                 c.module_id, c.dir_sign, c.counts_per_rev_x100 / 100.0, double(c.kp), double(c.ki),
-                double(c.kd), c.omega_max_crpm / 100.0, c.overcurrent_ma / 1000.0,
+                double(c.kd), auger::io::rpm_from_crpm(c.omega_max_crpm), c.overcurrent_ma / 1000.0,
                 c.overcurrent_samples, c.undervoltage_mv / 1000.0, c.undervoltage_hyst_mv / 1000.0,
                 c.motor_rated_mv / 1000.0, c.cmd_timeout_ms, c.foldback_ma / 1000.0, c.stall_current_ma / 1000.0,
                 c.stall_time_ms, c.telemetry_period_ms);
