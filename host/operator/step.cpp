@@ -4,16 +4,15 @@
 // CSV and plotted with gnuplot. docs/operator.md.
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <fstream>
 #include <memory>
 #include <string>
 #include <vector>
 
-#include <unistd.h>
-
+#include "auger/log.hpp"
 #include "augerd_client.hpp"
 #include "common.hpp"
+#include "gnuplot.hpp"
 #include "module_adapter.hpp"
 #include "module_link.hpp"
 #include "operator.hpp"
@@ -141,15 +140,31 @@ void run_augerd(const std::string& socket, bool enable, int module, double from_
   if (!stepped) throw std::runtime_error("the module never applied the new setpoint");
 }
 
-void write_csv(const std::string& path, const Recorder& rec) {
+}  // namespace
+
+void write_step_csv(const std::string& path, const std::vector<double>& t_s, const std::vector<double>& omega_rpm,
+                    const std::vector<double>& omega_cmd_rpm) {
   std::ofstream f(path);
-  f << "t_s,omega_rpm,omega_cmd_rpm\n";
-  for (std::size_t i = 0; i < rec.samples.size(); ++i)
-    f << rec.samples[i].t_s << "," << rec.samples[i].omega_rpm << "," << rec.cmd_rpm[i] << "\n";
+  CsvLogWriter w(f, {}, {"t_s", "omega_rpm", "omega_cmd_rpm"});
+  for (std::size_t i = 0; i < t_s.size(); ++i) {
+    const double row[] = {t_s[i], omega_rpm[i], omega_cmd_rpm[i]};
+    w.write_row(row, 3);
+  }
+  f.flush();
   if (!f) throw std::runtime_error("cannot write " + path);
 }
 
-}  // namespace
+std::string plot_step(io::Gnuplot& gp, const std::string& csv_path, const std::string& plot) {
+  // Every path is a gnuplot literal (gp_quote) and gnuplot runs without a shell: a path with
+  // quotes or ';' in it names a file, it is never executed.
+  const std::string term = plot == "-" ? "set terminal dumb size 100,30\n"
+                                       : "set terminal svg size 800,480\nset output " + io::gp_quote(plot) + "\n";
+  return gp.run_script("step", term +
+                                   "set datafile separator ','\nset key autotitle columnhead\n"
+                                   "set xlabel 't (s)'\nset ylabel 'omega (rpm)'\n"
+                                   "plot " + io::gp_quote(csv_path) + " using 1:2 with lines, '' using 1:3 with steps\n"
+                                   "set output");
+}
 
 int run_step(int argc, char** argv) {
   try {
@@ -199,18 +214,20 @@ int run_step(int argc, char** argv) {
     std::printf("  steady-state error  %.3f rpm  (<= %.1f rpm: %s)\n", s.steady_error_rpm, kSteadyErrorMax_rpm,
                 err_ok ? "ok" : "FAIL");
     std::printf("  settling time (5 %%) %.3f s\n", s.settling_time_s);
-    std::string csv = out;
-    if (csv.empty() && !plot.empty()) csv = "/tmp/auger-step-" + std::to_string(getpid()) + ".csv";
-    if (!csv.empty()) write_csv(csv, rec);
+    std::vector<double> t_s, omega_rpm;
+    for (const auto& x : rec.samples) t_s.push_back(x.t_s), omega_rpm.push_back(x.omega_rpm);
+    if (!out.empty()) write_step_csv(out, t_s, omega_rpm, rec.cmd_rpm);
     if (!plot.empty()) {
-      const std::string term = plot == "-" ? "set terminal dumb 100 30" : "set terminal svg size 800,480; set output '" + plot + "'";
-      const std::string cmd = "gnuplot -e \"" + term + "; set datafile separator ','; set key autotitle columnhead; "
-                              "set xlabel 't (s)'; set ylabel 'omega (rpm)'; plot '" + csv +
-                              "' using 1:2 with lines, '' using 1:3 with steps\"";
-      std::fflush(stdout);
-      if (std::system(cmd.c_str()) != 0) std::fprintf(stderr, "auger step: gnuplot failed (%s)\n", cmd.c_str());
-      else if (plot != "-") std::printf("  plot: %s\n", plot.c_str());
-      if (out.empty()) std::remove(csv.c_str());
+      try {
+        io::Gnuplot gp;  // the CSV goes to its private directory unless --out named one
+        const std::string csv = out.empty() ? gp.path("step.csv") : out;
+        if (out.empty()) write_step_csv(csv, t_s, omega_rpm, rec.cmd_rpm);
+        std::fflush(stdout);
+        std::fputs(plot_step(gp, csv, plot).c_str(), stdout);
+        if (plot != "-") std::printf("  plot: %s\n", plot.c_str());
+      } catch (const io::PlotError& e) {
+        std::fprintf(stderr, "auger step: %s\n", e.what());
+      }
     }
     if (!out.empty()) std::printf("  samples: %s\n", out.c_str());
     return rise_ok && over_ok && err_ok ? 0 : 1;

@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <vector>
 #include <string>
@@ -402,5 +403,6 @@ TEST_CASE("start-up checks: what augerd --check must catch before anything is op
   r = problems(x);
   CHECK(r.first);  // the group must be created (sysusers) before augerd can start
   CHECK(r.second.find("/etc/augerd.toml:17: sensors_group: no group named 'no-such-group-x'") != std::string::npos);
-  [[maybe_unused]] int rc = std::system(("rm -rf '" + d + "'").c_str());
+  std::error_code ec;
+  std::filesystem::remove_all(d, ec);
 }
