@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "auger/version.hpp"
 #include "commands.hpp"  // host/workbench
 #include "interop.hpp"   // host/interop
 #include "operator.hpp"  // host/operator
@@ -47,7 +48,7 @@ std::vector<auger::cli::Subcommand> all_subcommands() {
 }
 
 int usage(std::FILE* f, int code) {
-  std::fprintf(f, "usage: auger SUBCOMMAND [ARGS...]   (auger SUBCOMMAND --help for one)\n\n");
+  std::fprintf(f, "usage: auger SUBCOMMAND [ARGS...]   (auger SUBCOMMAND --help for one; --version: the version)\n\n");
   for (const auto& s : all_subcommands())
     std::fprintf(f, "  auger %-9s %s\n      %s\n", s.name, s.usage, s.summary);
   return code;
@@ -59,8 +60,14 @@ int main(int argc, char** argv) {
   if (argc < 2) return usage(stderr, 2);
   const std::string name = argv[1];
   if (name == "--help" || name == "-h" || name == "help") return usage(stdout, 0);
-  for (const auto& s : all_subcommands())
-    if (name == s.name) return s.run(argc - 1, argv + 1);
+  if (name == "--version") return auger::print_version("auger"), 0;
+  for (const auto& s : all_subcommands()) {
+    if (name != s.name) continue;
+    // --version for every subcommand here, in one place (each one's --help is its own).
+    for (int i = 2; i < argc; ++i)
+      if (std::strcmp(argv[i], "--version") == 0) return auger::print_version(("auger " + name).c_str()), 0;
+    return s.run(argc - 1, argv + 1);
+  }
   std::fprintf(stderr, "auger: unknown subcommand '%s'\n", name.c_str());
   return usage(stderr, 2);
 }

@@ -9,6 +9,7 @@
 
 #include "auger/effect.hpp"
 #include "auger/model_file.hpp"
+#include "auger/version.hpp"
 #include "config.hpp"
 #include "daemon.hpp"
 
@@ -21,7 +22,7 @@ void on_signal(int) { g_stop = 1; }
 
 void usage(std::FILE* f) {
   std::fprintf(f,
-               "usage: augerd [--config PATH] [--check]\n"
+               "usage: augerd [--config PATH] [--check] | --help | --version\n"
                "  --config PATH  configuration file (default /etc/augerd.toml; docs/daemon.md)\n"
                "  --check        check the configuration, the model and what start-up needs (ports,\n"
                "                 log directory, socket paths, groups), then exit: 0 ready, 1 not now\n"
@@ -40,6 +41,9 @@ int main(int argc, char** argv) {
     else if (a == "--check") check_only = true;
     else if (a == "--help" || a == "-h") {
       usage(stdout);
+      return kExitOk;
+    } else if (a == "--version") {
+      auger::print_version("augerd");
       return kExitOk;
     } else {
       std::fprintf(stderr, "augerd: unknown argument '%s'\n", a.c_str());

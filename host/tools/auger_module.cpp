@@ -6,6 +6,7 @@
 //   auger-module PORT show
 //   auger-module PORT set KEY=VALUE...     keys: see usage()
 //   options: --baud N (default 250000), --timeout S (identity wait, default 4)
+#include "auger/version.hpp"
 #include "module_adapter.hpp"
 #include "module_link.hpp"
 #include "status_text.hpp"
@@ -28,7 +29,7 @@ namespace {
 void usage(FILE* out)
 {
     std::fprintf(out,
-                 "usage: auger-module [--baud N] [--timeout S] PORT identify|show|set KEY=VALUE...\n"
+                 "usage: auger-module [--baud N] [--timeout S] PORT identify|show|set KEY=VALUE... | --help | --version\n"
                  "set keys (units in the name):\n"
                  "  id=0..255  dir=+1|-1  counts_per_rev=COUNTS (X4 counts per screw turn)\n"
                  "  kp=X ki=X kd=X (velocity PID, docs/firmware.md units)\n"
@@ -130,6 +131,10 @@ int main(int argc, char** argv)
         while (!args.empty() && args[0].rfind("--", 0) == 0) {
             if (args[0] == "--help") {
                 usage(stdout);
+                return 0;
+            }
+            if (args[0] == "--version") {
+                auger::print_version("auger-module");
                 return 0;
             }
             if (args.size() < 2) bad_arg(args[0], "needs a value");

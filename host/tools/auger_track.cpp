@@ -3,9 +3,11 @@
 // DOF over the samples where both are present, and the position error at the last such sample.
 //   auger-track LOG...
 #include "auger/log.hpp"
+#include "auger/version.hpp"
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <exception>
 
 namespace {
@@ -16,8 +18,13 @@ double wrap_rad(double a) { return std::remainder(a, 2.0 * M_PI); }
 
 int main(int argc, char** argv)
 {
+    const char* usage = "usage: auger-track LOG... | --help | --version\n"
+                        "The tracking error of robot logs: RMS of x, y, psi against the reference and the final\n"
+                        "position error, one Markdown table row per log.\n";
+    if (argc == 2 && std::strcmp(argv[1], "--help") == 0) return std::fputs(usage, stdout), 0;
+    if (argc == 2 && std::strcmp(argv[1], "--version") == 0) return auger::print_version("auger-track"), 0;
     if (argc < 2) {
-        std::fprintf(stderr, "usage: auger-track LOG...\n");
+        std::fputs(usage, stderr);
         return 2;
     }
     std::printf("| log | samples | RMS x | RMS y | RMS psi | final position error |\n");
