@@ -76,7 +76,7 @@ int run_client(int argc, char** argv) {
 
 std::vector<auger::cli::Subcommand> auger::cli::client_subcommands() {
   return {
-      {"cmd", "[--socket PATH] LINE...", "send command lines to augerd, print its answers", run_client},
-      {"sensor", "[--socket PATH] LINE...", "send sensor lines (pose, imu) to augerd", run_client},
+      {"cmd", "send command lines to augerd, print its answers", run_client},
+      {"sensor", "send sensor lines (pose, imu) to augerd", run_client},
   };
 }

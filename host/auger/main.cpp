@@ -18,39 +18,38 @@ namespace {
 std::vector<auger::cli::Subcommand> all_subcommands() {
   std::vector<auger::cli::Subcommand> all = {
       // The model workbench (docs/workbench.md).
-      {"compare", "LOG [--model FILE] [--json]", "the model against a log: open loop, segments, IMU heading, one step ahead, noise floor, where it fails", auger::wb::run_compare},
-      {"diagnose", "LOG [--model FILE] [--only ID,...] [--threads N] [--json]", "which physical effect is missing: fit every library effect, rank them", auger::wb::run_diagnose},
-      {"explain", "LOG... [--model FILE] [--out MODEL] [--max-effects N] [--json]", "the whole loop: add effects jointly until what remains is noise, or say what is left", auger::wb::run_explain},
-      {"fit", "LOG --add EFFECT[,EFFECT...] [--out MODEL] [--model FILE] [--json]", "re-identify with effects added, error before and after, write a model file", auger::wb::run_fit},
-      {"effects", "[--json]", "the effect library: identifiers, parameters, what each means", auger::wb::run_effects},
-      {"identify", "GANTRY_LOG... [--confidence P] [--json]", "sigma and D from gantry logs, eqs. (15)-(17), with confidence intervals", auger::wb::run_identify},
-      {"merge", "ROBOT_LOG CAMERA_LOG [--out LOG] [--max-shift S] [--json]", "align a pose log from another computer by t0_unix_s and IMU/camera yaw rate", auger::wb::run_merge},
-      {"report", "LOG --out DIR [--model FILE] [--effect ID] [--no-diagnose] [--json]", "a self-contained HTML report with plots", auger::wb::run_report},
+      {"compare", "the model against a log: open loop, segments, IMU heading, one step ahead, noise floor, where it fails",
+       auger::wb::run_compare},
+      {"diagnose", "which physical effect is missing: fit every library effect, rank them", auger::wb::run_diagnose},
+      {"explain", "the whole loop: add effects jointly until what remains is noise, or say what is left",
+       auger::wb::run_explain},
+      {"fit", "re-identify with effects added, error before and after, write a model file", auger::wb::run_fit},
+      {"effects", "the effect library: identifiers, parameters, what each means", auger::wb::run_effects},
+      {"identify", "sigma and D from gantry logs, eqs. (15)-(17), with confidence intervals",
+       auger::wb::run_identify},
+      {"merge", "align a pose log from another computer by t0_unix_s and IMU/camera yaw rate", auger::wb::run_merge},
+      {"report", "a self-contained HTML report with plots", auger::wb::run_report},
       // The field tools (docs/operator.md).
-      {"monitor", "[--socket PATH] [--period S]", "live view of the modules, pose and loop (ncurses; q quits)",
-       auger::op::run_monitor},
-      {"teleop", "[--socket PATH] [--joystick DEV]", "drive by keyboard or joystick through augerd (dead-man)",
-       auger::op::run_teleop},
-      {"step", "MODULE RPM [--duration S] [--port DEV | --socket PATH] [--out CSV] [--plot SVG]",
-       "velocity step of one module, summarised against the firmware's criteria", auger::op::run_step},
-      {"calib", "--ports P0,P1,P2,P3 [--sensors PATH] | --check-motion [--socket PATH]",
-       "check/fix direction signs and counts per revolution; commissioning check", auger::op::run_calib},
-      {"replay", "LOG... [--config FILE] [--model FILE]",
-       "rerun the estimator and controller on an augerd log, report differences", auger::op::run_replay},
+      {"monitor", "live view of the modules, pose and loop (ncurses; q quits)", auger::op::run_monitor},
+      {"teleop", "drive by keyboard or joystick through augerd (dead-man)", auger::op::run_teleop},
+      {"step", "velocity step of one module, summarised against the firmware's criteria", auger::op::run_step},
+      {"calib", "check/fix direction signs and counts per revolution; commissioning check", auger::op::run_calib},
+      {"replay", "rerun the estimator and controller on an augerd log, report differences", auger::op::run_replay},
       // Data in and out of other tools (docs/formats.md).
-      {"import", "SOURCE --out LOG [--map FILE] [--terrain NAME] [--list-topics]",
-       "a ROS 2 bag (sqlite3 or MCAP) or another program's CSV into a robot log", auger::interop::run_import},
-      {"export", "LOG --mcap OUT.mcap [--model FILE]",
-       "a robot log as MCAP (Foxglove, PlotJuggler), with the model's prediction on request", auger::interop::run_export},
+      {"import", "a ROS 2 bag (sqlite3 or MCAP) or another program's CSV into a robot log",
+       auger::interop::run_import},
+      {"export", "a robot log as MCAP (Foxglove, PlotJuggler), with the model's prediction on request",
+       auger::interop::run_export},
   };
   for (const auto& s : auger::cli::client_subcommands()) all.push_back(s);
   return all;
 }
 
+// The subcommands' options and usage are each subcommand's own (`auger NAME --help`), written
+// once; this list names them.
 int usage(std::FILE* f, int code) {
-  std::fprintf(f, "usage: auger SUBCOMMAND [ARGS...]   (auger SUBCOMMAND --help for one; --version: the version)\n\n");
-  for (const auto& s : all_subcommands())
-    std::fprintf(f, "  auger %-9s %s\n      %s\n", s.name, s.usage, s.summary);
+  std::fprintf(f, "usage: auger SUBCOMMAND [ARGS...]   (auger SUBCOMMAND --help: its usage; --version)\n\n");
+  for (const auto& s : all_subcommands()) std::fprintf(f, "  auger %-9s %s\n", s.name, s.summary);
   return code;
 }
 

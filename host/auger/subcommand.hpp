@@ -9,8 +9,7 @@ namespace auger::cli {
 
 struct Subcommand {
   const char* name;     // `auger NAME ...`
-  const char* usage;    // arguments, e.g. "LOG [--model FILE] [--json]"
-  const char* summary;  // one line for `auger --help`
+  const char* summary;  // one line for `auger --help`; the usage is the subcommand's own --help
   // argv[0] is the subcommand's name. Exit codes: 0 done, 1 the command ran and reports a
   // failure (a test failed, augerd answered an error), 2 bad usage or bad input, 3 augerd or a
   // device could not be reached.
