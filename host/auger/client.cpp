@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "auger/args.hpp"
 #include "augerd_client.hpp"
 #include "subcommand.hpp"
 
@@ -28,12 +29,11 @@ int run_client(int argc, char** argv) {
   const std::string mode = argv[0];
   std::string path = mode == "cmd" ? kDefaultCommandsSocket : kDefaultSensorsSocket;
   std::vector<std::string> lines;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--help" || a == "-h") return client_usage(stdout, 0);
-    if (a == "--socket" && i + 1 < argc) path = argv[++i];
-    else lines.push_back(a);
-  }
+  auger::Args a;
+  if (!auger::parse_args(argc, argv, {"--help"}, {"--socket"}, a)) return client_usage(stderr, 2);
+  if (a.has("--help")) return client_usage(stdout, 0);
+  path = a.get("--socket", path);
+  lines = a.positional;
   if (lines.empty()) return client_usage(stderr, 2);
   std::unique_ptr<AugerdClient> c;
   try {

@@ -7,6 +7,7 @@
 #include <optional>
 #include <string>
 
+#include "auger/args.hpp"
 #include "auger/effect.hpp"
 #include "auger/model_file.hpp"
 #include "auger/version.hpp"
@@ -35,22 +36,26 @@ int main(int argc, char** argv) {
   using namespace augerd;
   std::string config_path = "/etc/augerd.toml";
   bool check_only = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--config" && i + 1 < argc) config_path = argv[++i];
-    else if (a == "--check") check_only = true;
-    else if (a == "--help" || a == "-h") {
-      usage(stdout);
-      return kExitOk;
-    } else if (a == "--version") {
-      auger::print_version("augerd");
-      return kExitOk;
-    } else {
-      std::fprintf(stderr, "augerd: unknown argument '%s'\n", a.c_str());
-      usage(stderr);
-      return kExitConfig;
-    }
+  auger::Args args;
+  if (!auger::parse_args(argc, argv, {"--check", "--help", "--version"}, {"--config"}, args, "augerd")) {
+    usage(stderr);
+    return kExitConfig;
   }
+  if (args.has("--help")) {
+    usage(stdout);
+    return kExitOk;
+  }
+  if (args.has("--version")) {
+    auger::print_version("augerd");
+    return kExitOk;
+  }
+  if (!args.positional.empty()) {
+    std::fprintf(stderr, "augerd: unknown argument '%s'\n", args.positional[0].c_str());
+    usage(stderr);
+    return kExitConfig;
+  }
+  config_path = args.get("--config", config_path);
+  check_only = args.has("--check");
   DaemonConfig cfg;
   std::optional<auger::Model> model;
   try {

@@ -27,6 +27,7 @@
 #include <string>
 #include <vector>
 
+#include "auger/args.hpp"
 #include "auger/model_file.hpp"
 #include "augerd_client.hpp"
 #include "common.hpp"
@@ -233,23 +234,27 @@ int run_calib(int argc, char** argv) {
   double rpm = 8, seconds = 2.5, turns = 0, speed_mps = 0.03;
   bool dry = false, motion = false, seconds_given = false;
   try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      if (a == "--help" || a == "-h") return calib_usage(stdout), 0;
-      if (a == "--ports") ports_arg = option_value(argc, argv, i);
-      else if (a == "--model") model_path = option_value(argc, argv, i);
-      else if (a == "--terrain") terrain = option_value(argc, argv, i);
-      else if (a == "--sensors") sensors = option_value(argc, argv, i);
-      else if (a == "--socket") socket = option_value(argc, argv, i);
-      else if (a == "--modules") modules_arg = option_value(argc, argv, i);
-      else if (a == "--rpm") rpm = parse_number(a, option_value(argc, argv, i));
-      else if (a == "--seconds") seconds = parse_number(a, option_value(argc, argv, i)), seconds_given = true;
-      else if (a == "--turns") turns = parse_number(a, option_value(argc, argv, i));
-      else if (a == "--speed") speed_mps = parse_number(a, option_value(argc, argv, i));
-      else if (a == "--dry-run") dry = true;
-      else if (a == "--check-motion") motion = true;
-      else throw UsageError("unknown argument " + a);
-    }
+    Args a;
+    if (!parse_args(argc, argv, {"--help", "--dry-run", "--check-motion"},
+                    {"--ports", "--model", "--terrain", "--sensors", "--socket", "--modules", "--rpm", "--seconds",
+                     "--turns", "--speed"},
+                    a))
+      return calib_usage(stderr), 2;
+    if (a.has("--help")) return calib_usage(stdout), 0;
+    if (!a.positional.empty()) throw UsageError("unknown argument " + a.positional[0]);
+    const char* me = "auger calib";
+    if (!a.number(me, "--rpm", rpm, rpm) || !a.number(me, "--seconds", seconds, seconds) ||
+        !a.number(me, "--turns", turns, turns) || !a.number(me, "--speed", speed_mps, speed_mps))
+      return calib_usage(stderr), 2;
+    seconds_given = a.has("--seconds");
+    ports_arg = a.get("--ports");
+    model_path = a.get("--model");
+    terrain = a.get("--terrain", terrain);
+    sensors = a.get("--sensors");
+    socket = a.get("--socket", socket);
+    modules_arg = a.get("--modules", modules_arg);
+    dry = a.has("--dry-run");
+    motion = a.has("--check-motion");
     if (motion) {
       if (!seconds_given) seconds = 2.0;
       try {

@@ -11,6 +11,7 @@
 #include <memory>
 #include <string>
 
+#include "auger/args.hpp"
 #include "augerd_client.hpp"
 #include "common.hpp"
 #include "operator.hpp"
@@ -94,18 +95,17 @@ int run_monitor(int argc, char** argv) {
   std::string socket = io::kDefaultCommandsSocket;
   double period_s = 0.1;
   try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      if (a == "--help" || a == "-h") {
-        std::printf("usage: auger monitor [--socket PATH] [--period S]\n"
-                    "Live view of augerd (default socket %s), refreshed every S (default 0.1) s; q quits.\n",
-                    io::kDefaultCommandsSocket);
-        return 0;
-      }
-      if (a == "--socket") socket = option_value(argc, argv, i);
-      else if (a == "--period") period_s = parse_number(a, option_value(argc, argv, i));
-      else throw UsageError("unknown argument " + a);
+    Args a;
+    if (!parse_args(argc, argv, {"--help"}, {"--socket", "--period"}, a)) return 2;
+    if (a.has("--help")) {
+      std::printf("usage: auger monitor [--socket PATH] [--period S]\n"
+                  "Live view of augerd (default socket %s), refreshed every S (default 0.1) s; q quits.\n",
+                  io::kDefaultCommandsSocket);
+      return 0;
     }
+    if (!a.positional.empty()) throw UsageError("unknown argument " + a.positional[0]);
+    socket = a.get("--socket", socket);
+    if (!a.number("auger monitor", "--period", period_s, period_s)) return 2;
     if (!(period_s >= 0.02 && period_s <= 10)) throw UsageError("--period must be within 0.02 .. 10 s");
   } catch (const UsageError& e) {
     std::fprintf(stderr, "auger monitor: %s\n", e.what());

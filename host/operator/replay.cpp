@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "auger/args.hpp"
 #include "auger/controller.hpp"
 #include "auger/daemon_config.hpp"
 #include "auger/daemon_log.hpp"
@@ -74,18 +75,17 @@ int run_replay(int argc, char** argv) {
   std::string config_path, model_path, terrain;
   double tol_rpm = 1e-6, tol_m = 1e-6, tol_rad = 1e-6;
   try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      if (a == "--help" || a == "-h") return replay_usage(stdout), 0;
-      if (a == "--config") config_path = option_value(argc, argv, i);
-      else if (a == "--model") model_path = option_value(argc, argv, i);
-      else if (a == "--terrain") terrain = option_value(argc, argv, i);
-      else if (a == "--tol-rpm") tol_rpm = parse_number(a, option_value(argc, argv, i));
-      else if (a == "--tol-m") tol_m = parse_number(a, option_value(argc, argv, i));
-      else if (a == "--tol-rad") tol_rad = parse_number(a, option_value(argc, argv, i));
-      else if (a.rfind("--", 0) == 0) throw UsageError("unknown option " + a);
-      else logs.push_back(a);
-    }
+    Args a;
+    if (!parse_args(argc, argv, {"--help"}, {"--config", "--model", "--terrain", "--tol-rpm", "--tol-m", "--tol-rad"}, a))
+      return replay_usage(stderr), 2;
+    if (a.has("--help")) return replay_usage(stdout), 0;
+    if (!a.number("auger replay", "--tol-rpm", tol_rpm, tol_rpm) || !a.number("auger replay", "--tol-m", tol_m, tol_m) ||
+        !a.number("auger replay", "--tol-rad", tol_rad, tol_rad))
+      return replay_usage(stderr), 2;
+    config_path = a.get("--config");
+    model_path = a.get("--model");
+    terrain = a.get("--terrain");
+    logs = a.positional;
     if (logs.empty()) throw UsageError("no log given");
     if (config_path.empty() == model_path.empty()) throw UsageError("give exactly one of --config and --model");
   } catch (const UsageError& e) {

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "auger/args.hpp"
 #include "auger/log.hpp"
 #include "augerd_client.hpp"
 #include "common.hpp"
@@ -173,20 +174,22 @@ int run_step(int argc, char** argv) {
     unsigned baud = io::ModuleLink::kDefaultBaud;
     double from_rpm = 0, hold_s = 1.5;
     bool enable = false;
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      if (a == "--help" || a == "-h") return step_usage(stdout), 0;
-      if (a == "--port") port = option_value(argc, argv, i);
-      else if (a == "--baud") baud = unsigned(parse_number(a, option_value(argc, argv, i)));
-      else if (a == "--socket") socket = option_value(argc, argv, i);
-      else if (a == "--from") from_rpm = parse_number(a, option_value(argc, argv, i));
-      else if (a == "--duration") hold_s = parse_number(a, option_value(argc, argv, i));
-      else if (a == "--out") out = option_value(argc, argv, i);
-      else if (a == "--plot") plot = option_value(argc, argv, i);
-      else if (a == "--enable") enable = true;
-      else if (a.size() > 1 && a[0] == '-' && !(a[1] >= '0' && a[1] <= '9')) throw UsageError("unknown option " + a);
-      else pos.push_back(a);
-    }
+    Args a;
+    if (!parse_args(argc, argv, {"--help", "--enable"},
+                    {"--port", "--baud", "--socket", "--from", "--duration", "--out", "--plot"}, a))
+      return step_usage(stderr), 2;
+    if (a.has("--help")) return step_usage(stdout), 0;
+    double baud_d = baud;
+    if (!a.number("auger step", "--baud", baud_d, baud_d) || !a.number("auger step", "--from", from_rpm, from_rpm) ||
+        !a.number("auger step", "--duration", hold_s, hold_s))
+      return step_usage(stderr), 2;
+    baud = unsigned(baud_d);
+    port = a.get("--port");
+    socket = a.get("--socket", socket);
+    out = a.get("--out");
+    plot = a.get("--plot");
+    enable = a.has("--enable");
+    pos = a.positional;
     if (pos.size() != 2) throw UsageError("expected MODULE and RPM");
     const double module_d = parse_number("MODULE", pos[0]);
     if (module_d != 0 && module_d != 1 && module_d != 2 && module_d != 3) throw UsageError("MODULE must be 0..3");

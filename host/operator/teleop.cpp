@@ -13,6 +13,7 @@
 #include <memory>
 #include <string>
 
+#include "auger/args.hpp"
 #include "augerd_client.hpp"
 #include "common.hpp"
 #include "joystick.hpp"
@@ -32,24 +33,23 @@ constexpr int kSteps = sizeof kSpeedSteps_mps / sizeof kSpeedSteps_mps[0];
 int run_teleop(int argc, char** argv) {
   std::string socket = io::kDefaultCommandsSocket, joystick = "/dev/input/js0";
   try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      if (a == "--help" || a == "-h") {
-        std::printf(
-            "usage: auger teleop [--socket PATH] [--joystick DEV]\n"
-            "Keys: Up/Down or w/s: u (forward/back); Left/Right or a/d: v (left/right);\n"
-            "      z/c: r (turn counter-clockwise/clockwise); +/-: speed step; e: enable;\n"
-            "      space: stop (all screws off, disabled); q: quit (stops).\n"
-            "Holding a key repeats the command (terminal auto-repeat); releasing it stops the\n"
-            "robot through augerd's dead-man within 0.5 s. Joystick (default %s when present):\n"
-            "axes 0/1 v/u, axis 3 r while button 0 is held; button 1 enable, button 2 stop.\n",
-            joystick.c_str());
-        return 0;
-      }
-      if (a == "--socket") socket = option_value(argc, argv, i);
-      else if (a == "--joystick") joystick = option_value(argc, argv, i);
-      else throw UsageError("unknown argument " + a);
+    Args a;
+    if (!parse_args(argc, argv, {"--help"}, {"--socket", "--joystick"}, a)) return 2;
+    if (a.has("--help")) {
+      std::printf(
+          "usage: auger teleop [--socket PATH] [--joystick DEV]\n"
+          "Keys: Up/Down or w/s: u (forward/back); Left/Right or a/d: v (left/right);\n"
+          "      z/c: r (turn counter-clockwise/clockwise); +/-: speed step; e: enable;\n"
+          "      space: stop (all screws off, disabled); q: quit (stops).\n"
+          "Holding a key repeats the command (terminal auto-repeat); releasing it stops the\n"
+          "robot through augerd's dead-man within 0.5 s. Joystick (default %s when present):\n"
+          "axes 0/1 v/u, axis 3 r while button 0 is held; button 1 enable, button 2 stop.\n",
+          joystick.c_str());
+      return 0;
     }
+    if (!a.positional.empty()) throw UsageError("unknown argument " + a.positional[0]);
+    socket = a.get("--socket", socket);
+    joystick = a.get("--joystick", joystick);
   } catch (const UsageError& e) {
     std::fprintf(stderr, "auger teleop: %s\n", e.what());
     return 2;

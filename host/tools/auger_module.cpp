@@ -6,6 +6,7 @@
 //   auger-module PORT show
 //   auger-module PORT set KEY=VALUE...     keys: see usage()
 //   options: --baud N (default 250000), --timeout S (identity wait, default 4)
+#include "auger/args.hpp"
 #include "auger/version.hpp"
 #include "module_adapter.hpp"
 #include "module_link.hpp"
@@ -124,25 +125,27 @@ void print_config(const proto_config_t& c)
 
 int main(int argc, char** argv)
 {
-    std::vector<std::string> args(argv + 1, argv + argc);
+    std::vector<std::string> args;
     unsigned baud = ModuleLink::kDefaultBaud;
     double timeout_s = 4.0;
     try {
-        while (!args.empty() && args[0].rfind("--", 0) == 0) {
-            if (args[0] == "--help") {
-                usage(stdout);
-                return 0;
-            }
-            if (args[0] == "--version") {
-                auger::print_version("auger-module");
-                return 0;
-            }
-            if (args.size() < 2) bad_arg(args[0], "needs a value");
-            if (args[0] == "--baud") baud = in_range<unsigned>(args[0], number(args[0], args[1]), 300, 4000000);
-            else if (args[0] == "--timeout") timeout_s = number(args[0], args[1]);
-            else bad_arg(args[0], "unknown option");
-            args.erase(args.begin(), args.begin() + 2);
+        auger::Args opts;
+        if (!auger::parse_args(argc, argv, {"--help", "--version"}, {"--baud", "--timeout"}, opts, "auger-module")) {
+            usage(stderr);
+            return 2;
         }
+        if (opts.has("--help")) {
+            usage(stdout);
+            return 0;
+        }
+        if (opts.has("--version")) {
+            auger::print_version("auger-module");
+            return 0;
+        }
+        if (opts.has("--baud"))
+            baud = in_range<unsigned>("--baud", number("--baud", opts.get("--baud")), 300, 4000000);
+        if (opts.has("--timeout")) timeout_s = number("--timeout", opts.get("--timeout"));
+        args = opts.positional;
         if (args.size() < 2) {
             usage(stderr);
             return 2;

@@ -2,12 +2,12 @@
 // pose (external tracking: x_m, y_m, psi_rad) minus the reference (xd_m, yd_m, psid_rad) per
 // DOF over the samples where both are present, and the position error at the last such sample.
 //   auger-track LOG...
+#include "auger/args.hpp"
 #include "auger/log.hpp"
 #include "auger/version.hpp"
 
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <exception>
 
 namespace {
@@ -21,18 +21,21 @@ int main(int argc, char** argv)
     const char* usage = "usage: auger-track LOG... | --help | --version\n"
                         "The tracking error of robot logs: RMS of x, y, psi against the reference and the final\n"
                         "position error, one Markdown table row per log.\n";
-    if (argc == 2 && std::strcmp(argv[1], "--help") == 0) return std::fputs(usage, stdout), 0;
-    if (argc == 2 && std::strcmp(argv[1], "--version") == 0) return auger::print_version("auger-track"), 0;
-    if (argc < 2) {
+    auger::Args args;
+    if (!auger::parse_args(argc, argv, {"--help", "--version"}, {}, args, "auger-track"))
+        return std::fputs(usage, stderr), 2;
+    if (args.has("--help")) return std::fputs(usage, stdout), 0;
+    if (args.has("--version")) return auger::print_version("auger-track"), 0;
+    if (args.positional.empty()) {
         std::fputs(usage, stderr);
         return 2;
     }
     std::printf("| log | samples | RMS x | RMS y | RMS psi | final position error |\n");
     std::printf("|---|---|---|---|---|---|\n");
     int rc = 0;
-    for (int a = 1; a < argc; ++a) {
+    for (const std::string& path : args.positional) {
         try {
-            auger::RobotLogReader reader(argv[a]);
+            auger::RobotLogReader reader(path);
             auger::RobotSample s;
             double sx = 0, sy = 0, spsi = 0, final_m = NAN;
             long n = 0;
@@ -47,11 +50,11 @@ int main(int argc, char** argv)
                 ++n;
             }
             if (n == 0) {
-                std::fprintf(stderr, "auger-track: %s: no sample with both a measured and a reference pose\n", argv[a]);
+                std::fprintf(stderr, "auger-track: %s: no sample with both a measured and a reference pose\n", path.c_str());
                 rc = 1;
                 continue;
             }
-            std::printf("| %s | %ld | %.3f m | %.3f m | %.3f rad | %.3f m |\n", argv[a], n, std::sqrt(sx / double(n)),
+            std::printf("| %s | %ld | %.3f m | %.3f m | %.3f rad | %.3f m |\n", path.c_str(), n, std::sqrt(sx / double(n)),
                         std::sqrt(sy / double(n)), std::sqrt(spsi / double(n)), final_m);
         } catch (const std::exception& e) {
             std::fprintf(stderr, "auger-track: %s\n", e.what());
