@@ -4,7 +4,7 @@ cmake_minimum_required(VERSION 3.25)  # script mode: the policies of this versio
 set(allowed_dirs host/augerd tests/daemon tests/ros2)  # augerd and its own tests
 set(problems "")
 
-# 1. Links: the transitive closure of each target's link list.
+# 1. Links to augerd_lib: the transitive closure of each target's link list.
 file(STRINGS ${LAYERS} rows)
 set(all_targets "")
 foreach(row IN LISTS rows)
@@ -40,7 +40,36 @@ foreach(t IN LISTS all_targets)
   endif()
 endforeach()
 
-# 2. Includes of augerd's headers outside host/augerd, and of the front's subcommand.hpp below it.
+# 2. The host's floors, bottom up (docs/daemon.md, issue 14): a host target links only targets
+#    of its own floor or below.
+set(floor_host 0)             # auger_core (host/src, host/include)
+set(floor_host/io 1)          # auger_io
+set(floor_host/ros2 2)        # auger_ros2, on io
+set(floor_host/tools 2)       # auger-module
+set(floor_host/track 2)       # auger-track
+set(floor_host/augerd 3)
+set(floor_host/workbench 3)
+set(floor_host/operator 3)
+set(floor_host/interop 3)
+set(floor_host/auger 4)       # the front
+foreach(t IN LISTS all_targets)
+  set(d ${dir_${t}})
+  if(NOT DEFINED floor_${d})
+    if(d MATCHES "^host")
+      string(APPEND problems "target ${t} (${d}): a host folder without a floor in check_layers.cmake\n")
+    endif()
+    continue()
+  endif()
+  foreach(l IN LISTS links_${t})
+    if(DEFINED dir_${l} AND DEFINED floor_${dir_${l}})
+      if(floor_${dir_${l}} GREATER floor_${d})
+        string(APPEND problems "target ${t} (${d}) links ${l} (${dir_${l}}), a floor above it\n")
+      endif()
+    endif()
+  endforeach()
+endforeach()
+
+# 3. Includes of augerd's headers outside host/augerd, and of the front's subcommand.hpp below it.
 file(GLOB augerd_headers RELATIVE ${SOURCE}/host/augerd ${SOURCE}/host/augerd/*.hpp ${SOURCE}/host/augerd/*.h)
 file(GLOB_RECURSE sources RELATIVE ${SOURCE}
      ${SOURCE}/host/*.cpp ${SOURCE}/host/*.hpp ${SOURCE}/host/*.h ${SOURCE}/sim/*.cpp ${SOURCE}/sim/*.hpp
