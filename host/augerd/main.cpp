@@ -21,14 +21,16 @@ constexpr int kExitOk = 0, kExitStartup = 1, kExitConfig = 2;
 volatile std::sig_atomic_t g_stop = 0;
 void on_signal(int) { g_stop = 1; }
 
-void usage(std::FILE* f) {
-  std::fprintf(f,
-               "usage: augerd [--config PATH] [--check] | --help | --version\n"
-               "  --config PATH  configuration file (default /etc/augerd.toml; docs/daemon.md)\n"
-               "  --check        check the configuration, the model and what start-up needs (ports,\n"
-               "                 log directory, socket paths, groups), then exit: 0 ready, 1 not now\n"
-               "                 (a port missing), 2 a configuration error\n");
-}
+const auger::CommandLine kCli{
+    "augerd", "[OPTIONS]",
+    "The robot daemon: the four modules, the 100 Hz loop, the sockets and the log (docs/daemon.md).\n",
+    {{"--config", "PATH", "configuration file (default /etc/augerd.toml)"},
+     {"--check", "", "check the configuration, the model and what start-up needs (ports, log\n"
+                     "                 directory, socket paths, groups), then exit: 0 ready, 1 not now, 2 an error"}},
+    "Exit 0: stopped by a signal; 1: a start-up failure that may pass (a port missing; the service\n"
+    "restarts it); 2: a configuration or usage error (the service does not restart it).\n"};
+
+void usage(std::FILE* f) { kCli.print_usage(f); }
 
 }  // namespace
 
@@ -37,10 +39,7 @@ int main(int argc, char** argv) {
   std::string config_path = "/etc/augerd.toml";
   bool check_only = false;
   auger::Args args;
-  if (!auger::parse_args(argc, argv, {"--check", "--help", "--version"}, {"--config"}, args, "augerd")) {
-    usage(stderr);
-    return kExitConfig;
-  }
+  if (!kCli.parse(argc, argv, args)) return kExitConfig;
   if (args.has("--help")) {
     usage(stdout);
     return kExitOk;

@@ -39,18 +39,33 @@
 namespace auger::op {
 namespace {
 
-void calib_usage(std::FILE* f) {
-  std::fprintf(f,
-               "usage: auger calib --ports P0,P1,P2,P3 --model MODEL_TOML [--terrain NAME] [--sensors PATH]\n"
-               "                   [--modules 0,1,2,3] [--rpm X] [--seconds S] [--turns N] [--dry-run]\n"
-               "       auger calib --check-motion [--socket PATH] [--speed MPS] [--seconds S]\n"
-               "Direction signs (and with --turns, counts per revolution) of each module, on the serial\n"
-               "ports with augerd stopped; the robot must be free to move a little. --sensors PATH: listen\n"
-               "there for the IMU/camera lines of augerd's sensors protocol (else the operator is asked).\n"
-               "Fixes are written through the CONFIG frame unless --dry-run. Exit 1 if something was\n"
-               "wrong (and fixed), 0 if all was right. --check-motion: through augerd, checks that +u, +v\n"
-               "and +r move the robot forward, left and counter-clockwise; exit 1 if not.\n");
+const CommandLine& calib_cli() {
+  static const CommandLine cli{
+      "auger calib",
+      "--ports P0,P1,P2,P3 --model MODEL_TOML [OPTIONS] | --check-motion [OPTIONS]",
+      "Direction signs (and with --turns, counts per revolution) of each module, on the serial\n"
+      "ports with augerd stopped; the robot must be free to move a little. Fixes are written\n"
+      "through the CONFIG frame unless --dry-run. --check-motion: through augerd, checks that +u,\n"
+      "+v and +r move the robot forward, left and counter-clockwise.\n",
+      {{"--ports", "P0,P1,P2,P3", "the modules' serial ports, any order"},
+       {"--model", "MODEL_TOML", "the robot's model file (the motion each screw should cause)"},
+       {"--terrain", "NAME", "the model's terrain (default sand)"},
+       {"--sensors", "PATH", "listen there for IMU/camera lines (augerd's sensors protocol); else ask"},
+       {"--modules", "LIST", "the modules to check (default 0,1,2,3)"},
+       {"--rpm", "X", "screw speed while checking (default 8 rpm; 0 .. 15)"},
+       {"--seconds", "S", "spin time per module (default 2.5 s, --check-motion 2 s; 0.5 .. 20)"},
+       {"--turns", "N", "also count N screw turns to check counts per revolution (0 .. 20)"},
+       {"--dry-run", "", "report what is wrong, write nothing"},
+       {"--check-motion", "", "the commissioning check through augerd"},
+       {"--socket", "PATH", std::string("with --check-motion: augerd's commands socket (default ") +
+                               io::kDefaultCommandsSocket + ")"},
+       {"--speed", "MPS", "with --check-motion: the body speed used (default 0.03 m/s)"}},
+      "Exit 0: all was right; 1: something was wrong (and fixed, or with --check-motion: the motion\n"
+      "is wrong); 2: bad usage; 3: a module or augerd not reached.\n"};
+  return cli;
 }
+
+void calib_usage(std::FILE* f) { calib_cli().print_usage(f); }
 
 std::vector<std::string> split_commas(const std::string& s) {
   std::vector<std::string> out;
@@ -235,11 +250,7 @@ int run_calib(int argc, char** argv) {
   bool dry = false, motion = false, seconds_given = false;
   try {
     Args a;
-    if (!parse_args(argc, argv, {"--help", "--dry-run", "--check-motion"},
-                    {"--ports", "--model", "--terrain", "--sensors", "--socket", "--modules", "--rpm", "--seconds",
-                     "--turns", "--speed"},
-                    a))
-      return calib_usage(stderr), 2;
+    if (!calib_cli().parse(argc, argv, a)) return 2;
     if (a.has("--help")) return calib_usage(stdout), 0;
     if (!a.positional.empty()) throw UsageError("unknown argument " + a.positional[0]);
     const char* me = "auger calib";

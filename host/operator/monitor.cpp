@@ -95,14 +95,14 @@ int run_monitor(int argc, char** argv) {
   std::string socket = io::kDefaultCommandsSocket;
   double period_s = 0.1;
   try {
+    const CommandLine cli{
+        "auger monitor", "[OPTIONS]", "Live view of augerd's modules, pose and loop (ncurses); q quits.\n",
+        {{"--socket", "PATH", std::string("augerd's commands socket (default ") + io::kDefaultCommandsSocket + ")"},
+         {"--period", "S", "refresh period (default 0.1 s; 0.02 .. 10 s)"}},
+        "Exit 0: quit; 2: bad usage; 3: augerd not reached.\n"};
     Args a;
-    if (!parse_args(argc, argv, {"--help"}, {"--socket", "--period"}, a)) return 2;
-    if (a.has("--help")) {
-      std::printf("usage: auger monitor [--socket PATH] [--period S]\n"
-                  "Live view of augerd (default socket %s), refreshed every S (default 0.1) s; q quits.\n",
-                  io::kDefaultCommandsSocket);
-      return 0;
-    }
+    if (!cli.parse(argc, argv, a)) return 2;
+    if (a.has("--help")) return cli.print_usage(stdout), 0;
     if (!a.positional.empty()) throw UsageError("unknown argument " + a.positional[0]);
     socket = a.get("--socket", socket);
     if (!a.number("auger monitor", "--period", period_s, period_s)) return 2;

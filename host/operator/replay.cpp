@@ -56,17 +56,26 @@ struct Compared {
   }
 };
 
-void replay_usage(std::FILE* f) {
-  std::fprintf(f,
-               "usage: auger replay LOG... [--config AUGERD_TOML | --model MODEL_TOML [--terrain NAME]]\n"
-               "                   [--tol-rpm X] [--tol-m X] [--tol-rad X]\n"
-               "Reruns the estimator and controller on augerd's log files (in order: the files of one run\n"
-               "after rotation) with the controller settings of augerd's configuration (or the model file's\n"
-               "defaults for the log's terrain) and compares cmd_rpm_0..3, the estimate xe_m ye_m psie_rad\n"
-               "and the reference xd_m yd_m psid_rad. Tolerances default to 1e-6 (rpm, m, rad). Exit 0: same;\n"
-               "1: they differ (first differing sample and largest difference per column printed);\n"
-               "2: bad input (file:line:column).\n");
+const CommandLine& replay_cli() {
+  static const CommandLine cli{
+      "auger replay",
+      "LOG... (--config AUGERD_TOML | --model MODEL_TOML [--terrain NAME]) [OPTIONS]",
+      "Reruns the estimator and controller on augerd's log files (in order: the files of one run\n"
+      "after rotation) with the controller settings of augerd's configuration (or the model file's\n"
+      "defaults for the log's terrain) and compares cmd_rpm_0..3, the estimate xe_m ye_m psie_rad\n"
+      "and the reference xd_m yd_m psid_rad.\n",
+      {{"--config", "AUGERD_TOML", "augerd's configuration: its model, terrain and controller settings"},
+       {"--model", "MODEL_TOML", "a model file instead, with its defaults for the terrain"},
+       {"--terrain", "NAME", "with --model (default: the log's '# terrain:')"},
+       {"--tol-rpm", "X", "tolerance of cmd_rpm_i (default 1e-6 rpm)"},
+       {"--tol-m", "X", "tolerance of the positions (default 1e-6 m)"},
+       {"--tol-rad", "X", "tolerance of the angles (default 1e-6 rad)"}},
+      "Exit 0: same; 1: they differ (first differing sample and largest difference per column\n"
+      "printed); 2: bad input (file:line:column).\n"};
+  return cli;
 }
+
+void replay_usage(std::FILE* f) { replay_cli().print_usage(f); }
 
 }  // namespace
 
@@ -76,8 +85,7 @@ int run_replay(int argc, char** argv) {
   double tol_rpm = 1e-6, tol_m = 1e-6, tol_rad = 1e-6;
   try {
     Args a;
-    if (!parse_args(argc, argv, {"--help"}, {"--config", "--model", "--terrain", "--tol-rpm", "--tol-m", "--tol-rad"}, a))
-      return replay_usage(stderr), 2;
+    if (!replay_cli().parse(argc, argv, a)) return 2;
     if (a.has("--help")) return replay_usage(stdout), 0;
     if (!a.number("auger replay", "--tol-rpm", tol_rpm, tol_rpm) || !a.number("auger replay", "--tol-m", tol_m, tol_m) ||
         !a.number("auger replay", "--tol-rad", tol_rad, tol_rad))

@@ -24,18 +24,27 @@ namespace {
 
 constexpr double kBefore_s = 0.5;  // at the starting speed before the step
 
-void step_usage(std::FILE* f) {
-  std::fprintf(f,
-               "usage: auger step MODULE RPM [--from RPM] [--duration S] [--port DEV [--baud N] | --socket PATH]\n"
-               "                  [--enable] [--out CSV] [--plot SVG|-]\n"
-               "A velocity step of module MODULE (0..3) from --from (default 0) to RPM, held --duration\n"
-               "seconds (default 1.5). --port: directly on the module's serial port (augerd must not run);\n"
-               "else through augerd's commands socket (default %s; the robot must be\n"
-               "enabled and not tracking; --enable sends enable first and stop after). Prints rise time\n"
-               "(10-90 %%), overshoot, steady-state error (mean over the last 0.5 s) and settling time (5 %%\n"
-               "band) against the firmware's criteria; exit 1 if one fails. --plot - draws in the terminal.\n",
-               auger::io::kDefaultCommandsSocket);
+const CommandLine& step_cli() {
+  static const CommandLine cli{
+      "auger step",
+      "MODULE RPM [OPTIONS]",
+      "A velocity step of module MODULE (0..3) from --from to RPM, held --duration: directly on the\n"
+      "module's serial port (--port; augerd must not run), else through augerd's commands socket (the\n"
+      "robot enabled and not tracking). Prints rise time (10-90 %), overshoot, steady-state error\n"
+      "(mean over the last 0.5 s) and settling time (5 % band) against the firmware's criteria.\n",
+      {{"--from", "RPM", "the speed before the step (default 0 rpm)"},
+       {"--duration", "S", "how long the new speed is held (default 1.5 s; 0.6 .. 60 s)"},
+       {"--port", "DEV", "directly on the module's serial port (augerd must not run)"},
+       {"--baud", "N", "with --port (default 250000)"},
+       {"--socket", "PATH", std::string("augerd's commands socket (default ") + io::kDefaultCommandsSocket + ")"},
+       {"--enable", "", "through augerd: send enable first and stop after"},
+       {"--out", "CSV", "write the samples: t_s, omega_rpm, omega_cmd_rpm"},
+       {"--plot", "SVG|-", "plot speed and setpoint with gnuplot; - draws in the terminal"}},
+      "Exit 0: every criterion met; 1: one fails; 2: bad usage; 3: no module or augerd.\n"};
+  return cli;
 }
+
+void step_usage(std::FILE* f) { step_cli().print_usage(f); }
 
 struct Recorder {
   std::vector<StepSample> samples;
@@ -175,9 +184,7 @@ int run_step(int argc, char** argv) {
     double from_rpm = 0, hold_s = 1.5;
     bool enable = false;
     Args a;
-    if (!parse_args(argc, argv, {"--help", "--enable"},
-                    {"--port", "--baud", "--socket", "--from", "--duration", "--out", "--plot"}, a))
-      return step_usage(stderr), 2;
+    if (!step_cli().parse(argc, argv, a)) return 2;
     if (a.has("--help")) return step_usage(stdout), 0;
     double baud_d = baud;
     if (!a.number("auger step", "--baud", baud_d, baud_d) || !a.number("auger step", "--from", from_rpm, from_rpm) ||

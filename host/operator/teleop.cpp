@@ -33,20 +33,21 @@ constexpr int kSteps = sizeof kSpeedSteps_mps / sizeof kSpeedSteps_mps[0];
 int run_teleop(int argc, char** argv) {
   std::string socket = io::kDefaultCommandsSocket, joystick = "/dev/input/js0";
   try {
+    const CommandLine cli{
+        "auger teleop", "[OPTIONS]",
+        "Drive the robot through augerd by keyboard or joystick.\n"
+        "Keys: Up/Down or w/s: u (forward/back); Left/Right or a/d: v (left/right);\n"
+        "      z/c: r (turn counter-clockwise/clockwise); +/-: speed step; e: enable;\n"
+        "      space: stop (all screws off, disabled); q: quit (stops).\n"
+        "Holding a key repeats the command (terminal auto-repeat); releasing it stops the\n"
+        "robot through augerd's dead-man within 0.5 s. Joystick: axes 0/1 v/u, axis 3 r while\n"
+        "button 0 is held; button 1 enable, button 2 stop.\n",
+        {{"--socket", "PATH", std::string("augerd's commands socket (default ") + io::kDefaultCommandsSocket + ")"},
+         {"--joystick", "DEV", "joystick device, used when present (default /dev/input/js0)"}},
+        "Exit 0: quit; 2: bad usage; 3: augerd not reached.\n"};
     Args a;
-    if (!parse_args(argc, argv, {"--help"}, {"--socket", "--joystick"}, a)) return 2;
-    if (a.has("--help")) {
-      std::printf(
-          "usage: auger teleop [--socket PATH] [--joystick DEV]\n"
-          "Keys: Up/Down or w/s: u (forward/back); Left/Right or a/d: v (left/right);\n"
-          "      z/c: r (turn counter-clockwise/clockwise); +/-: speed step; e: enable;\n"
-          "      space: stop (all screws off, disabled); q: quit (stops).\n"
-          "Holding a key repeats the command (terminal auto-repeat); releasing it stops the\n"
-          "robot through augerd's dead-man within 0.5 s. Joystick (default %s when present):\n"
-          "axes 0/1 v/u, axis 3 r while button 0 is held; button 1 enable, button 2 stop.\n",
-          joystick.c_str());
-      return 0;
-    }
+    if (!cli.parse(argc, argv, a)) return 2;
+    if (a.has("--help")) return cli.print_usage(stdout), 0;
     if (!a.positional.empty()) throw UsageError("unknown argument " + a.positional[0]);
     socket = a.get("--socket", socket);
     joystick = a.get("--joystick", joystick);

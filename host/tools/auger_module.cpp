@@ -27,18 +27,21 @@ using auger::io::ModuleLink;
 
 namespace {
 
-void usage(FILE* out)
-{
-    std::fprintf(out,
-                 "usage: auger-module [--baud N] [--timeout S] PORT identify|show|set KEY=VALUE... | --help | --version\n"
-                 "set keys (units in the name):\n"
-                 "  id=0..255  dir=+1|-1  counts_per_rev=COUNTS (X4 counts per screw turn)\n"
-                 "  kp=X ki=X kd=X (velocity PID, docs/firmware.md units)\n"
-                 "  omega_max_rpm=X  overcurrent_a=X  overcurrent_samples=N\n"
-                 "  undervoltage_v=X  undervoltage_hyst_v=X  motor_rated_v=X  cmd_timeout_ms=N\n"
-                 "  foldback_a=X (0: off)  stall_current_a=X (0: off)  stall_time_ms=N\n"
-                 "  telemetry_period_ms=10|20|50|100\n");
-}
+const auger::CommandLine kCli{
+    "auger-module", "[OPTIONS] PORT identify|show|set KEY=VALUE...",
+    "One motor module over its serial port: its identity, its settings, new settings (CONFIG).\n",
+    {{"--baud", "N", "the port's rate (default 250000)"},
+     {"--timeout", "S", "wait this long for the identity (default 4 s: a reset into the bootloader)"}},
+    "set keys (units in the name):\n"
+    "  id=0..255  dir=+1|-1  counts_per_rev=COUNTS (X4 counts per screw turn)\n"
+    "  kp=X ki=X kd=X (velocity PID, docs/firmware.md units)\n"
+    "  omega_max_rpm=X  overcurrent_a=X  overcurrent_samples=N\n"
+    "  undervoltage_v=X  undervoltage_hyst_v=X  motor_rated_v=X  cmd_timeout_ms=N\n"
+    "  foldback_a=X (0: off)  stall_current_a=X (0: off)  stall_time_ms=N\n"
+    "  telemetry_period_ms=10|20|50|100\n"
+    "Exit 0: done; 1: the module failed or refused; 2: bad usage.\n"};
+
+void usage(FILE* out) { kCli.print_usage(out); }
 
 [[noreturn]] void bad_arg(const std::string& arg, const std::string& why)
 {
@@ -130,10 +133,7 @@ int main(int argc, char** argv)
     double timeout_s = 4.0;
     try {
         auger::Args opts;
-        if (!auger::parse_args(argc, argv, {"--help", "--version"}, {"--baud", "--timeout"}, opts, "auger-module")) {
-            usage(stderr);
-            return 2;
-        }
+        if (!kCli.parse(argc, argv, opts)) return 2;
         if (opts.has("--help")) {
             usage(stdout);
             return 0;

@@ -18,16 +18,17 @@ double wrap_rad(double a) { return std::remainder(a, 2.0 * M_PI); }
 
 int main(int argc, char** argv)
 {
-    const char* usage = "usage: auger-track LOG... | --help | --version\n"
-                        "The tracking error of robot logs: RMS of x, y, psi against the reference and the final\n"
-                        "position error, one Markdown table row per log.\n";
+    const auger::CommandLine cli{"auger-track", "LOG...",
+                                 "The tracking error of robot logs: RMS of x, y, psi against the reference and the\n"
+                                 "final position error, one Markdown table row per log.\n",
+                                 {},
+                                 "Exit 0: every log read; 1: a log unreadable or without both poses; 2: bad usage.\n"};
     auger::Args args;
-    if (!auger::parse_args(argc, argv, {"--help", "--version"}, {}, args, "auger-track"))
-        return std::fputs(usage, stderr), 2;
-    if (args.has("--help")) return std::fputs(usage, stdout), 0;
+    if (!cli.parse(argc, argv, args)) return 2;
+    if (args.has("--help")) return cli.print_usage(stdout), 0;
     if (args.has("--version")) return auger::print_version("auger-track"), 0;
     if (args.positional.empty()) {
-        std::fputs(usage, stderr);
+        cli.print_usage(stderr);
         return 2;
     }
     std::printf("| log | samples | RMS x | RMS y | RMS psi | final position error |\n");

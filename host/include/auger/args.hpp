@@ -2,8 +2,10 @@
 // positional arguments, `--flag`, `--key VALUE` or `--key=VALUE`, `-h` for `--help`; an
 // unknown option or a missing value is a usage error naming it (printed as "PROGRAM: ...").
 // Anything not starting with "--" is positional, so a negative number ("-5") is one.
+// CommandLine (below) holds a program's options as one table, from which its --help is printed.
 #pragma once
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -83,5 +85,45 @@ inline bool parse_args(int argc, char** argv, const std::set<std::string>& flags
   }
   return true;
 }
+
+// One option of a program's table: its name, its value's name ("": a flag), one line of help.
+struct OptionDoc {
+  std::string name, value, help;
+};
+
+// A program's command line as one table: the usage text (`--help`) and what parse accepts both
+// come from it. --help (and -h) and --version are added to every table.
+struct CommandLine {
+  std::string program;             // "auger step", "augerd"
+  std::string synopsis;            // the arguments, e.g. "MODULE RPM [OPTIONS]"
+  std::string about;               // what it does; lines end with '\n'
+  std::vector<OptionDoc> options;
+  std::string more;                // after the options (exit codes, notes); lines end with '\n'
+
+  void print_usage(std::FILE* f) const {
+    std::fprintf(f, "usage: %s %s\n%s", program.c_str(), synopsis.c_str(), about.c_str());
+    std::vector<OptionDoc> all = options;
+    all.push_back({"--help", "", "this text"});
+    all.push_back({"--version", "", "the version"});
+    std::size_t width = 0;
+    std::vector<std::string> heads;
+    for (const auto& o : all) {
+      heads.push_back(o.name + (o.value.empty() ? "" : " " + o.value));
+      width = std::max(width, heads.back().size());
+    }
+    std::fprintf(f, "options:\n");
+    for (std::size_t i = 0; i < all.size(); ++i)
+      std::fprintf(f, "  %-*s  %s\n", int(width), heads[i].c_str(), all[i].help.c_str());
+    std::fprintf(f, "%s", more.c_str());
+  }
+  // False on a usage error: the message ("PROGRAM: ...") and the usage go to stderr.
+  bool parse(int argc, char** argv, Args& out) const {
+    std::set<std::string> flags = {"--help", "--version"}, valued;
+    for (const auto& o : options) (o.value.empty() ? flags : valued).insert(o.name);
+    if (parse_args(argc, argv, flags, valued, out, program)) return true;
+    print_usage(stderr);
+    return false;
+  }
+};
 
 }  // namespace auger
