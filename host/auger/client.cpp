@@ -6,35 +6,38 @@
 #include <string>
 #include <vector>
 
+#include "auger/args.hpp"
 #include "augerd_client.hpp"
 #include "subcommand.hpp"
 
 namespace {
 
-using auger::cli::AugerdClient;
-using auger::cli::kDefaultCommandsSocket;
-using auger::cli::kDefaultSensorsSocket;
+using auger::io::AugerdClient;
+using auger::io::kDefaultCommandsSocket;
+using auger::io::kDefaultSensorsSocket;
 
-int client_usage(std::FILE* f, int code) {
-  std::fprintf(f,
-               "usage: auger cmd [--socket PATH] LINE...     (default %s)\n"
-               "       auger sensor [--socket PATH] LINE...  (default %s)\n"
-               "Each LINE is one protocol line, e.g. auger cmd enable 'vel 0.05 0 0' status\n",
-               kDefaultCommandsSocket, kDefaultSensorsSocket);
-  return code;
+auger::CommandLine client_cli(const std::string& mode) {
+  const bool cmd = mode == "cmd";
+  return {"auger " + mode, "[OPTIONS] LINE...",
+          std::string("Sends each LINE to augerd's ") + (cmd ? "commands" : "sensors") +
+              " socket and prints its answers (docs/daemon-protocol.md),\n"
+              "e.g. auger cmd enable 'vel 0.05 0 0' status\n",
+          {{"--socket", "PATH",
+            std::string("the socket (default ") + (cmd ? kDefaultCommandsSocket : kDefaultSensorsSocket) + ")"}},
+          "Exit 0: every line answered ok; 1: augerd answered an error; 2: bad usage; 3: augerd not reached.\n"};
 }
 
 int run_client(int argc, char** argv) {
   const std::string mode = argv[0];
   std::string path = mode == "cmd" ? kDefaultCommandsSocket : kDefaultSensorsSocket;
   std::vector<std::string> lines;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--help" || a == "-h") return client_usage(stdout, 0);
-    if (a == "--socket" && i + 1 < argc) path = argv[++i];
-    else lines.push_back(a);
-  }
-  if (lines.empty()) return client_usage(stderr, 2);
+  const auger::CommandLine cli = client_cli(mode);
+  auger::Args a;
+  if (!cli.parse(argc, argv, a)) return 2;
+  if (a.has("--help")) return cli.print_usage(stdout), 0;
+  path = a.get("--socket", path);
+  lines = a.positional;
+  if (lines.empty()) return cli.print_usage(stderr), 2;
   std::unique_ptr<AugerdClient> c;
   try {
     c = std::make_unique<AugerdClient>(path);
@@ -76,7 +79,7 @@ int run_client(int argc, char** argv) {
 
 std::vector<auger::cli::Subcommand> auger::cli::client_subcommands() {
   return {
-      {"cmd", "[--socket PATH] LINE...", "send command lines to augerd, print its answers", run_client},
-      {"sensor", "[--socket PATH] LINE...", "send sensor lines (pose, imu) to augerd", run_client},
+      {"cmd", "send command lines to augerd, print its answers", run_client},
+      {"sensor", "send sensor lines (pose, imu) to augerd", run_client},
   };
 }

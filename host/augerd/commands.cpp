@@ -4,7 +4,6 @@
 #include <cstdio>
 
 #include "daemon.hpp"
-#include "lines.hpp"
 
 namespace augerd {
 

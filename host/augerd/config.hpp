@@ -1,68 +1,22 @@
-// augerd's configuration file (TOML, docs/daemon.md): serial ports, model, controller settings,
-// sockets, log. Unknown keys and bad values are errors naming the file and line (ConfigError).
+// augerd's configuration (read by the core: auger/daemon_config.hpp) and what start-up needs from
+// the system (startup_check.cpp).
 #pragma once
 
-#include <array>
-#include <cstdint>
 #include <optional>
 #include <string>
 #include <vector>
 
-#include "auger/controller.hpp"
-#include "auger/model.hpp"
+#include "auger/daemon_config.hpp"
 #include "ros2.hpp"
 
 namespace augerd {
 
-struct DaemonConfig {
-  std::string path;  // the file read (errors and relative paths refer to it)
+using auger::DaemonConfig;
 
-  // [serial]
-  std::array<std::string, 4> ports;   // any order: modules are mapped by their identity id
-  unsigned baud = 250000;
-  double identity_timeout_s = 2.0;    // DESIGN.md: a DTR reset keeps the bootloader ~1 s
-  double telemetry_timeout_s = 0.1;   // no valid telemetry this long: the module is lost
-
-  // [model]
-  std::string model_file;  // resolved against the configuration file's directory
-  std::string terrain = "sand";
-
-  // [control]: applied over the model file's [control] and Table 5 defaults
-  auger::ControllerConfig controller;
-  double period_s = 0.01;         // the loop period (100 Hz)
-  double vel_timeout_s = 0.5;     // dead-man of `vel` commands
-  int realtime_priority = 0;      // > 0: SCHED_FIFO at this priority and locked memory
-
-  // [sockets]
-  std::string commands_socket;
-  std::string sensors_socket;
-  // Who may connect: the files' modes and groups, set explicitly (docs/daemon.md "Who may
-  // command the robot"). A group is a name resolved at start-up (the system's, not the file's
-  // business: check_startup); empty: augerd's own group.
-  unsigned commands_mode = 0660, sensors_mode = 0660;
-  std::string commands_group, sensors_group;
-  double idle_timeout_s = 30.0;               // a client that sends no line this long is closed
-
-  // [log]
-  std::string log_dir;
-  std::uint64_t log_rotate_bytes = 64ull << 20;
-  double log_flush_interval_s = 1.0;
-  double log_fsync_interval_s = 10.0;
-  bool log_mcap = false;  // an MCAP file beside each CSV file (docs/formats.md)
-
-  // Lines of keys whose values are checked against each other after the model file's defaults
-  // (0: not in this file).
-  int line_omega_min = 0, line_omega_max = 0, line_period = 0, line_telemetry_timeout = 0;
-  int line_commands_group = 0, line_sensors_group = 0;
-
-  // [ros2]: the ROS 2 interface on DDS, off unless enabled (docs/ros2.md)
-  auger::ros2::Settings ros2;
-};
-
-// Reads and checks the file, including the model file (so that a bad model is a start-up error
-// too) and the order of related values (omega_min_rpm <= omega_max_rpm, ...). Throws
-// auger::ConfigError ("file:line:column: message").
-DaemonConfig load_daemon_config(const std::string& path);
+// The file as this augerd reads it (the [ros2] section needs the bridge this build has).
+inline DaemonConfig load_daemon_config(const std::string& path) {
+  return auger::read_daemon_config(path, auger::ros2::available());
+}
 
 // What start-up will need from the system, checked before anything is opened (`augerd --check`
 // and every start): the ports exist and are character devices we may read and write, the log

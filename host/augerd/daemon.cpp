@@ -15,7 +15,6 @@
 #include "auger/effect.hpp"
 #include "clock.hpp"
 #include "auger/log.hpp"
-#include "lines.hpp"
 
 namespace augerd {
 namespace {
@@ -165,13 +164,7 @@ void Daemon::write_log(const std::array<double, 4>& cmd_rpm) {
     const Module& m = bus_.module(i);
     const auto k = std::size_t(i);
     s.cmd_rpm[k] = cmd_rpm[k];
-    if (!m.have_tm || m.lost) continue;
-    s.omega_rpm[k] = m.tm.omega_crpm / 100.0;
-    s.current_a[k] = m.tm.current_ma / 1000.0;
-    s.voltage_v[k] = m.tm.voltage_mv / 1000.0;
-    s.pwm[k] = m.tm.duty_x10000 / 10000.0;
-    s.status[k] = m.tm.status;
-    s.seq_ack[k] = m.tm.seq_ack;
+    if (!m.lost) auger::io::log_telemetry(m.tm, k, s);
   }
   if (sensors_in_.has_pose) {
     s.x_m = sensors_in_.pose[0];
@@ -199,10 +192,10 @@ void Daemon::write_log(const std::array<double, 4>& cmd_rpm) {
                            std::isnan(goal_x) ? NAN : goal_[1],
                            std::isnan(goal_x) ? NAN : goal_[2],
                            traj_logged_ >= 0 ? double(traj_logged_) : NAN,
-                           bus_.module(0).fresh ? 1.0 : 0.0,
-                           bus_.module(1).fresh ? 1.0 : 0.0,
-                           bus_.module(2).fresh ? 1.0 : 0.0,
-                           bus_.module(3).fresh ? 1.0 : 0.0,
+                           bus_.module(0).tm.fresh ? 1.0 : 0.0,
+                           bus_.module(1).tm.fresh ? 1.0 : 0.0,
+                           bus_.module(2).tm.fresh ? 1.0 : 0.0,
+                           bus_.module(3).tm.fresh ? 1.0 : 0.0,
                            sensors_in_.has_pose ? pose_sd_[0] : NAN,
                            sensors_in_.has_pose ? pose_sd_[1] : NAN,
                            sensors_in_.has_pose ? pose_sd_[2] : NAN,
@@ -276,10 +269,7 @@ void Daemon::run(volatile const std::sig_atomic_t* stop) {
     if (ros2_) ros2_inputs();
 
     std::array<auger::ScrewTelemetry, 4> tel;
-    for (int i = 0; i < 4; ++i) {
-      tel[std::size_t(i)].valid = bus_.module(i).fresh;
-      tel[std::size_t(i)].omega_rpm = bus_.module(i).tm.omega_crpm / 100.0;
-    }
+    for (int i = 0; i < 4; ++i) tel[std::size_t(i)] = bus_.module(i).tm.controller_input();
     const std::array<double, 4>& ctrl_rpm = controller_->step(t_s_, tel, sensors_in_);
     // The controller refused its own state (an estimate that diverged): a fault like a module's.
     if (!controller_->fault().empty() && !estimator_fault_reported_) {

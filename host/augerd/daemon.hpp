@@ -14,16 +14,28 @@
 #include <vector>
 
 #include "auger/controller.hpp"
+#include "auger/daemon_log.hpp"
 #include "auger/model.hpp"
 #include "config.hpp"
+#include "daemon_lines.hpp"
 #include "data_log.hpp"
 #include "line_server.hpp"
-#include "mode.hpp"
 #include "module_bus.hpp"
 #include "ros2.hpp"
 #include "waypoint_loader.hpp"
 
 namespace augerd {
+
+// The log schema and the socket line protocol are shared with `auger` (core and host/io).
+using namespace auger::daemon;
+using auger::io::Command;
+using auger::io::CommandKind;
+using auger::io::SensorKind;
+using auger::io::SensorMessage;
+using auger::io::parse_command;
+using auger::io::parse_sensor;
+using auger::io::quote_line;
+using auger::io::split_fields;
 
 class Daemon {
  public:
@@ -110,10 +122,7 @@ class Daemon {
   double last_pose_t_s_ = NAN;
   auger::Vec3 last_pose_ = auger::Vec3::Constant(NAN);
 
-  // What changed the core controller's state this cycle, before its step (log column
-  // ctrl_events, so that auger replay applies the same changes in the same cycle).
-  static constexpr int kEvDisabled = 1, kEvWaypoints = 2, kEvRebuilt = 4;
-  int ctrl_events_ = 0;
+  int ctrl_events_ = 0;  // log column ctrl_events: auger::daemon::CtrlEvent bits of this cycle
   auger::Vec3 goal_ = auger::Vec3::Constant(NAN);  // goto of this cycle
   int traj_n_ = 0;          // follow files copied beside the log (…-follow-N.waypoints)
   int traj_logged_ = -1;    // the follow file of this cycle, -1 none

@@ -21,15 +21,6 @@ constexpr mode_t kFileMode = 0640;
 
 }  // namespace
 
-const std::vector<std::string>& replay_columns() {
-  static const std::vector<std::string> cols = {
-      "mode",      "ctrl_events", "ctrl_enabled", "alloc_nullspace", "goal_x_m",  "goal_y_m",
-      "goal_psi_rad", "traj_n",   "tm_fresh_0",  "tm_fresh_1",      "tm_fresh_2", "tm_fresh_3",
-      "pose_sx_m", "pose_sy_m",   "pose_spsi_rad", "pose_capture_t_s", "vel_u_mps",     "vel_v_mps", "vel_r_radps",
-      "spin_module", "spin_rpm",  "xe_m",        "ye_m",            "psie_rad"};
-  return cols;
-}
-
 DataLog::DataLog(DataLogConfig config) : cfg_(std::move(config)) {
   if (!cfg_.write) cfg_.write = [](int fd, const void* b, std::size_t n) { return ::write(fd, b, n); };
 }

@@ -28,14 +28,13 @@
 #include <utility>
 #include <vector>
 
+#include "auger/daemon_log.hpp"
 #include "auger/log.hpp"
 #include "auger/log_mcap.hpp"
 
 namespace augerd {
 
-// The columns beyond LOG-FORMAT.md's (docs/daemon.md "The log"): what `auger replay` needs to
-// run the core's estimator and controller again on this log and compare.
-const std::vector<std::string>& replay_columns();
+using auger::daemon::replay_columns;  // the columns after docs/log-format.md's
 
 struct DataLogConfig {
   std::string dir;

@@ -7,8 +7,10 @@
 #include <optional>
 #include <string>
 
+#include "auger/args.hpp"
 #include "auger/effect.hpp"
 #include "auger/model_file.hpp"
+#include "auger/version.hpp"
 #include "config.hpp"
 #include "daemon.hpp"
 
@@ -19,14 +21,16 @@ constexpr int kExitOk = 0, kExitStartup = 1, kExitConfig = 2;
 volatile std::sig_atomic_t g_stop = 0;
 void on_signal(int) { g_stop = 1; }
 
-void usage(std::FILE* f) {
-  std::fprintf(f,
-               "usage: augerd [--config PATH] [--check]\n"
-               "  --config PATH  configuration file (default /etc/auger/augerd.toml; docs/daemon.md)\n"
-               "  --check        check the configuration, the model and what start-up needs (ports,\n"
-               "                 log directory, socket paths, groups), then exit: 0 ready, 1 not now\n"
-               "                 (a port missing), 2 a configuration error\n");
-}
+const auger::CommandLine kCli{
+    "augerd", "[OPTIONS]",
+    "The robot daemon: the four modules, the 100 Hz loop, the sockets and the log (docs/daemon.md).\n",
+    {{"--config", "PATH", "configuration file (default /etc/auger/augerd.toml)"},
+     {"--check", "", "check the configuration, the model and what start-up needs (ports, log\n"
+                     "                 directory, socket paths, groups), then exit: 0 ready, 1 not now, 2 an error"}},
+    "Exit 0: stopped by a signal; 1: a start-up failure that may pass (a port missing; the service\n"
+    "restarts it); 2: a configuration or usage error (the service does not restart it).\n"};
+
+void usage(std::FILE* f) { kCli.print_usage(f); }
 
 }  // namespace
 
@@ -34,19 +38,23 @@ int main(int argc, char** argv) {
   using namespace augerd;
   std::string config_path = "/etc/auger/augerd.toml";
   bool check_only = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--config" && i + 1 < argc) config_path = argv[++i];
-    else if (a == "--check") check_only = true;
-    else if (a == "--help" || a == "-h") {
-      usage(stdout);
-      return kExitOk;
-    } else {
-      std::fprintf(stderr, "augerd: unknown argument '%s'\n", a.c_str());
-      usage(stderr);
-      return kExitConfig;
-    }
+  auger::Args args;
+  if (!kCli.parse(argc, argv, args)) return kExitConfig;
+  if (args.has("--help")) {
+    usage(stdout);
+    return kExitOk;
   }
+  if (args.has("--version")) {
+    auger::print_version("augerd");
+    return kExitOk;
+  }
+  if (!args.positional.empty()) {
+    std::fprintf(stderr, "augerd: unknown argument '%s'\n", args.positional[0].c_str());
+    usage(stderr);
+    return kExitConfig;
+  }
+  config_path = args.get("--config", config_path);
+  check_only = args.has("--check");
   DaemonConfig cfg;
   std::optional<auger::Model> model;
   try {

@@ -13,7 +13,7 @@
 #include <unistd.h>
 
 #include "clock.hpp"
-#include "setpoint.hpp"
+#include "module_adapter.hpp"
 #include "status_text.hpp"
 
 namespace augerd {
@@ -142,7 +142,7 @@ void ModuleBus::start_clock(double t0_mono_s) {
 }
 
 void ModuleBus::pump(double t_s, bool enabled) {
-  for (int i = 0; i < 4; ++i) modules_[std::size_t(i)].fresh = false;
+  for (int i = 0; i < 4; ++i) modules_[std::size_t(i)].tm.fresh = false;
   for (int i = 0; i < 4; ++i) pump_one(modules_[std::size_t(i)], i, t_s);
   for (int i = 0; i < 4; ++i) check(modules_[std::size_t(i)], i, t_s, enabled);
 }
@@ -207,7 +207,7 @@ void ModuleBus::pump_one(Module& m, int index, double t_s) {
       }
       m.identified = true;
       m.identity = id;
-      m.have_tm = false;  // its clock restarted: the next telemetry is not "older"
+      m.tm.received = false;  // its clock restarted: the next telemetry is not "older"
       // Its settings may be others now (defaults after a corrupt EEPROM): the telemetry period.
       try {
         request(*m.link, PROTO_T_CONFIG_REPORT, 0.0);
@@ -215,15 +215,13 @@ void ModuleBus::pump_one(Module& m, int index, double t_s) {
       }
     } else if (proto_decode_telemetry(&f, &tm) && m.identified) {
       // Key on the module's clock: a frame not newer than the last one is stale or repeated.
-      if (m.have_tm) {
-        const int32_t step_ms = int32_t(tm.time_ms - m.tm.time_ms);
+      if (m.tm.received) {
+        const int32_t step_ms = int32_t(tm.time_ms - m.tm.frame.time_ms);
         if (step_ms <= 0 && step_ms > -1000) continue;
         // Far back: the module restarted and its identity frame was lost.
         if (step_ms <= -1000) fault_(index, "reset", "the module's clock went back " + std::to_string(-step_ms) + " ms");
       }
-      m.tm = tm;
-      m.have_tm = true;
-      m.fresh = true;
+      m.tm.take(tm);
       m.last_valid_s = t_s;
       m.bytes_at_valid = m.link->bytes_received();
     }
@@ -238,7 +236,7 @@ void ModuleBus::pump_one(Module& m, int index, double t_s) {
 }
 
 void ModuleBus::check(Module& m, int i, double t_s, bool enabled) {
-  if (m.fresh && m.lost) {
+  if (m.tm.fresh && m.lost) {
     m.lost = false;
     std::fprintf(stderr, "augerd: t=%.3f s: module %d answers again; stays stopped until `enable`\n", t_s, i);
     event_(i, "answers-again", "stays stopped until enable");
@@ -254,10 +252,11 @@ void ModuleBus::check(Module& m, int i, double t_s, bool enabled) {
     else
       fault_(i, "no-telemetry", "no telemetry for " + std::to_string(ms) + " ms");
   }
-  if (m.fresh && m.clearing && seq_at_or_after(m.tm.seq_ack, m.clear_seq)) m.clearing = false;
+  if (m.tm.fresh && m.clearing && seq_at_or_after(m.tm.frame.seq_ack, m.clear_seq)) m.clearing = false;
   // Latched faults count once the module has seen our CLEAR_FAULTS (they may persist).
-  if (m.fresh && enabled && !m.clearing && (m.tm.status & PROTO_F_MASK))
-    fault_(i, fault_bits_text(m.tm.status), "reports " + fault_bits_text(m.tm.status));
+  const uint16_t status = m.tm.frame.status;
+  if (m.tm.fresh && enabled && !m.clearing && (status & PROTO_F_MASK))
+    fault_(i, fault_bits_text(status), "reports " + fault_bits_text(status));
 }
 
 void ModuleBus::send(double t_s, const std::array<double, 4>& rpm, bool enable) {
@@ -265,12 +264,9 @@ void ModuleBus::send(double t_s, const std::array<double, 4>& rpm, bool enable) 
     Module& m = modules_[std::size_t(i)];
     m.cmd_rpm = rpm[std::size_t(i)];
     if (!m.link) continue;
-    proto_setpoint_t sp;
-    sp.seq = m.seq++;
-    const bool finite = auger::io::setpoint_crpm(rpm[std::size_t(i)], sp.omega_crpm);
-    sp.flags = uint8_t((enable && finite ? PROTO_SP_ENABLE : 0) | (m.clearing ? PROTO_SP_CLEAR_FAULTS : 0));
     uint8_t buf[PROTO_MAX_FRAME];
-    const std::size_t n = proto_encode_setpoint(&sp, buf);
+    bool finite = true;
+    const std::size_t n = auger::io::encode_setpoint(m.seq++, rpm[std::size_t(i)], enable, m.clearing, buf, &finite);
     try {
       // No waiting: a port that cannot take 11 bytes is not draining (module gone).
       m.link->send_frame(buf, n, 0.0);
@@ -300,11 +296,11 @@ std::string ModuleBus::status_fields(double t_s) const {
   char buf[640];
   for (int i = 0; i < 4; ++i) {
     const Module& m = modules_[std::size_t(i)];
-    const proto_telemetry_t& tm = m.tm;
+    const proto_telemetry_t& tm = m.tm.frame;
     const uint16_t crc = m.link ? m.link->parser_stats().crc_errors : 0;
     const uint16_t hdr = m.link ? m.link->parser_stats().header_errors : 0;
     const uint16_t skipped = m.link ? m.link->parser_stats().bytes_discarded : 0;
-    const bool ok = m.have_tm && !m.lost;
+    const bool ok = m.tm.received && !m.lost;
     std::snprintf(buf, sizeof buf,
                   " m%d_port=%s m%d_lost=%d m%d_tm_age_s=%.3f m%d_time_ms=%" PRIu32 " m%d_omega_rpm=%.2f"
                   " m%d_cmd_rpm=%.2f m%d_omega_cmd_rpm=%.2f m%d_position_counts=%" PRId32
@@ -312,9 +308,8 @@ std::string ModuleBus::status_fields(double t_s) const {
                   " m%d_rx_errors=%u m%d_encoder_errors=%u m%d_host_crc_errors=%u m%d_host_header_errors=%u"
                   " m%d_host_bytes_skipped=%u",
                   i, m.port.c_str(), i, (m.lost || !m.link) ? 1 : 0, i, ok ? t_s - m.last_valid_s : -1.0, i,
-                  tm.time_ms, i, tm.omega_crpm / 100.0, i, m.cmd_rpm, i, tm.omega_cmd_crpm / 100.0, i,
-                  tm.position_counts, i, tm.current_ma / 1000.0, i, tm.voltage_mv / 1000.0, i,
-                  tm.duty_x10000 / 10000.0, i, tm.status, i,
+                  tm.time_ms, i, m.tm.omega_rpm(), i, m.cmd_rpm, i, m.tm.omega_cmd_rpm(), i,
+                  tm.position_counts, i, m.tm.current_a(), i, m.tm.voltage_v(), i, m.tm.pwm(), i, tm.status, i,
                   (tm.status & PROTO_F_MASK) ? fault_bits_text(tm.status).c_str() : "none", i, tm.rx_errors, i,
                   tm.encoder_errors, i, crc, i, hdr, i, skipped);
     out += buf;

@@ -10,6 +10,7 @@
 #include <memory>
 #include <string>
 
+#include "module_adapter.hpp"
 #include "module_link.hpp"
 
 namespace augerd {
@@ -19,9 +20,7 @@ struct Module {
   std::unique_ptr<auger::io::ModuleLink> link;  // null while the port is closed after a failure
   proto_identity_t identity{};
   bool identified = false;   // after a reopen: telemetry counts only once the identity matched
-  bool have_tm = false;
-  proto_telemetry_t tm{};    // latest telemetry (keyed on the module's time_ms)
-  bool fresh = false;        // a newer telemetry frame arrived this cycle
+  auger::io::ModuleTelemetry tm;  // latest telemetry (keyed on the module's time_ms), fresh this cycle
   double last_valid_s = 0;   // loop time of the last valid telemetry
   uint64_t bytes_at_valid = 0;    // bytes received up to the last valid telemetry
   bool lost = false;         // no valid telemetry for telemetry_timeout_s, or the port failed

@@ -13,7 +13,7 @@
 #include <unistd.h>
 
 #include "auger/input_limits.hpp"
-#include "lines.hpp"
+#include "daemon_lines.hpp"
 
 namespace augerd {
 
@@ -27,7 +27,7 @@ namespace {
 
 WaypointLoader::Result failed(const std::string& path, const std::string& why) {
   WaypointLoader::Result r;
-  r.error = quote_line(path) + ": " + why;
+  r.error = auger::io::quote_line(path) + ": " + why;
   return r;
 }
 

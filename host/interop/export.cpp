@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "args.hpp"
+#include "auger/args.hpp"
 #include "auger/log.hpp"
 #include "auger/log_mcap.hpp"
 #include "interop.hpp"
@@ -33,8 +33,8 @@ const char* kUsage =
 }  // namespace
 
 int run_export(int argc, char** argv) {
-  wb::Args a;
-  if (!wb::parse_args(argc, argv, {"--help"}, {"--mcap", "--model"}, a)) return 2;
+  Args a;
+  if (!parse_args(argc, argv, {"--help"}, {"--mcap", "--model"}, a)) return 2;
   if (a.has("--help")) {
     std::fputs(kUsage, stdout);
     return 0;

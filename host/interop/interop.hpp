@@ -1,4 +1,4 @@
-// The subcommands of host/interop, one file each; cli.cpp lists them for `auger --help`.
+// The subcommands of host/interop, one file each; the `auger` front (host/auger/main.cpp) lists them.
 #pragma once
 
 namespace auger::interop {

@@ -1,5 +1,7 @@
 #include "status_text.hpp"
 
+#include "module_adapter.hpp"
+
 #include <cstdio>
 #include <stdexcept>
 #include <utility>
@@ -71,7 +73,7 @@ std::string fault_snapshot_text(const proto_fault_t& f) {
                 "%s at module time %.3f s: current %.3f A, battery %.3f V, speed %.2f rpm (command %.2f rpm), "
                 "duty %.2f %%, status %s, faults %s",
                 fault_bits_text(f.faults).c_str(), f.time_ms / 1000.0, f.current_ma / 1000.0, f.voltage_mv / 1000.0,
-                f.omega_crpm / 100.0, f.omega_cmd_crpm / 100.0, f.duty_x10000 / 100.0,
+                rpm_from_crpm(f.omega_crpm), rpm_from_crpm(f.omega_cmd_crpm), f.duty_x10000 / 100.0,
                 state_bits_text(f.status).c_str(), fault_bits_text(f.status).c_str());
   return b;
 }

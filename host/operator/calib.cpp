@@ -27,28 +27,45 @@
 #include <string>
 #include <vector>
 
+#include "auger/args.hpp"
 #include "auger/model_file.hpp"
 #include "augerd_client.hpp"
 #include "common.hpp"
-#include "lines.hpp"
+#include "daemon_lines.hpp"
+#include "module_adapter.hpp"
 #include "module_link.hpp"
 #include "operator.hpp"
 
 namespace auger::op {
 namespace {
 
-void calib_usage(std::FILE* f) {
-  std::fprintf(f,
-               "usage: auger calib --ports P0,P1,P2,P3 --model MODEL_TOML [--terrain NAME] [--sensors PATH]\n"
-               "                   [--modules 0,1,2,3] [--rpm X] [--seconds S] [--turns N] [--dry-run]\n"
-               "       auger calib --check-motion [--socket PATH] [--speed MPS] [--seconds S]\n"
-               "Direction signs (and with --turns, counts per revolution) of each module, on the serial\n"
-               "ports with augerd stopped; the robot must be free to move a little. --sensors PATH: listen\n"
-               "there for the IMU/camera lines of augerd's sensors protocol (else the operator is asked).\n"
-               "Fixes are written through the CONFIG frame unless --dry-run. Exit 1 if something was\n"
-               "wrong (and fixed), 0 if all was right. --check-motion: through augerd, checks that +u, +v\n"
-               "and +r move the robot forward, left and counter-clockwise; exit 1 if not.\n");
+const CommandLine& calib_cli() {
+  static const CommandLine cli{
+      "auger calib",
+      "--ports P0,P1,P2,P3 --model MODEL_TOML [OPTIONS] | --check-motion [OPTIONS]",
+      "Direction signs (and with --turns, counts per revolution) of each module, on the serial\n"
+      "ports with augerd stopped; the robot must be free to move a little. Fixes are written\n"
+      "through the CONFIG frame unless --dry-run. --check-motion: through augerd, checks that +u,\n"
+      "+v and +r move the robot forward, left and counter-clockwise.\n",
+      {{"--ports", "P0,P1,P2,P3", "the modules' serial ports, any order"},
+       {"--model", "MODEL_TOML", "the robot's model file (the motion each screw should cause)"},
+       {"--terrain", "NAME", "the model's terrain (default sand)"},
+       {"--sensors", "PATH", "listen there for IMU/camera lines (augerd's sensors protocol); else ask"},
+       {"--modules", "LIST", "the modules to check (default 0,1,2,3)"},
+       {"--rpm", "X", "screw speed while checking (default 8 rpm; 0 .. 15)"},
+       {"--seconds", "S", "spin time per module (default 2.5 s, --check-motion 2 s; 0.5 .. 20)"},
+       {"--turns", "N", "also count N screw turns to check counts per revolution (0 .. 20)"},
+       {"--dry-run", "", "report what is wrong, write nothing"},
+       {"--check-motion", "", "the commissioning check through augerd"},
+       {"--socket", "PATH", std::string("with --check-motion: augerd's commands socket (default ") +
+                               io::kDefaultCommandsSocket + ")"},
+       {"--speed", "MPS", "with --check-motion: the body speed used (default 0.03 m/s)"}},
+      "Exit 0: all was right; 1: something was wrong (and fixed, or with --check-motion: the motion\n"
+      "is wrong); 2: bad usage; 3: a module or augerd not reached.\n"};
+  return cli;
 }
+
+void calib_usage(std::FILE* f) { calib_cli().print_usage(f); }
 
 std::vector<std::string> split_commas(const std::string& s) {
   std::vector<std::string> out;
@@ -85,9 +102,9 @@ class SensorFeed {
     }
     std::size_t nl;
     while ((nl = in_.find('\n')) != std::string::npos) {
-      augerd::SensorMessage m;
-      if (augerd::parse_sensor(in_.substr(0, nl), m).empty()) {
-        if (m.kind == augerd::SensorKind::imu) {
+      io::SensorMessage m;
+      if (io::parse_sensor(in_.substr(0, nl), m).empty()) {
+        if (m.kind == io::SensorKind::imu) {
           r_sum_ += m.imu_r_radps;
           ++r_n_;
         } else {
@@ -139,25 +156,20 @@ std::string motion_text(const Vec3& zeta) {
 struct Spinner {
   io::ModuleLink& link;
   uint16_t seq = 0;
-  proto_telemetry_t last{};
-  bool have = false;
+  io::ModuleTelemetry tm;  // the latest frame
   void send(double rpm, bool enable, bool clear = false) {
-    proto_setpoint_t sp{};
-    sp.seq = seq++;
-    sp.omega_crpm = int16_t(std::lround(rpm * 100));
-    sp.flags = uint8_t((enable ? PROTO_SP_ENABLE : 0) | (clear ? PROTO_SP_CLEAR_FAULTS : 0));
     uint8_t buf[PROTO_MAX_FRAME];
-    link.send_frame(buf, proto_encode_setpoint(&sp, buf));
+    link.send_frame(buf, io::encode_setpoint(seq++, rpm, enable, clear, buf));
   }
   void pump() {
     std::vector<proto_frame_t> frames;
     link.pump(frames);
     for (const auto& f : frames) {
-      proto_telemetry_t tm;
-      if (proto_decode_telemetry(&f, &tm)) last = tm, have = true;
+      proto_telemetry_t frame;
+      if (proto_decode_telemetry(&f, &frame)) tm.take(frame);
     }
-    if (have && (last.status & PROTO_F_MASK))
-      throw std::runtime_error(link.port() + ": module reports " + fault_bits_text(last.status));
+    if (tm.received && (tm.frame.status & PROTO_F_MASK))
+      throw std::runtime_error(link.port() + ": module reports " + fault_bits_text(tm.frame.status));
   }
   // Spins at rpm for seconds (or until stop() says so), feeding sensors meanwhile.
   template <class Stop>
@@ -185,7 +197,7 @@ struct Spinner {
 };
 
 int check_motion(const std::string& socket, double speed_mps, double seconds) {
-  cli::AugerdClient c(socket);
+  io::AugerdClient c(socket);
   if (c.request("enable") != "ok") throw std::runtime_error("augerd refused enable");
   struct Dof {
     const char* name;
@@ -198,12 +210,12 @@ int check_motion(const std::string& socket, double speed_mps, double seconds) {
   int wrong = 0;
   for (const auto& d : dofs) {
     auto pose = [&] {
-      const auto kv = cli::parse_status(c.request("status all"));
+      const auto kv = io::parse_status(c.request("status all"));
       // The camera when it is fresh (the truth the estimate is fused from), else the estimate.
-      if (cli::status_number(kv, "pose_age_s") < 0.5)
-        return Vec3(cli::status_number(kv, "cam_x_m"), cli::status_number(kv, "cam_y_m"),
-                    cli::status_number(kv, "cam_psi_rad"));
-      return Vec3(cli::status_number(kv, "x_m"), cli::status_number(kv, "y_m"), cli::status_number(kv, "psi_rad"));
+      if (io::status_number(kv, "pose_age_s") < 0.5)
+        return Vec3(io::status_number(kv, "cam_x_m"), io::status_number(kv, "cam_y_m"),
+                    io::status_number(kv, "cam_psi_rad"));
+      return Vec3(io::status_number(kv, "x_m"), io::status_number(kv, "y_m"), io::status_number(kv, "psi_rad"));
     };
     const Vec3 p0 = pose();
     char line[96];
@@ -233,27 +245,27 @@ int check_motion(const std::string& socket, double speed_mps, double seconds) {
 }  // namespace
 
 int run_calib(int argc, char** argv) {
-  std::string ports_arg, model_path, terrain = "sand", sensors, socket = cli::kDefaultCommandsSocket, modules_arg = "0,1,2,3";
+  std::string ports_arg, model_path, terrain = "sand", sensors, socket = io::kDefaultCommandsSocket, modules_arg = "0,1,2,3";
   double rpm = 8, seconds = 2.5, turns = 0, speed_mps = 0.03;
   bool dry = false, motion = false, seconds_given = false;
   try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      if (a == "--help" || a == "-h") return calib_usage(stdout), 0;
-      if (a == "--ports") ports_arg = option_value(argc, argv, i);
-      else if (a == "--model") model_path = option_value(argc, argv, i);
-      else if (a == "--terrain") terrain = option_value(argc, argv, i);
-      else if (a == "--sensors") sensors = option_value(argc, argv, i);
-      else if (a == "--socket") socket = option_value(argc, argv, i);
-      else if (a == "--modules") modules_arg = option_value(argc, argv, i);
-      else if (a == "--rpm") rpm = parse_number(a, option_value(argc, argv, i));
-      else if (a == "--seconds") seconds = parse_number(a, option_value(argc, argv, i)), seconds_given = true;
-      else if (a == "--turns") turns = parse_number(a, option_value(argc, argv, i));
-      else if (a == "--speed") speed_mps = parse_number(a, option_value(argc, argv, i));
-      else if (a == "--dry-run") dry = true;
-      else if (a == "--check-motion") motion = true;
-      else throw UsageError("unknown argument " + a);
-    }
+    Args a;
+    if (!calib_cli().parse(argc, argv, a)) return 2;
+    if (a.has("--help")) return calib_usage(stdout), 0;
+    if (!a.positional.empty()) throw UsageError("unknown argument " + a.positional[0]);
+    const char* me = "auger calib";
+    if (!a.number(me, "--rpm", rpm, rpm) || !a.number(me, "--seconds", seconds, seconds) ||
+        !a.number(me, "--turns", turns, turns) || !a.number(me, "--speed", speed_mps, speed_mps))
+      return calib_usage(stderr), 2;
+    seconds_given = a.has("--seconds");
+    ports_arg = a.get("--ports");
+    model_path = a.get("--model");
+    terrain = a.get("--terrain", terrain);
+    sensors = a.get("--sensors");
+    socket = a.get("--socket", socket);
+    modules_arg = a.get("--modules", modules_arg);
+    dry = a.has("--dry-run");
+    motion = a.has("--check-motion");
     if (motion) {
       if (!seconds_given) seconds = 2.0;
       try {
@@ -296,7 +308,7 @@ int run_calib(int argc, char** argv) {
       if (!by_id[std::size_t(k)]) throw std::runtime_error("module " + std::to_string(k) + " is on none of the ports");
       io::ModuleLink& link = *by_id[std::size_t(k)];
       proto_config_t cfg = link.read_config();
-      Spinner sp{link};
+      Spinner sp{link, 0, {}};
       Vec4 w = Vec4::Zero();
       w[k] = rpm;
       const Vec3 zeta = kinematic_body_velocity(model, w);  // eq. (4) inverted: this screw alone
@@ -304,7 +316,7 @@ int run_calib(int argc, char** argv) {
                   link.port().c_str(), cfg.dir_sign, cfg.counts_per_rev_x100 / 100.0, rpm, seconds);
       std::printf("  expected motion (model): %s\n", motion_text(zeta).c_str());
       sp.spin(rpm, seconds, feed.get(), 0.4 * seconds, [] { return false; });
-      const double omega_rpm = sp.last.omega_crpm / 100.0;
+      const double omega_rpm = sp.tm.omega_rpm();
       // Measured sign: the IMU yaw rate when the model expects a clear rotation, else the camera.
       int verdict = 0;  // +1 right, -1 wrong, 0 undecided
       if (feed && feed->imu_count() >= 5 && std::fabs(zeta[2]) > 0.002) {
@@ -341,15 +353,15 @@ int run_calib(int argc, char** argv) {
       if (turns > 0) {
         const double cpr = cfg.counts_per_rev_x100 / 100.0;
         sp.pump();
-        const int32_t start = sp.last.position_counts;
+        const int32_t start = sp.tm.frame.position_counts;
         const double target = turns * cpr;
         std::printf("  counts per revolution: spinning %.1f turns by the module's count (%.0f counts)\n", turns, target);
         // The last 20 % slowly, so that the screw stops close to the mark (it coasts).
-        sp.spin(rpm, 120.0, nullptr, 0, [&] { return std::fabs(double(sp.last.position_counts - start)) >= 0.8 * target; });
+        sp.spin(rpm, 120.0, nullptr, 0, [&] { return std::fabs(double(sp.tm.frame.position_counts - start)) >= 0.8 * target; });
         sp.spin(std::min(rpm, 1.5), 120.0, nullptr, 0,
-                [&] { return std::fabs(double(sp.last.position_counts - start)) >= target; });
+                [&] { return std::fabs(double(sp.tm.frame.position_counts - start)) >= target; });
         sp.off();
-        const double counted = double(sp.last.position_counts - start);
+        const double counted = double(sp.tm.frame.position_counts - start);
         std::printf("  How many turns did the marked screw make? ");
         std::fflush(stdout);
         std::string a;

@@ -20,11 +20,6 @@ double parse_number(const std::string& option, const std::string& text) {
   return v;
 }
 
-std::string option_value(int argc, char** argv, int& i) {
-  if (i + 1 >= argc) throw UsageError(std::string(argv[i]) + " needs a value");
-  return argv[++i];
-}
-
 
 double now_s() { return io::monotonic_s(); }
 

@@ -1,5 +1,5 @@
-// Small pieces the field tools share (host/operator): argument parsing with errors that name
-// the argument, status bits as names, and the socket defaults.
+// Small pieces the field tools share (host/operator): numbers of positional arguments with errors
+// that name them (options go through auger/args.hpp), status bits as names, the clock.
 #pragma once
 
 #include <cstdint>
@@ -17,8 +17,6 @@ struct UsageError : std::runtime_error {
 
 // A finite number, the whole argument; else UsageError naming the option and the text.
 double parse_number(const std::string& option, const std::string& text);
-// The value after argv[i] (advances i); UsageError if there is none.
-std::string option_value(int argc, char** argv, int& i);
 
 // Names of the status word's bits (docs/protocol.md): "EN SP" or faults "F_OVERCURRENT+F_SENSOR".
 using io::fault_bits_text;  // "none" if no fault bit

@@ -11,6 +11,7 @@
 #include <memory>
 #include <string>
 
+#include "auger/args.hpp"
 #include "augerd_client.hpp"
 #include "common.hpp"
 #include "operator.hpp"
@@ -44,13 +45,13 @@ void draw(const Status& kv, const std::string& socket, const std::string& error,
   printw("%s", fault.c_str());
   if (fault != "none") attroff(highlight);
   ++row;
-  const double dt_ms = 1e3 * cli::status_number(kv, "loop_dt_s");
-  const double jit_ms = 1e3 * cli::status_number(kv, "loop_jitter_max_s");
+  const double dt_ms = 1e3 * io::status_number(kv, "loop_dt_s");
+  const double jit_ms = 1e3 * io::status_number(kv, "loop_jitter_max_s");
   mvprintw(row++, 0, "loop period %.2f ms, jitter (max |dt-period|, last 1 s) %.2f ms", dt_ms, jit_ms);
   mvprintw(row++, 0, "pose estimate x=%s m  y=%s m  psi=%s rad    reference x=%s y=%s psi=%s",
            field(kv, "x_m").c_str(), field(kv, "y_m").c_str(), field(kv, "psi_rad").c_str(),
            field(kv, "xd_m").c_str(), field(kv, "yd_m").c_str(), field(kv, "psid_rad").c_str());
-  const double imu_age = cli::status_number(kv, "imu_age_s"), cam_age = cli::status_number(kv, "pose_age_s");
+  const double imu_age = io::status_number(kv, "imu_age_s"), cam_age = io::status_number(kv, "pose_age_s");
   if (std::isfinite(imu_age))
     mvprintw(row++, 0, "imu psi=%s rad r=%s rad/s (%.2f s ago)", field(kv, "imu_psi_rad").c_str(),
              field(kv, "imu_r_radps").c_str(), imu_age);
@@ -91,29 +92,28 @@ void draw(const Status& kv, const std::string& socket, const std::string& error,
 }  // namespace
 
 int run_monitor(int argc, char** argv) {
-  std::string socket = cli::kDefaultCommandsSocket;
+  std::string socket = io::kDefaultCommandsSocket;
   double period_s = 0.1;
   try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      if (a == "--help" || a == "-h") {
-        std::printf("usage: auger monitor [--socket PATH] [--period S]\n"
-                    "Live view of augerd (default socket %s), refreshed every S (default 0.1) s; q quits.\n",
-                    cli::kDefaultCommandsSocket);
-        return 0;
-      }
-      if (a == "--socket") socket = option_value(argc, argv, i);
-      else if (a == "--period") period_s = parse_number(a, option_value(argc, argv, i));
-      else throw UsageError("unknown argument " + a);
-    }
+    const CommandLine cli{
+        "auger monitor", "[OPTIONS]", "Live view of augerd's modules, pose and loop (ncurses); q quits.\n",
+        {{"--socket", "PATH", std::string("augerd's commands socket (default ") + io::kDefaultCommandsSocket + ")"},
+         {"--period", "S", "refresh period (default 0.1 s; 0.02 .. 10 s)"}},
+        "Exit 0: quit; 2: bad usage; 3: augerd not reached.\n"};
+    Args a;
+    if (!cli.parse(argc, argv, a)) return 2;
+    if (a.has("--help")) return cli.print_usage(stdout), 0;
+    if (!a.positional.empty()) throw UsageError("unknown argument " + a.positional[0]);
+    socket = a.get("--socket", socket);
+    if (!a.number("auger monitor", "--period", period_s, period_s)) return 2;
     if (!(period_s >= 0.02 && period_s <= 10)) throw UsageError("--period must be within 0.02 .. 10 s");
   } catch (const UsageError& e) {
     std::fprintf(stderr, "auger monitor: %s\n", e.what());
     return 2;
   }
-  std::unique_ptr<cli::AugerdClient> c;
+  std::unique_ptr<io::AugerdClient> c;
   try {
-    c = std::make_unique<cli::AugerdClient>(socket);
+    c = std::make_unique<io::AugerdClient>(socket);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "auger monitor: %s\n", e.what());
     return 3;
@@ -135,7 +135,7 @@ int run_monitor(int argc, char** argv) {
     Status kv;
     if (c) {
       try {
-        kv = cli::parse_status(c->request("status all", 2000));
+        kv = io::parse_status(c->request("status all", 2000));
         error.clear();
       } catch (const std::exception& e) {
         error = std::string(e.what()) + "; reconnecting";
@@ -143,7 +143,7 @@ int run_monitor(int argc, char** argv) {
       }
     } else {
       try {
-        c = std::make_unique<cli::AugerdClient>(socket);
+        c = std::make_unique<io::AugerdClient>(socket);
         continue;
       } catch (const std::exception& e) {
         error = std::string("augerd gone: ") + e.what();

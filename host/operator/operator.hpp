@@ -1,5 +1,6 @@
-// The field tools' entry points (host/operator, docs/operator.md); cli.cpp lists them for
-// `auger`. Each takes argv[0] = its name and returns the exit code of subcommand.hpp.
+// The field tools' entry points (host/operator, docs/operator.md); the `auger` front
+// (host/auger/main.cpp) lists them. Each takes argv[0] = its name and returns the exit code
+// (0 done, 1 a finding, 2 bad usage or input, 3 augerd or a device not reached).
 #pragma once
 
 namespace auger::op {

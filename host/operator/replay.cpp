@@ -13,19 +13,23 @@
 #include <utility>
 #include <vector>
 
+#include "auger/args.hpp"
 #include "auger/controller.hpp"
+#include "auger/daemon_config.hpp"
+#include "auger/daemon_log.hpp"
 #include "auger/log.hpp"
 #include "auger/model_file.hpp"
 #include "common.hpp"
-#include "config.hpp"
 #include "operator.hpp"
 
 namespace auger::op {
 namespace {
 
-// Mode codes of augerd's `mode` column (host/augerd/mode.hpp, mode_code).
-enum Mode { kStopped = 0, kIdle, kVel, kGoto, kFollow, kHold, kSpin };
-constexpr int kEvDisabled = 1, kEvWaypoints = 2, kEvRebuilt = 4;
+using daemon::kEvDisabled;
+using daemon::kEvRebuilt;
+using daemon::kEvWaypoints;
+using daemon::Mode;
+using daemon::mode_code;
 
 struct Compared {
   Compared(std::string c, double t) : column(std::move(c)), tol(t) {}
@@ -52,17 +56,26 @@ struct Compared {
   }
 };
 
-void replay_usage(std::FILE* f) {
-  std::fprintf(f,
-               "usage: auger replay LOG... [--config AUGERD_TOML | --model MODEL_TOML [--terrain NAME]]\n"
-               "                   [--tol-rpm X] [--tol-m X] [--tol-rad X]\n"
-               "Reruns the estimator and controller on augerd's log files (in order: the files of one run\n"
-               "after rotation) with the controller settings of augerd's configuration (or the model file's\n"
-               "defaults for the log's terrain) and compares cmd_rpm_0..3, the estimate xe_m ye_m psie_rad\n"
-               "and the reference xd_m yd_m psid_rad. Tolerances default to 1e-6 (rpm, m, rad). Exit 0: same;\n"
-               "1: they differ (first differing sample and largest difference per column printed);\n"
-               "2: bad input (file:line:column).\n");
+const CommandLine& replay_cli() {
+  static const CommandLine cli{
+      "auger replay",
+      "LOG... (--config AUGERD_TOML | --model MODEL_TOML [--terrain NAME]) [OPTIONS]",
+      "Reruns the estimator and controller on augerd's log files (in order: the files of one run\n"
+      "after rotation) with the controller settings of augerd's configuration (or the model file's\n"
+      "defaults for the log's terrain) and compares cmd_rpm_0..3, the estimate xe_m ye_m psie_rad\n"
+      "and the reference xd_m yd_m psid_rad.\n",
+      {{"--config", "AUGERD_TOML", "augerd's configuration: its model, terrain and controller settings"},
+       {"--model", "MODEL_TOML", "a model file instead, with its defaults for the terrain"},
+       {"--terrain", "NAME", "with --model (default: the log's '# terrain:')"},
+       {"--tol-rpm", "X", "tolerance of cmd_rpm_i (default 1e-6 rpm)"},
+       {"--tol-m", "X", "tolerance of the positions (default 1e-6 m)"},
+       {"--tol-rad", "X", "tolerance of the angles (default 1e-6 rad)"}},
+      "Exit 0: same; 1: they differ (first differing sample and largest difference per column\n"
+      "printed); 2: bad input (file:line:column).\n"};
+  return cli;
 }
+
+void replay_usage(std::FILE* f) { replay_cli().print_usage(f); }
 
 }  // namespace
 
@@ -71,18 +84,16 @@ int run_replay(int argc, char** argv) {
   std::string config_path, model_path, terrain;
   double tol_rpm = 1e-6, tol_m = 1e-6, tol_rad = 1e-6;
   try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      if (a == "--help" || a == "-h") return replay_usage(stdout), 0;
-      if (a == "--config") config_path = option_value(argc, argv, i);
-      else if (a == "--model") model_path = option_value(argc, argv, i);
-      else if (a == "--terrain") terrain = option_value(argc, argv, i);
-      else if (a == "--tol-rpm") tol_rpm = parse_number(a, option_value(argc, argv, i));
-      else if (a == "--tol-m") tol_m = parse_number(a, option_value(argc, argv, i));
-      else if (a == "--tol-rad") tol_rad = parse_number(a, option_value(argc, argv, i));
-      else if (a.rfind("--", 0) == 0) throw UsageError("unknown option " + a);
-      else logs.push_back(a);
-    }
+    Args a;
+    if (!replay_cli().parse(argc, argv, a)) return 2;
+    if (a.has("--help")) return replay_usage(stdout), 0;
+    if (!a.number("auger replay", "--tol-rpm", tol_rpm, tol_rpm) || !a.number("auger replay", "--tol-m", tol_m, tol_m) ||
+        !a.number("auger replay", "--tol-rad", tol_rad, tol_rad))
+      return replay_usage(stderr), 2;
+    config_path = a.get("--config");
+    model_path = a.get("--model");
+    terrain = a.get("--terrain");
+    logs = a.positional;
     if (logs.empty()) throw UsageError("no log given");
     if (config_path.empty() == model_path.empty()) throw UsageError("give exactly one of --config and --model");
   } catch (const UsageError& e) {
@@ -95,7 +106,8 @@ int run_replay(int argc, char** argv) {
     std::optional<Model> model;
     ControllerConfig ccfg;
     if (!config_path.empty()) {
-      const augerd::DaemonConfig dc = augerd::load_daemon_config(config_path);
+      // Whether this build could run augerd's ROS 2 bridge does not matter to a replay.
+      const DaemonConfig dc = read_daemon_config(config_path, /*ros2_available=*/true);
       model = build_model(load_model_file(dc.model_file), dc.terrain);
       ccfg = dc.controller;
     } else {
@@ -126,13 +138,12 @@ int run_replay(int argc, char** argv) {
       r.check_format(kRobotLogFormat);
       const std::string run = r.meta("run").value_or("");
       const std::string dir = path.find('/') == std::string::npos ? "." : path.substr(0, path.rfind('/'));
-      std::vector<std::string> need = {"mode", "ctrl_events", "ctrl_enabled", "alloc_nullspace", "goal_x_m",
-                                       "goal_y_m", "goal_psi_rad", "traj_n", "pose_sx_m", "pose_sy_m",
-                                       "pose_spsi_rad", "pose_capture_t_s", "vel_u_mps", "vel_v_mps", "vel_r_radps", "spin_module",
-                                       "spin_rpm", "xe_m", "ye_m", "psie_rad", "x_m", "y_m", "psi_rad",
-                                       "imu_psi_rad", "imu_r_radps", "xd_m", "yd_m", "psid_rad"};
+      // augerd's replay columns and the standard ones the replay reads.
+      std::vector<std::string> need = daemon::replay_columns();
+      for (const char* c : {"x_m", "y_m", "psi_rad", "imu_psi_rad", "imu_r_radps", "xd_m", "yd_m", "psid_rad"})
+        need.push_back(c);
       for (int i = 0; i < 4; ++i)
-        for (const char* c : {"omega_rpm_", "cmd_rpm_", "tm_fresh_"}) need.push_back(c + std::to_string(i));
+        for (const char* c : {"omega_rpm_", "cmd_rpm_"}) need.push_back(c + std::to_string(i));
       r.require_columns(need);
       auto col = [&](const std::string& n) { return r.column_index(n); };
       for (auto& c : cmp) c.col = col(c.column);
@@ -195,14 +206,14 @@ int run_replay(int argc, char** argv) {
         std::array<double, 4> cmd{};
         const int mode = int(v("mode"));
         const double lim = ctrl->config().allocator.omega_max_rpm;
-        if (mode == kGoto || mode == kFollow || mode == kHold) {
+        if (mode == mode_code(Mode::go_to) || mode == mode_code(Mode::follow) || mode == mode_code(Mode::hold)) {
           cmd = ctrl_rpm;
-        } else if (mode == kVel && !std::isnan(v("vel_u_mps"))) {
+        } else if (mode == mode_code(Mode::vel) && !std::isnan(v("vel_u_mps"))) {
           const Vec4 w = kinematic_screw_speeds_rpm(*model, Vec3(v("vel_u_mps"), v("vel_v_mps"), v("vel_r_radps")));
           const double peak = w.cwiseAbs().maxCoeff();
           const double scale = peak > lim ? lim / peak : 1.0;
           for (int i = 0; i < 4; ++i) cmd[std::size_t(i)] = w[i] * scale;
-        } else if (mode == kSpin && !std::isnan(v("spin_module"))) {
+        } else if (mode == mode_code(Mode::spin) && !std::isnan(v("spin_module"))) {
           cmd[std::size_t(v("spin_module"))] = std::clamp(v("spin_rpm"), -lim, lim);
         }
         const int line = r.line();

@@ -4,16 +4,17 @@
 // CSV and plotted with gnuplot. docs/operator.md.
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <fstream>
 #include <memory>
 #include <string>
 #include <vector>
 
-#include <unistd.h>
-
+#include "auger/args.hpp"
+#include "auger/log.hpp"
 #include "augerd_client.hpp"
 #include "common.hpp"
+#include "gnuplot.hpp"
+#include "module_adapter.hpp"
 #include "module_link.hpp"
 #include "operator.hpp"
 #include "step_metrics.hpp"
@@ -23,18 +24,27 @@ namespace {
 
 constexpr double kBefore_s = 0.5;  // at the starting speed before the step
 
-void step_usage(std::FILE* f) {
-  std::fprintf(f,
-               "usage: auger step MODULE RPM [--from RPM] [--duration S] [--port DEV [--baud N] | --socket PATH]\n"
-               "                  [--enable] [--out CSV] [--plot SVG|-]\n"
-               "A velocity step of module MODULE (0..3) from --from (default 0) to RPM, held --duration\n"
-               "seconds (default 1.5). --port: directly on the module's serial port (augerd must not run);\n"
-               "else through augerd's commands socket (default %s; the robot must be\n"
-               "enabled and not tracking; --enable sends enable first and stop after). Prints rise time\n"
-               "(10-90 %%), overshoot, steady-state error (mean over the last 0.5 s) and settling time (5 %%\n"
-               "band) against the firmware's criteria; exit 1 if one fails. --plot - draws in the terminal.\n",
-               auger::cli::kDefaultCommandsSocket);
+const CommandLine& step_cli() {
+  static const CommandLine cli{
+      "auger step",
+      "MODULE RPM [OPTIONS]",
+      "A velocity step of module MODULE (0..3) from --from to RPM, held --duration: directly on the\n"
+      "module's serial port (--port; augerd must not run), else through augerd's commands socket (the\n"
+      "robot enabled and not tracking). Prints rise time (10-90 %), overshoot, steady-state error\n"
+      "(mean over the last 0.5 s) and settling time (5 % band) against the firmware's criteria.\n",
+      {{"--from", "RPM", "the speed before the step (default 0 rpm)"},
+       {"--duration", "S", "how long the new speed is held (default 1.5 s; 0.6 .. 60 s)"},
+       {"--port", "DEV", "directly on the module's serial port (augerd must not run)"},
+       {"--baud", "N", "with --port (default 250000)"},
+       {"--socket", "PATH", std::string("augerd's commands socket (default ") + io::kDefaultCommandsSocket + ")"},
+       {"--enable", "", "through augerd: send enable first and stop after"},
+       {"--out", "CSV", "write the samples: t_s, omega_rpm, omega_cmd_rpm"},
+       {"--plot", "SVG|-", "plot speed and setpoint with gnuplot; - draws in the terminal"}},
+      "Exit 0: every criterion met; 1: one fails; 2: bad usage; 3: no module or augerd.\n"};
+  return cli;
 }
+
+void step_usage(std::FILE* f) { step_cli().print_usage(f); }
 
 struct Recorder {
   std::vector<StepSample> samples;
@@ -67,22 +77,21 @@ void run_direct(const std::string& port, unsigned baud, int module, double from_
   for (double next = t0; now_s() - t0 < kBefore_s + hold_s; next += 0.01) {
     const double t = now_s() - t0;
     const double rpm = t < kBefore_s ? from_rpm : to_rpm;
-    proto_setpoint_t sp{};
-    sp.seq = seq++;
-    sp.omega_crpm = int16_t(std::lround(rpm * 100));
-    sp.flags = uint8_t(PROTO_SP_ENABLE | (seq == 1 ? PROTO_SP_CLEAR_FAULTS : 0));
     uint8_t buf[PROTO_MAX_FRAME];
-    link.send_frame(buf, proto_encode_setpoint(&sp, buf));
+    link.send_frame(buf, io::encode_setpoint(seq, rpm, true, seq == 0, buf));
+    ++seq;
     frames.clear();
     link.pump(frames);
     for (const auto& f : frames) {
-      proto_telemetry_t tm;
-      if (!proto_decode_telemetry(&f, &tm)) continue;
-      rec.add(tm.time_ms, tm.omega_crpm / 100.0, tm.omega_cmd_crpm / 100.0);
-      if (tm.status & PROTO_F_MASK) throw std::runtime_error(port + ": module reports " + fault_bits_text(tm.status));
+      proto_telemetry_t frame;
+      if (!proto_decode_telemetry(&f, &frame)) continue;
+      io::ModuleTelemetry tm;
+      tm.take(frame);
+      rec.add(frame.time_ms, tm.omega_rpm(), tm.omega_cmd_rpm());
+      if (frame.status & PROTO_F_MASK) throw std::runtime_error(port + ": module reports " + fault_bits_text(frame.status));
       if (!stepped && rpm == to_rpm && !rec.samples.empty()) {
         // The step is the first frame whose setpoint in use is the new one.
-        if (std::fabs(tm.omega_cmd_crpm / 100.0 - to_rpm) < 0.01) {
+        if (std::fabs(tm.omega_cmd_rpm() - to_rpm) < 0.01) {
           t_step_s = rec.samples.back().t_s;
           stepped = true;
         }
@@ -91,10 +100,8 @@ void run_direct(const std::string& port, unsigned baud, int module, double from_
     sleep_s(next + 0.01 - now_s());
   }
   // Motor off: a setpoint 0 without ENABLE.
-  proto_setpoint_t sp{};
-  sp.seq = seq++;
   uint8_t buf[PROTO_MAX_FRAME];
-  link.send_frame(buf, proto_encode_setpoint(&sp, buf));
+  link.send_frame(buf, io::encode_setpoint(seq++, 0.0, false, false, buf));
   if (!stepped) throw std::runtime_error(port + ": the module never applied the new setpoint");
 }
 
@@ -102,7 +109,7 @@ void run_direct(const std::string& port, unsigned baud, int module, double from_
 // polled every cycle; answers come once per augerd cycle, so the loop runs at its rate.
 void run_augerd(const std::string& socket, bool enable, int module, double from_rpm, double to_rpm, double hold_s,
                 Recorder& rec, double& t_step_s) {
-  cli::AugerdClient c(socket);
+  io::AugerdClient c(socket);
   const std::string m = "m" + std::to_string(module) + "_";
   if (enable) {
     const std::string a = c.request("enable");
@@ -124,11 +131,11 @@ void run_augerd(const std::string& socket, bool enable, int module, double from_
     if (!c.read_line(a) || !c.read_line(st)) throw std::runtime_error("augerd did not answer");
     if (a != "ok") throw std::runtime_error("augerd: " + a);
     send_pair();
-    const auto kv = cli::parse_status(st);
+    const auto kv = io::parse_status(st);
     if (kv.count("fault") && kv.at("fault") != "none") throw std::runtime_error("augerd reports fault=" + kv.at("fault"));
-    const double tms = cli::status_number(kv, m + "time_ms"), cmd = cli::status_number(kv, m + "omega_cmd_rpm");
+    const double tms = io::status_number(kv, m + "time_ms"), cmd = io::status_number(kv, m + "omega_cmd_rpm");
     if (std::isnan(tms)) throw std::runtime_error("augerd's status all has no " + m + "time_ms (an older augerd?)");
-    rec.add(uint32_t(tms), cli::status_number(kv, m + "omega_rpm"), cmd);
+    rec.add(uint32_t(tms), io::status_number(kv, m + "omega_rpm"), cmd);
     if (!stepped && std::fabs(cmd - to_rpm) < 0.01 && !rec.samples.empty()) {
       t_step_s = rec.samples.back().t_s;
       stepped = true;
@@ -143,37 +150,53 @@ void run_augerd(const std::string& socket, bool enable, int module, double from_
   if (!stepped) throw std::runtime_error("the module never applied the new setpoint");
 }
 
-void write_csv(const std::string& path, const Recorder& rec) {
+}  // namespace
+
+void write_step_csv(const std::string& path, const std::vector<double>& t_s, const std::vector<double>& omega_rpm,
+                    const std::vector<double>& omega_cmd_rpm) {
   std::ofstream f(path);
-  f << "t_s,omega_rpm,omega_cmd_rpm\n";
-  for (std::size_t i = 0; i < rec.samples.size(); ++i)
-    f << rec.samples[i].t_s << "," << rec.samples[i].omega_rpm << "," << rec.cmd_rpm[i] << "\n";
+  CsvLogWriter w(f, {}, {"t_s", "omega_rpm", "omega_cmd_rpm"});
+  for (std::size_t i = 0; i < t_s.size(); ++i) {
+    const double row[] = {t_s[i], omega_rpm[i], omega_cmd_rpm[i]};
+    w.write_row(row, 3);
+  }
+  f.flush();
   if (!f) throw std::runtime_error("cannot write " + path);
 }
 
-}  // namespace
+std::string plot_step(io::Gnuplot& gp, const std::string& csv_path, const std::string& plot) {
+  // Every path is a gnuplot literal (gp_quote) and gnuplot runs without a shell: a path with
+  // quotes or ';' in it names a file, it is never executed.
+  const std::string term = plot == "-" ? "set terminal dumb size 100,30\n"
+                                       : "set terminal svg size 800,480\nset output " + io::gp_quote(plot) + "\n";
+  return gp.run_script("step", term +
+                                   "set datafile separator ','\nset key autotitle columnhead\n"
+                                   "set xlabel 't (s)'\nset ylabel 'omega (rpm)'\n"
+                                   "plot " + io::gp_quote(csv_path) + " using 1:2 with lines, '' using 1:3 with steps\n"
+                                   "set output");
+}
 
 int run_step(int argc, char** argv) {
   try {
     std::vector<std::string> pos;
-    std::string port, socket = cli::kDefaultCommandsSocket, out, plot;
+    std::string port, socket = io::kDefaultCommandsSocket, out, plot;
     unsigned baud = io::ModuleLink::kDefaultBaud;
     double from_rpm = 0, hold_s = 1.5;
     bool enable = false;
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      if (a == "--help" || a == "-h") return step_usage(stdout), 0;
-      if (a == "--port") port = option_value(argc, argv, i);
-      else if (a == "--baud") baud = unsigned(parse_number(a, option_value(argc, argv, i)));
-      else if (a == "--socket") socket = option_value(argc, argv, i);
-      else if (a == "--from") from_rpm = parse_number(a, option_value(argc, argv, i));
-      else if (a == "--duration") hold_s = parse_number(a, option_value(argc, argv, i));
-      else if (a == "--out") out = option_value(argc, argv, i);
-      else if (a == "--plot") plot = option_value(argc, argv, i);
-      else if (a == "--enable") enable = true;
-      else if (a.size() > 1 && a[0] == '-' && !(a[1] >= '0' && a[1] <= '9')) throw UsageError("unknown option " + a);
-      else pos.push_back(a);
-    }
+    Args a;
+    if (!step_cli().parse(argc, argv, a)) return 2;
+    if (a.has("--help")) return step_usage(stdout), 0;
+    double baud_d = baud;
+    if (!a.number("auger step", "--baud", baud_d, baud_d) || !a.number("auger step", "--from", from_rpm, from_rpm) ||
+        !a.number("auger step", "--duration", hold_s, hold_s))
+      return step_usage(stderr), 2;
+    baud = unsigned(baud_d);
+    port = a.get("--port");
+    socket = a.get("--socket", socket);
+    out = a.get("--out");
+    plot = a.get("--plot");
+    enable = a.has("--enable");
+    pos = a.positional;
     if (pos.size() != 2) throw UsageError("expected MODULE and RPM");
     const double module_d = parse_number("MODULE", pos[0]);
     if (module_d != 0 && module_d != 1 && module_d != 2 && module_d != 3) throw UsageError("MODULE must be 0..3");
@@ -201,18 +224,20 @@ int run_step(int argc, char** argv) {
     std::printf("  steady-state error  %.3f rpm  (<= %.1f rpm: %s)\n", s.steady_error_rpm, kSteadyErrorMax_rpm,
                 err_ok ? "ok" : "FAIL");
     std::printf("  settling time (5 %%) %.3f s\n", s.settling_time_s);
-    std::string csv = out;
-    if (csv.empty() && !plot.empty()) csv = "/tmp/auger-step-" + std::to_string(getpid()) + ".csv";
-    if (!csv.empty()) write_csv(csv, rec);
+    std::vector<double> t_s, omega_rpm;
+    for (const auto& x : rec.samples) t_s.push_back(x.t_s), omega_rpm.push_back(x.omega_rpm);
+    if (!out.empty()) write_step_csv(out, t_s, omega_rpm, rec.cmd_rpm);
     if (!plot.empty()) {
-      const std::string term = plot == "-" ? "set terminal dumb 100 30" : "set terminal svg size 800,480; set output '" + plot + "'";
-      const std::string cmd = "gnuplot -e \"" + term + "; set datafile separator ','; set key autotitle columnhead; "
-                              "set xlabel 't (s)'; set ylabel 'omega (rpm)'; plot '" + csv +
-                              "' using 1:2 with lines, '' using 1:3 with steps\"";
-      std::fflush(stdout);
-      if (std::system(cmd.c_str()) != 0) std::fprintf(stderr, "auger step: gnuplot failed (%s)\n", cmd.c_str());
-      else if (plot != "-") std::printf("  plot: %s\n", plot.c_str());
-      if (out.empty()) std::remove(csv.c_str());
+      try {
+        io::Gnuplot gp;  // the CSV goes to its private directory unless --out named one
+        const std::string csv = out.empty() ? gp.path("step.csv") : out;
+        if (out.empty()) write_step_csv(csv, t_s, omega_rpm, rec.cmd_rpm);
+        std::fflush(stdout);
+        std::fputs(plot_step(gp, csv, plot).c_str(), stdout);
+        if (plot != "-") std::printf("  plot: %s\n", plot.c_str());
+      } catch (const io::PlotError& e) {
+        std::fprintf(stderr, "auger step: %s\n", e.what());
+      }
     }
     if (!out.empty()) std::printf("  samples: %s\n", out.c_str());
     return rise_ok && over_ok && err_ok ? 0 : 1;

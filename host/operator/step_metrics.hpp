@@ -4,7 +4,12 @@
 // plus the settling time (last exit from a band of 5 % of the step, at least 0.5 rpm).
 #pragma once
 
+#include <string>
 #include <vector>
+
+namespace auger::io {
+class Gnuplot;
+}
 
 namespace auger::op {
 
@@ -25,5 +30,13 @@ struct StepSummary {
 constexpr double kRiseMax_s = 0.3, kOvershootMax_pct = 10.0, kSteadyErrorMax_rpm = 0.5;
 
 StepSummary summarize_step(const std::vector<StepSample>& samples, double t_step_s, double from_rpm, double to_rpm);
+
+// The recorded step as CSV (t_s, omega_rpm, omega_cmd_rpm; the core's CsvLogWriter: shortest
+// round-trip numbers). Throws std::runtime_error naming the file. step.cpp.
+void write_step_csv(const std::string& path, const std::vector<double>& t_s, const std::vector<double>& omega_rpm,
+                    const std::vector<double>& omega_cmd_rpm);
+// Plots that CSV with gnuplot (host/io's driver): an SVG at `plot`, or "-" a terminal plot,
+// returned as text. Throws io::PlotError with gnuplot's messages. step.cpp.
+std::string plot_step(io::Gnuplot& gp, const std::string& csv_path, const std::string& plot);
 
 }  // namespace auger::op

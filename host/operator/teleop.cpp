@@ -13,6 +13,7 @@
 #include <memory>
 #include <string>
 
+#include "auger/args.hpp"
 #include "augerd_client.hpp"
 #include "common.hpp"
 #include "joystick.hpp"
@@ -30,33 +31,33 @@ constexpr int kSteps = sizeof kSpeedSteps_mps / sizeof kSpeedSteps_mps[0];
 }  // namespace
 
 int run_teleop(int argc, char** argv) {
-  std::string socket = cli::kDefaultCommandsSocket, joystick = "/dev/input/js0";
+  std::string socket = io::kDefaultCommandsSocket, joystick = "/dev/input/js0";
   try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      if (a == "--help" || a == "-h") {
-        std::printf(
-            "usage: auger teleop [--socket PATH] [--joystick DEV]\n"
-            "Keys: Up/Down or w/s: u (forward/back); Left/Right or a/d: v (left/right);\n"
-            "      z/c: r (turn counter-clockwise/clockwise); +/-: speed step; e: enable;\n"
-            "      space: stop (all screws off, disabled); q: quit (stops).\n"
-            "Holding a key repeats the command (terminal auto-repeat); releasing it stops the\n"
-            "robot through augerd's dead-man within 0.5 s. Joystick (default %s when present):\n"
-            "axes 0/1 v/u, axis 3 r while button 0 is held; button 1 enable, button 2 stop.\n",
-            joystick.c_str());
-        return 0;
-      }
-      if (a == "--socket") socket = option_value(argc, argv, i);
-      else if (a == "--joystick") joystick = option_value(argc, argv, i);
-      else throw UsageError("unknown argument " + a);
-    }
+    const CommandLine cli{
+        "auger teleop", "[OPTIONS]",
+        "Drive the robot through augerd by keyboard or joystick.\n"
+        "Keys: Up/Down or w/s: u (forward/back); Left/Right or a/d: v (left/right);\n"
+        "      z/c: r (turn counter-clockwise/clockwise); +/-: speed step; e: enable;\n"
+        "      space: stop (all screws off, disabled); q: quit (stops).\n"
+        "Holding a key repeats the command (terminal auto-repeat); releasing it stops the\n"
+        "robot through augerd's dead-man within 0.5 s. Joystick: axes 0/1 v/u, axis 3 r while\n"
+        "button 0 is held; button 1 enable, button 2 stop.\n",
+        {{"--socket", "PATH", std::string("augerd's commands socket (default ") + io::kDefaultCommandsSocket + ")"},
+         {"--joystick", "DEV", "joystick device, used when present (default /dev/input/js0)"}},
+        "Exit 0: quit; 2: bad usage; 3: augerd not reached.\n"};
+    Args a;
+    if (!cli.parse(argc, argv, a)) return 2;
+    if (a.has("--help")) return cli.print_usage(stdout), 0;
+    if (!a.positional.empty()) throw UsageError("unknown argument " + a.positional[0]);
+    socket = a.get("--socket", socket);
+    joystick = a.get("--joystick", joystick);
   } catch (const UsageError& e) {
     std::fprintf(stderr, "auger teleop: %s\n", e.what());
     return 2;
   }
-  std::unique_ptr<cli::AugerdClient> c;
+  std::unique_ptr<io::AugerdClient> c;
   try {
-    c = std::make_unique<cli::AugerdClient>(socket);
+    c = std::make_unique<io::AugerdClient>(socket);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "auger teleop: %s\n", e.what());
     return 3;
@@ -130,7 +131,7 @@ int run_teleop(int argc, char** argv) {
       }
       status_at_s = now_s();
     }
-    const auto kv = cli::parse_status(status_text);
+    const auto kv = io::parse_status(status_text);
     erase();
     mvprintw(0, 0, "auger teleop  %s   joystick: %s", socket.c_str(), js.is_open() ? joystick.c_str() : "none");
     mvprintw(2, 0, "speed step %d/%d: u,v %.2f m/s, r %.2f rad/s", step + 1, kSteps, lin, yaw);

@@ -2,7 +2,9 @@
 // (augerd's [ros2] section), ROS 2's name rules, and the bridge. augerd's 100 Hz loop sees only
 // Bridge::poll and Bridge::publish, which never block: every DDS call happens on the bridge's
 // own thread or in Cyclone's receive thread. This header has no DDS type in it, so augerd and
-// its configuration reader compile the same with or without Cyclone DDS (AUGER_WITH_ROS2).
+// its configuration reader compile the same with or without Cyclone DDS (AUGER_WITH_ROS2). The
+// settings and ROS 2's name rules are in the core (auger/ros2_settings.hpp): the configuration
+// reader there checks them without DDS.
 #pragma once
 
 #include <array>
@@ -10,47 +12,9 @@
 #include <memory>
 #include <string>
 
+#include "auger/ros2_settings.hpp"
+
 namespace auger::ros2 {
-
-struct Settings {
-  bool enabled = false;
-  int domain_id = 0;            // ROS_DOMAIN_ID: 0..232 (Cyclone's default port mapping)
-  std::string dds_config;       // Cyclone DDS XML file; "" = CYCLONEDDS_URI, else Cyclone's defaults
-  std::string ns;               // ROS namespace of the relative topic names ("" = /)
-  // Inputs, each subscribed only when its topic is not "".
-  std::string cmd_vel_topic = "cmd_vel";  // geometry_msgs/msg/Twist, as `vel` (0.5 s dead-man)
-  std::string cmd_vel_stamped_topic;      // geometry_msgs/msg/TwistStamped, the same
-  std::string pose_topic;                 // geometry_msgs/msg/PoseStamped, as the sensors socket's `pose`
-  std::string pose_cov_topic;             // geometry_msgs/msg/PoseWithCovarianceStamped, the same
-  std::string imu_topic;                  // sensor_msgs/msg/Imu, as the sensors socket's `imu`
-  // PoseStamped carries no uncertainty: these standard deviations go with it (m, m, rad).
-  std::array<double, 3> pose_std = {0.003, 0.003, 0.005};
-  // Outputs, each published only when its rate is > 0.
-  std::string odom_topic = "odom";                 // nav_msgs/msg/Odometry
-  std::string joint_states_topic = "joint_states"; // sensor_msgs/msg/JointState
-  std::string diagnostics_topic = "/diagnostics";  // diagnostic_msgs/msg/DiagnosticArray
-  std::string tf_topic = "/tf";                    // tf2_msgs/msg/TFMessage (odom -> base_link)
-  double odom_rate_hz = 50, joint_states_rate_hz = 50, diagnostics_rate_hz = 1;
-  bool tf = true;  // the odom -> base_link transform with each Odometry (off when another node,
-                   // e.g. robot_localization, publishes it)
-  std::string odom_frame = "odom", base_frame = "base_link";
-  std::array<std::string, 4> joint_names = {"screw_0_joint", "screw_1_joint", "screw_2_joint", "screw_3_joint"};
-};
-
-// ---- ROS 2 names (design.ros2.org, "Topic and Service name mapping to DDS") ----
-
-// The fully qualified name of topic `name` in namespace `ns`: a relative name is put under the
-// namespace, an absolute one (leading '/') stays. Throws std::invalid_argument naming the rule a
-// name breaks (empty, a character other than [A-Za-z0-9_/], a token starting with a digit,
-// repeated '/' or '_', a trailing '/', '~' or '{}' substitutions, which augerd does not expand).
-std::string fully_qualified_name(const std::string& name, const std::string& ns);
-// The DDS topic of a ROS 2 topic: "rt" + the fully qualified name ("/odom" -> "rt/odom").
-std::string dds_topic_name(const std::string& fully_qualified);
-// Checks a frame id ("odom", "base_link"): non-empty, printable, no spaces. Throws
-// std::invalid_argument.
-void check_frame_id(const std::string& frame);
-// Checks every name and rate of the settings (throws std::invalid_argument naming the key).
-void check_settings(const Settings& s);
 
 // ---- the 100 Hz loop's side ----
 

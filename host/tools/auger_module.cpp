@@ -6,6 +6,9 @@
 //   auger-module PORT show
 //   auger-module PORT set KEY=VALUE...     keys: see usage()
 //   options: --baud N (default 250000), --timeout S (identity wait, default 4)
+#include "auger/args.hpp"
+#include "auger/version.hpp"
+#include "module_adapter.hpp"
 #include "module_link.hpp"
 #include "status_text.hpp"
 
@@ -24,18 +27,21 @@ using auger::io::ModuleLink;
 
 namespace {
 
-void usage(FILE* out)
-{
-    std::fprintf(out,
-                 "usage: auger-module [--baud N] [--timeout S] PORT identify|show|set KEY=VALUE...\n"
-                 "set keys (units in the name):\n"
-                 "  id=0..255  dir=+1|-1  counts_per_rev=COUNTS (X4 counts per screw turn)\n"
-                 "  kp=X ki=X kd=X (velocity PID, docs/firmware.md units)\n"
-                 "  omega_max_rpm=X  overcurrent_a=X  overcurrent_samples=N\n"
-                 "  undervoltage_v=X  undervoltage_hyst_v=X  motor_rated_v=X  cmd_timeout_ms=N\n"
-                 "  foldback_a=X (0: off)  stall_current_a=X (0: off)  stall_time_ms=N\n"
-                 "  telemetry_period_ms=10|20|50|100\n");
-}
+const auger::CommandLine kCli{
+    "auger-module", "[OPTIONS] PORT identify|show|set KEY=VALUE...",
+    "One motor module over its serial port: its identity, its settings, new settings (CONFIG).\n",
+    {{"--baud", "N", "the port's rate (default 250000)"},
+     {"--timeout", "S", "wait this long for the identity (default 4 s: a reset into the bootloader)"}},
+    "set keys (units in the name):\n"
+    "  id=0..255  dir=+1|-1  counts_per_rev=COUNTS (X4 counts per screw turn)\n"
+    "  kp=X ki=X kd=X (velocity PID, docs/firmware.md units)\n"
+    "  omega_max_rpm=X  overcurrent_a=X  overcurrent_samples=N\n"
+    "  undervoltage_v=X  undervoltage_hyst_v=X  motor_rated_v=X  cmd_timeout_ms=N\n"
+    "  foldback_a=X (0: off)  stall_current_a=X (0: off)  stall_time_ms=N\n"
+    "  telemetry_period_ms=10|20|50|100\n"
+    "Exit 0: done; 1: the module failed or refused; 2: bad usage.\n"};
+
+void usage(FILE* out) { kCli.print_usage(out); }
 
 [[noreturn]] void bad_arg(const std::string& arg, const std::string& why)
 {
@@ -112,7 +118,7 @@ void print_config(const proto_config_t& c)
                 "undervoltage_hyst_v=%.3f motor_rated_v=%.3f cmd_timeout_ms=%u foldback_a=%.3f "
                 "stall_current_a=%.3f stall_time_ms=%u telemetry_period_ms=%u\n",
                 c.module_id, c.dir_sign, c.counts_per_rev_x100 / 100.0, double(c.kp), double(c.ki),
-                double(c.kd), c.omega_max_crpm / 100.0, c.overcurrent_ma / 1000.0,
+                double(c.kd), auger::io::rpm_from_crpm(c.omega_max_crpm), c.overcurrent_ma / 1000.0,
                 c.overcurrent_samples, c.undervoltage_mv / 1000.0, c.undervoltage_hyst_mv / 1000.0,
                 c.motor_rated_mv / 1000.0, c.cmd_timeout_ms, c.foldback_ma / 1000.0, c.stall_current_ma / 1000.0,
                 c.stall_time_ms, c.telemetry_period_ms);
@@ -122,21 +128,24 @@ void print_config(const proto_config_t& c)
 
 int main(int argc, char** argv)
 {
-    std::vector<std::string> args(argv + 1, argv + argc);
+    std::vector<std::string> args;
     unsigned baud = ModuleLink::kDefaultBaud;
     double timeout_s = 4.0;
     try {
-        while (!args.empty() && args[0].rfind("--", 0) == 0) {
-            if (args[0] == "--help") {
-                usage(stdout);
-                return 0;
-            }
-            if (args.size() < 2) bad_arg(args[0], "needs a value");
-            if (args[0] == "--baud") baud = in_range<unsigned>(args[0], number(args[0], args[1]), 300, 4000000);
-            else if (args[0] == "--timeout") timeout_s = number(args[0], args[1]);
-            else bad_arg(args[0], "unknown option");
-            args.erase(args.begin(), args.begin() + 2);
+        auger::Args opts;
+        if (!kCli.parse(argc, argv, opts)) return 2;
+        if (opts.has("--help")) {
+            usage(stdout);
+            return 0;
         }
+        if (opts.has("--version")) {
+            auger::print_version("auger-module");
+            return 0;
+        }
+        if (opts.has("--baud"))
+            baud = in_range<unsigned>("--baud", number("--baud", opts.get("--baud")), 300, 4000000);
+        if (opts.has("--timeout")) timeout_s = number("--timeout", opts.get("--timeout"));
+        args = opts.positional;
         if (args.size() < 2) {
             usage(stderr);
             return 2;

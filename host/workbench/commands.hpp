@@ -1,4 +1,4 @@
-// The workbench's subcommands (issue 5), one file each; cli.cpp lists them for `auger --help`.
+// The workbench's subcommands (issue 5), one file each; the `auger` front (host/auger/main.cpp) lists them.
 #pragma once
 
 namespace auger::wb {

@@ -2,7 +2,7 @@
 #include <cstdio>
 #include <string>
 
-#include "args.hpp"
+#include "auger/args.hpp"
 #include "checks.hpp"
 #include "cli_text.hpp"
 #include "commands.hpp"

@@ -5,7 +5,7 @@
 #include <sstream>
 #include <string>
 
-#include "args.hpp"
+#include "auger/args.hpp"
 #include "checks.hpp"
 #include "cli_text.hpp"
 #include "commands.hpp"

@@ -3,7 +3,7 @@
 #include <cstdio>
 #include <string>
 
-#include "args.hpp"
+#include "auger/args.hpp"
 #include "auger/input_limits.hpp"
 #include "commands.hpp"
 #include "workbench.hpp"

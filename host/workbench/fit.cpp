@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "args.hpp"
+#include "auger/args.hpp"
 #include "checks.hpp"
 #include "cli_text.hpp"
 #include "commands.hpp"

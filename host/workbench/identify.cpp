@@ -1,11 +1,13 @@
 // `auger identify GANTRY_LOG... [--json]`: sigma and D from gantry logs, eqs. (15)-(17), per
 // terrain and axis, with confidence intervals (identify_gantry.cpp does the work).
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <exception>
 #include <string>
 #include <vector>
 
+#include "auger/args.hpp"
 #include "auger/log.hpp"
 #include "cli_text.hpp"
 #include "commands.hpp"
@@ -41,25 +43,20 @@ int run_identify(int argc, char** argv) {
   bool json = false;
   IdentifyOptions options;
   std::vector<std::string> files;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--help" || a == "-h") return identify_usage(stdout, 0);
-    if (a == "--json") {
-      json = true;
-    } else if (a == "--confidence" && i + 1 < argc) {
-      char* end = nullptr;
-      options.confidence = std::strtod(argv[++i], &end);
-      if (*end != '\0' || !(options.confidence > 0 && options.confidence < 1)) {
-        std::fprintf(stderr, "auger identify: --confidence '%s' is not a probability in (0, 1)\n", argv[i]);
-        return 2;
-      }
-    } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "auger identify: unknown option '%s'\n", a.c_str());
-      return identify_usage(stderr, 2);
-    } else {
-      files.push_back(a);
+  Args args;
+  if (!parse_args(argc, argv, {"--help", "--json"}, {"--confidence"}, args)) return identify_usage(stderr, 2);
+  if (args.has("--help")) return identify_usage(stdout, 0);
+  json = args.has("--json");
+  if (args.has("--confidence")) {
+    const std::string text = args.get("--confidence");
+    char* end = nullptr;
+    options.confidence = std::strtod(text.c_str(), &end);
+    if (text.empty() || *end != '\0' || !(options.confidence > 0 && options.confidence < 1)) {
+      std::fprintf(stderr, "auger identify: --confidence '%s' is not a probability in (0, 1)\n", text.c_str());
+      return 2;
     }
   }
+  files = args.positional;
   if (files.empty()) return identify_usage(stderr, 2);
 
   std::vector<GantryData> logs;

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "auger/args.hpp"
 #include "auger/log.hpp"
 #include "auger/measured.hpp"
 #include "cli_text.hpp"
@@ -46,24 +47,17 @@ int run_merge(int argc, char** argv) {
   MergeOptions options;
   std::vector<std::string> files;
   try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      if (a == "--help" || a == "-h") return merge_usage(stdout, 0);
-      if (a == "--json") {
-        json = true;
-      } else if (a == "--out" && i + 1 < argc) {
-        out_path = argv[++i];
-      } else if (a == "--max-shift" && i + 1 < argc) {
-        options.max_shift_s = parse_number(argv[++i], "--max-shift");
-        if (!(options.max_shift_s > 0 && options.max_shift_s <= kMaxShiftS))
-          throw std::invalid_argument("--max-shift must be in (0, " + std::to_string(int(kMaxShiftS)) + "] s");
-      } else if (!a.empty() && a[0] == '-') {
-        std::fprintf(stderr, "auger merge: unknown option '%s'\n", a.c_str());
-        return merge_usage(stderr, 2);
-      } else {
-        files.push_back(a);
-      }
+    Args args;
+    if (!parse_args(argc, argv, {"--help", "--json"}, {"--out", "--max-shift"}, args)) return merge_usage(stderr, 2);
+    if (args.has("--help")) return merge_usage(stdout, 0);
+    json = args.has("--json");
+    out_path = args.get("--out");
+    if (args.has("--max-shift")) {
+      options.max_shift_s = parse_number(args.get("--max-shift").c_str(), "--max-shift");
+      if (!(options.max_shift_s > 0 && options.max_shift_s <= kMaxShiftS))
+        throw std::invalid_argument("--max-shift must be in (0, " + std::to_string(int(kMaxShiftS)) + "] s");
     }
+    files = args.positional;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "auger merge: %s\n", e.what());
     return 2;

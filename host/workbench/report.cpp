@@ -11,7 +11,7 @@
 #include <system_error>
 #include <vector>
 
-#include "args.hpp"
+#include "auger/args.hpp"
 #include "checks.hpp"
 #include "cli_text.hpp"
 #include "commands.hpp"

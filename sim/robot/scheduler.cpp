@@ -9,15 +9,13 @@
 
 #include "protocol.h"
 #include "simmod.h"
-#include "setpoint.hpp"
+#include "module_adapter.hpp"
 
 namespace auger::sim {
 
-struct Scheduler::ModuleLink {
+struct Scheduler::SimModule {
   proto_parser_t parser;
-  bool fresh = false;             // a telemetry frame arrived in this control period
-  proto_telemetry_t last{};
-  bool have_last = false;
+  auger::io::ModuleTelemetry tm;  // the latest frame; fresh: one arrived in this control period
   std::uint16_t seq = 0;
   bool cleared = false;           // CLEAR_FAULTS sent once, with the first enabling setpoint
 };
@@ -41,7 +39,7 @@ Scheduler::Scheduler(const Model& nominal, const TruthParams& truth, const Sched
     sim_ = simmod_create(&sc);
     if (!sim_) throw std::runtime_error("Scheduler: simmod_create failed for " + cfg_.elf_path);
     for (int i = 0; i < 4; ++i) {
-      links_.push_back(std::make_unique<ModuleLink>());
+      links_.push_back(std::make_unique<SimModule>());
       proto_parser_init(&links_.back()->parser);
       shaft_angle_rad_[static_cast<std::size_t>(i)] = simmod_shaft_angle_rad(sim_, i);
     }
@@ -64,16 +62,12 @@ void Scheduler::set_log(std::ostream* out) {
 
 void Scheduler::on_byte(void* ctx, int module, std::uint8_t byte, double) {
   auto* self = static_cast<Scheduler*>(ctx);
-  ModuleLink& l = *self->links_.at(static_cast<std::size_t>(module));
+  SimModule& l = *self->links_.at(static_cast<std::size_t>(module));
   proto_parser_push(&l.parser, byte);
   proto_frame_t f;
   while (proto_parser_pop(&l.parser, &f)) {
     proto_telemetry_t tm;
-    if (proto_decode_telemetry(&f, &tm)) {
-      l.last = tm;
-      l.have_last = true;
-      l.fresh = true;
-    }
+    if (proto_decode_telemetry(&f, &tm)) l.tm.take(tm);
   }
 }
 
@@ -114,9 +108,7 @@ void Scheduler::tick() {
   std::array<ScrewTelemetry, 4> tel{};
   for (std::size_t i = 0; i < 4; ++i) {
     if (sim_) {
-      ModuleLink& l = *links_[i];
-      tel[i].valid = l.fresh;
-      tel[i].omega_rpm = l.last.omega_crpm / 100.0;
+      tel[i] = links_[i]->tm.controller_input();
     } else {
       tel[i].valid = true;
       tel[i].omega_rpm = std::round(omega_true_[static_cast<int>(i)] * 100.0) / 100.0;  // 0.01 rpm
@@ -146,18 +138,12 @@ void Scheduler::tick() {
   if (commanding) {
     if (sim_) {
       for (int i = 0; i < 4; ++i) {
-        ModuleLink& l = *links_[static_cast<std::size_t>(i)];
-        proto_setpoint_t s{};
-        s.seq = ++l.seq;
+        SimModule& l = *links_[static_cast<std::size_t>(i)];
         // The controller's setpoints are finite (it latches a fault otherwise); saturated to the wire.
-        auger::io::setpoint_crpm(cmd[i], s.omega_crpm);
-        s.flags = enabled ? PROTO_SP_ENABLE : 0;
-        if (enabled && !l.cleared) {
-          s.flags |= PROTO_SP_CLEAR_FAULTS;
-          l.cleared = true;
-        }
+        const bool clear = enabled && !l.cleared;
+        l.cleared = l.cleared || clear;
         std::uint8_t buf[PROTO_MAX_FRAME];
-        const std::size_t n = proto_encode_setpoint(&s, buf);
+        const std::size_t n = auger::io::encode_setpoint(++l.seq, cmd[i], enabled, clear, buf);
         simmod_uart_send(sim_, i, buf, n);
       }
     } else {
@@ -171,16 +157,9 @@ void Scheduler::tick() {
     RobotSample r;
     r.t_s = t;
     for (std::size_t i = 0; i < 4; ++i) {
+      if (sim_) auger::io::log_telemetry(links_[i]->tm, i, r);
       r.omega_rpm[i] = cfg_.log_truth ? omega_true_[static_cast<int>(i)] : tel[i].omega_rpm;
       if (commanding) r.cmd_rpm[i] = cmd[static_cast<int>(i)];
-      if (sim_ && links_[i]->have_last) {
-        const proto_telemetry_t& tm = links_[i]->last;
-        r.current_a[i] = tm.current_ma / 1000.0;
-        r.voltage_v[i] = tm.voltage_mv / 1000.0;
-        r.pwm[i] = tm.duty_x10000 / 10000.0;
-        r.status[i] = tm.status;
-        r.seq_ack[i] = tm.seq_ack;
-      }
     }
     if (cfg_.log_truth) {
       r.x_m = truth.eta[0];
@@ -212,7 +191,7 @@ void Scheduler::tick() {
     history_.push_back(rec);
   }
 
-  for (auto& l : links_) l->fresh = false;
+  for (auto& l : links_) l->tm.fresh = false;
   // Advance the modules and the robot through the period in coupling steps.
   const int n = std::max(1, static_cast<int>(std::lround(cfg_.control_period_s / cfg_.coupling_step_s)));
   const double h = cfg_.control_period_s / n;

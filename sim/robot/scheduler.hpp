@@ -104,8 +104,8 @@ class Scheduler {
   CommandSource source_;
   SensorSink sink_;
   simmod_t* sim_ = nullptr;
-  struct ModuleLink;  // protocol parser and latest telemetry
-  std::vector<std::unique_ptr<ModuleLink>> links_;
+  struct SimModule;  // protocol parser, latest telemetry (host/io's module adapter), setpoint state
+  std::vector<std::unique_ptr<SimModule>> links_;
   std::unique_ptr<RobotLogWriter> log_;
   double t_s_ = 0;
   bool stop_ = false;

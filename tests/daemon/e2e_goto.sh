@@ -46,7 +46,7 @@ logs=("$work"/logs/*.csv)
 for f in "${logs[@]}"; do
   head -1 "$f" | grep -q '^# format: auger-robot-log v1' || fail "$f does not start with the format line"
 done
-"$build/host/tools/auger-track" "${logs[@]}" || fail "a rotated log is not a readable robot log"
+"$build/host/track/auger-track" "${logs[@]}" || fail "a rotated log is not a readable robot log"
 # The pandas lines of docs/formats.md read augerd's own log (the venv of `make venv`).
 "$build/venv/bin/python3" "$src/python/tests/check_pandas_doc.py" "${logs[0]}" ||
   fail "the documented pandas lines do not read augerd's log"

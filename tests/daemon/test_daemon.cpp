@@ -26,6 +26,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <sstream>
@@ -50,7 +51,10 @@ std::string make_dir(const std::string& name) {
 // Removes a test directory at the end of the test case (declared before what uses it).
 struct RemoveDir {
   std::string dir;
-  ~RemoveDir() { [[maybe_unused]] int r = std::system(("rm -rf '" + dir + "'").c_str()); }
+  ~RemoveDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(dir, ec);
+  }
 };
 
 std::string slurp(const std::string& path) {

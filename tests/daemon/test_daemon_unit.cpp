@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <vector>
 #include <string>
@@ -15,11 +16,12 @@
 
 #include "auger/effect.hpp"
 #include "config.hpp"
-#include "lines.hpp"
-#include "setpoint.hpp"
+#include "daemon_lines.hpp"
+#include "module_adapter.hpp"
 #include "status_text.hpp"
 
 using namespace augerd;
+using namespace auger::io;
 
 namespace {
 // A string literal with its embedded NUL bytes (without the terminating one).
@@ -136,6 +138,65 @@ TEST_CASE("setpoint encoding saturates and never converts a NaN", "[daemon][unit
   CHECK(v == 0);
   CHECK(auger::io::setpoint_crpm(-327.67, v));
   CHECK(v == -32767);
+}
+
+TEST_CASE("setpoint frames: ENABLE only for a finite speed, CLEAR_FAULTS when asked", "[daemon][unit]") {
+  auto decode = [](const uint8_t* buf, std::size_t n) {
+    proto_parser_t p;
+    proto_parser_init(&p);
+    for (std::size_t i = 0; i < n; ++i) proto_parser_push(&p, buf[i]);
+    proto_frame_t f;
+    REQUIRE(proto_parser_pop(&p, &f));
+    proto_setpoint_t sp;
+    REQUIRE(proto_decode_setpoint(&f, &sp));
+    return sp;
+  };
+  uint8_t buf[PROTO_MAX_FRAME];
+  bool finite = false;
+  proto_setpoint_t sp = decode(buf, auger::io::encode_setpoint(7, 400.0, true, false, buf, &finite));
+  CHECK(finite);
+  CHECK(sp.seq == 7);
+  CHECK(sp.omega_crpm == 32767);  // the one clamp: setpoint_crpm
+  CHECK(sp.flags == PROTO_SP_ENABLE);
+  sp = decode(buf, auger::io::encode_setpoint(8, std::nan(""), true, true, buf, &finite));
+  CHECK_FALSE(finite);
+  CHECK(sp.omega_crpm == 0);
+  CHECK(sp.flags == PROTO_SP_CLEAR_FAULTS);  // never ENABLE with a speed that was not finite
+  sp = decode(buf, auger::io::encode_setpoint(9, -12.345, false, false, buf));
+  CHECK(sp.omega_crpm == -1235);
+  CHECK(sp.flags == 0);
+}
+
+TEST_CASE("module telemetry in SI units, its freshness and its log columns", "[daemon][unit]") {
+  auger::io::ModuleTelemetry tm;
+  auger::RobotSample row;
+  auger::io::log_telemetry(tm, 2, row);  // nothing received: the row stays "not measured"
+  CHECK(std::isnan(row.omega_rpm[2]));
+  CHECK_FALSE(row.status[2].has_value());
+  CHECK_FALSE(tm.controller_input().valid);
+  proto_telemetry_t f{};
+  f.omega_crpm = -12345;
+  f.omega_cmd_crpm = 5000;
+  f.current_ma = 1250;
+  f.voltage_mv = 18500;
+  f.duty_x10000 = -2500;
+  f.status = 0x0102;
+  f.seq_ack = 77;
+  tm.take(f);
+  CHECK(tm.omega_rpm() == -123.45);
+  CHECK(tm.omega_cmd_rpm() == 50.0);
+  CHECK(tm.controller_input().valid);
+  CHECK(tm.controller_input().omega_rpm == -123.45);
+  tm.fresh = false;  // the next control period without a frame: the controller predicts instead
+  CHECK_FALSE(tm.controller_input().valid);
+  auger::io::log_telemetry(tm, 2, row);  // the latest frame is logged, fresh or not
+  CHECK(row.omega_rpm[2] == -123.45);
+  CHECK(row.current_a[2] == 1.25);
+  CHECK(row.voltage_v[2] == 18.5);
+  CHECK(row.pwm[2] == -0.25);
+  CHECK(row.status[2] == 0x0102);
+  CHECK(row.seq_ack[2] == 77);
+  CHECK(std::isnan(row.omega_rpm[1]));  // other modules' columns untouched
 }
 
 TEST_CASE("sensor lines", "[daemon][unit]") {
@@ -349,5 +410,6 @@ TEST_CASE("start-up checks: what augerd --check must catch before anything is op
   r = problems(x);
   CHECK(r.first);  // the group must be created (sysusers) before augerd can start
   CHECK(r.second.find("/etc/auger/augerd.toml:17: sensors_group: no group named 'no-such-group-x'") != std::string::npos);
-  [[maybe_unused]] int rc = std::system(("rm -rf '" + d + "'").c_str());
+  std::error_code ec;
+  std::filesystem::remove_all(d, ec);
 }

@@ -3,8 +3,14 @@
 // underdamped second-order one overshoots by exp(-zeta pi / sqrt(1 - zeta^2)).
 #include <catch2/catch.hpp>
 
-#include <cmath>
+#include <unistd.h>
 
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "gnuplot.hpp"
 #include "step_metrics.hpp"
 
 using auger::op::StepSample;
@@ -45,4 +51,44 @@ TEST_CASE("a step never reached has an infinite rise time", "[operator][unit]") 
   const auto r = summarize_step(s, 0.0, 0.0, 10.0);
   CHECK(std::isinf(r.rise_time_s));
   CHECK(std::isinf(r.settling_time_s));
+}
+
+// auger step --plot: the user's path goes into a gnuplot script, never to a shell. A path with
+// quotes, ';', backquotes and $(...) in it must be plotted to, and nothing in it run (~0.1 s).
+TEST_CASE("auger step's plot: a hostile path is a file name, not a command", "[operator][unit]") {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("auger-step-plot-" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  // What a shell or gnuplot's `!`/system() would run creates "pwned" in the working directory.
+  const fs::path marker = fs::current_path() / "pwned";
+  fs::remove(marker);
+  const std::string csv = (dir / "it's; a \"csv\".csv").string();
+  auger::op::write_step_csv(csv, {0.0, 0.01, 0.02, 0.03}, {0.0, 4.5, 9.25, 10.0}, {0.0, 10.0, 10.0, 10.0});
+  const std::string svg =
+      (dir / "o'q\"; !touch pwned; `touch pwned` $(touch pwned) ;system('touch pwned');.svg").string();
+  auger::io::Gnuplot gp;
+  auger::op::plot_step(gp, csv, svg);
+  CHECK(fs::exists(svg));
+  CHECK(fs::file_size(svg) > 100);
+  CHECK_FALSE(fs::exists(marker));
+  const std::string text = auger::op::plot_step(gp, csv, "-");  // the terminal plot comes back
+  CHECK(text.find("omega_rpm") != std::string::npos);
+  CHECK_FALSE(fs::exists(marker));
+  fs::remove_all(dir);
+}
+
+TEST_CASE("auger step's CSV: the core's CSV writer, shortest round-trip numbers", "[operator][unit]") {
+  namespace fs = std::filesystem;
+  const fs::path p = fs::temp_directory_path() / ("auger-step-csv-" + std::to_string(::getpid()) + ".csv");
+  auger::op::write_step_csv(p.string(), {0.0, 0.01}, {1.0 / 3.0, 123.456789}, {5.0, 5.0});
+  std::ifstream f(p);
+  std::string head, r0, r1;
+  std::getline(f, head);
+  std::getline(f, r0);
+  std::getline(f, r1);
+  CHECK(head == "t_s,omega_rpm,omega_cmd_rpm");
+  CHECK(std::stod(r0.substr(r0.find(',') + 1)) == 1.0 / 3.0);  // 6 digits would not read back
+  CHECK(r1 == "0.01,123.456789,5");
+  fs::remove(p);
 }

@@ -1,5 +1,5 @@
 // Reader of augerd's TOML configuration (toml++ stays inside this file, as in model_file.cpp).
-#include "config.hpp"
+#include "auger/daemon_config.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -13,7 +13,7 @@
 #include "auger/input_limits.hpp"
 #include "auger/model_file.hpp"
 
-namespace augerd {
+namespace auger {
 namespace {
 
 using auger::ConfigError;
@@ -93,7 +93,8 @@ std::string resolve(const std::string& config_path, const std::string& p) {
 }
 
 // [ros2] (docs/ros2.md): every key optional; nothing happens unless enabled = true.
-void read_ros2(const Reader& r, const toml::table& t, const std::string& path, auger::ros2::Settings& s) {
+void read_ros2(const Reader& r, const toml::table& t, const std::string& path, bool available,
+               auger::ros2::Settings& s) {
   namespace ros2 = auger::ros2;
   auto name_check = [&](const toml::node& v, const std::string& name) {
     try {
@@ -128,7 +129,7 @@ void read_ros2(const Reader& r, const toml::table& t, const std::string& path, a
          {{"enabled",
            [&](const toml::node& v) {
              s.enabled = r.boolean(v, "enabled");
-             if (s.enabled && !ros2::available())
+             if (s.enabled && !available)
                r.fail(v, "this augerd was built without the ROS 2 interface (Cyclone DDS): build it with "
                          "-DAUGER_WITH_ROS2=ON (for the board: make board ROS2=1)");
            }},
@@ -184,7 +185,7 @@ void read_ros2(const Reader& r, const toml::table& t, const std::string& path, a
 
 }  // namespace
 
-DaemonConfig load_daemon_config(const std::string& path) {
+DaemonConfig read_daemon_config(const std::string& path, bool ros2_available) {
   DaemonConfig c;
   c.path = path;
   Reader r{path};
@@ -350,7 +351,7 @@ DaemonConfig load_daemon_config(const std::string& path) {
                         c.idle_timeout_s = r.number(v, "idle_timeout_s", 0.5, 3600);
                       }}});
            }},
-          {"ros2", [&](const toml::node& n) { read_ros2(r, r.table(n, "ros2"), path, c.ros2); }},
+          {"ros2", [&](const toml::node& n) { read_ros2(r, r.table(n, "ros2"), path, ros2_available, c.ros2); }},
           {"log", [&](const toml::node& n) {
              r.keys(r.table(n, "log"), "[log]",
                     {{"dir",
@@ -417,4 +418,4 @@ DaemonConfig load_daemon_config(const std::string& path) {
   return c;
 }
 
-}  // namespace augerd
+}  // namespace auger

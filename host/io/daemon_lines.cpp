@@ -1,4 +1,4 @@
-#include "lines.hpp"
+#include "daemon_lines.hpp"
 
 #include <cerrno>
 #include <cmath>
@@ -7,7 +7,7 @@
 
 #include "auger/input_limits.hpp"
 
-namespace augerd {
+namespace auger::io {
 namespace {
 
 using auger::check_goal;
@@ -143,4 +143,4 @@ std::string parse_sensor(const std::string& line, SensorMessage& out) {
   return "";
 }
 
-}  // namespace augerd
+}  // namespace auger::io

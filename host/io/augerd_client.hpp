@@ -5,7 +5,7 @@
 #include <map>
 #include <string>
 
-namespace auger::cli {
+namespace auger::io {
 
 constexpr const char* kDefaultCommandsSocket = "/run/augerd/commands.sock";
 constexpr const char* kDefaultSensorsSocket = "/run/augerd/sensors.sock";
@@ -38,4 +38,4 @@ std::map<std::string, std::string> parse_status(const std::string& line);
 // A field as a number; NaN if absent or not a number.
 double status_number(const std::map<std::string, std::string>& kv, const std::string& key);
 
-}  // namespace auger::cli
+}  // namespace auger::io

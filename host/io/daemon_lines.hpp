@@ -1,11 +1,12 @@
-// Parsing of the two line protocols of docs/daemon-protocol.md, kept free of I/O so that the
-// tests can check every malformed input without a running daemon.
+// augerd's two socket line protocols (docs/daemon-protocol.md), parsed for augerd and for the
+// tools that speak them (auger calib reads the sensors' lines); free of I/O so that the tests can
+// check every malformed input without a running daemon.
 #pragma once
 
 #include <string>
 #include <vector>
 
-namespace augerd {
+namespace auger::io {
 
 enum class CommandKind { enable, stop, vel, go_to, follow, allocator, status, spin };
 
@@ -36,4 +37,4 @@ std::string quote_line(const std::string& s);
 // Splits at runs of spaces and tabs.
 std::vector<std::string> split_fields(const std::string& line);
 
-}  // namespace augerd
+}  // namespace auger::io

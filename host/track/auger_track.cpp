@@ -2,7 +2,9 @@
 // pose (external tracking: x_m, y_m, psi_rad) minus the reference (xd_m, yd_m, psid_rad) per
 // DOF over the samples where both are present, and the position error at the last such sample.
 //   auger-track LOG...
+#include "auger/args.hpp"
 #include "auger/log.hpp"
+#include "auger/version.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -16,16 +18,25 @@ double wrap_rad(double a) { return std::remainder(a, 2.0 * M_PI); }
 
 int main(int argc, char** argv)
 {
-    if (argc < 2) {
-        std::fprintf(stderr, "usage: auger-track LOG...\n");
+    const auger::CommandLine cli{"auger-track", "LOG...",
+                                 "The tracking error of robot logs: RMS of x, y, psi against the reference and the\n"
+                                 "final position error, one Markdown table row per log.\n",
+                                 {},
+                                 "Exit 0: every log read; 1: a log unreadable or without both poses; 2: bad usage.\n"};
+    auger::Args args;
+    if (!cli.parse(argc, argv, args)) return 2;
+    if (args.has("--help")) return cli.print_usage(stdout), 0;
+    if (args.has("--version")) return auger::print_version("auger-track"), 0;
+    if (args.positional.empty()) {
+        cli.print_usage(stderr);
         return 2;
     }
     std::printf("| log | samples | RMS x | RMS y | RMS psi | final position error |\n");
     std::printf("|---|---|---|---|---|---|\n");
     int rc = 0;
-    for (int a = 1; a < argc; ++a) {
+    for (const std::string& path : args.positional) {
         try {
-            auger::RobotLogReader reader(argv[a]);
+            auger::RobotLogReader reader(path);
             auger::RobotSample s;
             double sx = 0, sy = 0, spsi = 0, final_m = NAN;
             long n = 0;
@@ -40,11 +51,11 @@ int main(int argc, char** argv)
                 ++n;
             }
             if (n == 0) {
-                std::fprintf(stderr, "auger-track: %s: no sample with both a measured and a reference pose\n", argv[a]);
+                std::fprintf(stderr, "auger-track: %s: no sample with both a measured and a reference pose\n", path.c_str());
                 rc = 1;
                 continue;
             }
-            std::printf("| %s | %ld | %.3f m | %.3f m | %.3f rad | %.3f m |\n", argv[a], n, std::sqrt(sx / double(n)),
+            std::printf("| %s | %ld | %.3f m | %.3f m | %.3f rad | %.3f m |\n", path.c_str(), n, std::sqrt(sx / double(n)),
                         std::sqrt(sy / double(n)), std::sqrt(spsi / double(n)), final_m);
         } catch (const std::exception& e) {
             std::fprintf(stderr, "auger-track: %s\n", e.what());

@@ -11,7 +11,7 @@
 #include <sys/un.h>
 #include <unistd.h>
 
-namespace auger::cli {
+namespace auger::io {
 
 AugerdClient::AugerdClient(const std::string& path) : path_(path) {
   sockaddr_un addr{};
@@ -92,4 +92,4 @@ double status_number(const std::map<std::string, std::string>& kv, const std::st
   return (end == it->second.c_str() || *end != '\0') ? NAN : v;
 }
 
-}  // namespace auger::cli
+}  // namespace auger::io

@@ -1,11 +1,11 @@
 // ROS 2's topic name rules and their mapping to DDS (design.ros2.org, "Topic and Service name
-// mapping to DDS"), and the check of augerd's [ros2] settings. No DDS here: augerd's
-// configuration reader uses it in every build.
+// mapping to DDS"), and the check of augerd's [ros2] settings. No DDS here: the configuration
+// reader (daemon_config.cpp) uses it in every build.
 #include <cctype>
 #include <cmath>
 #include <stdexcept>
 
-#include "ros2.hpp"
+#include "auger/ros2_settings.hpp"
 
 namespace auger::ros2 {
 namespace {

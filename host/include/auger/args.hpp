@@ -1,0 +1,129 @@
+// The one argument parser of the host's programs (the auger subcommands, augerd, the tools):
+// positional arguments, `--flag`, `--key VALUE` or `--key=VALUE`, `-h` for `--help`; an
+// unknown option or a missing value is a usage error naming it (printed as "PROGRAM: ...").
+// Anything not starting with "--" is positional, so a negative number ("-5") is one.
+// CommandLine (below) holds a program's options as one table, from which its --help is printed.
+#pragma once
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <set>
+#include <string>
+#include <vector>
+
+namespace auger {
+
+struct Args {
+  std::vector<std::string> positional;
+  std::vector<std::pair<std::string, std::string>> options;  // --key value ("" for flags)
+  bool has(const std::string& k) const {
+    for (const auto& o : options)
+      if (o.first == k) return true;
+    return false;
+  }
+  std::string get(const std::string& k, const std::string& dflt = "") const {
+    for (const auto& o : options)
+      if (o.first == k) return o.second;
+    return dflt;
+  }
+  // The option's value as a finite number (the whole text), dflt if absent; false (and
+  // printed) if it is not one.
+  bool number(const char* program, const std::string& k, double dflt, double& out) const {
+    out = dflt;
+    if (!has(k)) return true;
+    return to_number(program, k, get(k), out);
+  }
+  static bool to_number(const char* program, const std::string& what, const std::string& text, double& out) {
+    char* end = nullptr;
+    errno = 0;
+    const double v = std::strtod(text.c_str(), &end);
+    if (text.empty() || *end != '\0' || errno == ERANGE || !std::isfinite(v)) {
+      std::fprintf(stderr, "%s: %s: '%s' is not a finite number\n", program, what.c_str(), text.c_str());
+      return false;
+    }
+    out = v;
+    return true;
+  }
+};
+
+// flags: options without a value; valued: options with one. Returns false (and prints) on error.
+// program: the name in messages; "" for "auger ARGV[0]" (a subcommand's argv[0] is its name).
+inline bool parse_args(int argc, char** argv, const std::set<std::string>& flags,
+                       const std::set<std::string>& valued, Args& out, const std::string& program = "") {
+  const std::string who = program.empty() ? std::string("auger ") + argv[0] : program;
+  for (int i = 1; i < argc; ++i) {
+    std::string a = argv[i];
+    if (a == "-h" && flags.count("--help")) a = "--help";
+    if (a.size() > 2 && a.compare(0, 2, "--") == 0) {
+      std::string value;
+      const auto eq = a.find('=');
+      if (eq != std::string::npos) {
+        value = a.substr(eq + 1);
+        a = a.substr(0, eq);
+      }
+      if (flags.count(a)) {
+        out.options.push_back({a, ""});
+      } else if (valued.count(a)) {
+        if (eq == std::string::npos) {
+          if (i + 1 >= argc) {
+            std::fprintf(stderr, "%s: option %s needs a value\n", who.c_str(), a.c_str());
+            return false;
+          }
+          value = argv[++i];
+        }
+        out.options.push_back({a, value});
+      } else {
+        std::fprintf(stderr, "%s: unknown option '%s'\n", who.c_str(), a.c_str());
+        return false;
+      }
+    } else {
+      out.positional.push_back(a);
+    }
+  }
+  return true;
+}
+
+// One option of a program's table: its name, its value's name ("": a flag), one line of help.
+struct OptionDoc {
+  std::string name, value, help;
+};
+
+// A program's command line as one table: the usage text (`--help`) and what parse accepts both
+// come from it. --help (and -h) and --version are added to every table.
+struct CommandLine {
+  std::string program;             // "auger step", "augerd"
+  std::string synopsis;            // the arguments, e.g. "MODULE RPM [OPTIONS]"
+  std::string about;               // what it does; lines end with '\n'
+  std::vector<OptionDoc> options;
+  std::string more;                // after the options (exit codes, notes); lines end with '\n'
+
+  void print_usage(std::FILE* f) const {
+    std::fprintf(f, "usage: %s %s\n%s", program.c_str(), synopsis.c_str(), about.c_str());
+    std::vector<OptionDoc> all = options;
+    all.push_back({"--help", "", "this text"});
+    all.push_back({"--version", "", "the version"});
+    std::size_t width = 0;
+    std::vector<std::string> heads;
+    for (const auto& o : all) {
+      heads.push_back(o.name + (o.value.empty() ? "" : " " + o.value));
+      width = std::max(width, heads.back().size());
+    }
+    std::fprintf(f, "options:\n");
+    for (std::size_t i = 0; i < all.size(); ++i)
+      std::fprintf(f, "  %-*s  %s\n", int(width), heads[i].c_str(), all[i].help.c_str());
+    std::fprintf(f, "%s", more.c_str());
+  }
+  // False on a usage error: the message ("PROGRAM: ...") and the usage go to stderr.
+  bool parse(int argc, char** argv, Args& out) const {
+    std::set<std::string> flags = {"--help", "--version"}, valued;
+    for (const auto& o : options) (o.value.empty() ? flags : valued).insert(o.name);
+    if (parse_args(argc, argv, flags, valued, out, program)) return true;
+    print_usage(stderr);
+    return false;
+  }
+};
+
+}  // namespace auger

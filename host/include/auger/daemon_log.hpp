@@ -1,0 +1,48 @@
+// augerd's log schema beyond docs/log-format.md (docs/daemon.md "The log"): the mode codes, the
+// ctrl_events bits and the replay columns. augerd writes them (host/augerd/data_log.cpp,
+// daemon.cpp); `auger replay` (host/operator/replay.cpp) reads them back and reruns the controller.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace auger::daemon {
+
+// augerd's mode (docs/daemon.md "The loop"): its name in `status`, its code in the `mode` column.
+enum class Mode { stopped = 0, idle = 1, vel = 2, go_to = 3, follow = 4, hold = 5, spin = 6 };
+
+inline const char* mode_name(Mode m) {
+  switch (m) {
+    case Mode::stopped: return "stopped";
+    case Mode::idle: return "idle";
+    case Mode::vel: return "vel";
+    case Mode::go_to: return "goto";
+    case Mode::follow: return "follow";
+    case Mode::hold: return "hold";
+    case Mode::spin: return "spin";
+  }
+  return "?";
+}
+
+// The log's `mode` column.
+inline int mode_code(Mode m) { return static_cast<int>(m); }
+
+// The controller tracks poses in these (allocator and spin are refused then).
+inline bool tracking(Mode m) { return m == Mode::go_to || m == Mode::follow || m == Mode::hold; }
+
+// Bits of the `ctrl_events` column: what changed the core controller's state this cycle, before
+// its step, so that a replay applies the same changes in the same cycle.
+enum CtrlEvent : int { kEvDisabled = 1, kEvWaypoints = 2, kEvRebuilt = 4 };
+
+// The columns augerd writes after docs/log-format.md's: what `auger replay` needs to run the
+// core's estimator and controller again on the log and compare.
+inline const std::vector<std::string>& replay_columns() {
+  static const std::vector<std::string> cols = {
+      "mode",      "ctrl_events", "ctrl_enabled", "alloc_nullspace", "goal_x_m",  "goal_y_m",
+      "goal_psi_rad", "traj_n",   "tm_fresh_0",  "tm_fresh_1",      "tm_fresh_2", "tm_fresh_3",
+      "pose_sx_m", "pose_sy_m",   "pose_spsi_rad", "pose_capture_t_s", "vel_u_mps",     "vel_v_mps", "vel_r_radps",
+      "spin_module", "spin_rpm",  "xe_m",        "ye_m",            "psie_rad"};
+  return cols;
+}
+
+}  // namespace auger::daemon
