@@ -63,6 +63,15 @@
 #define ISR_SAVE1 GPIOR1
 #define ISR_SAVE2 GPIOR2
 
+/* Registers that belong to the assembly ISRs: the C code is compiled with -ffixed-r2 ..
+ * -ffixed-r5 (firmware/Makefile), and every build runs check-isr-regs.sh, which fails if
+ * any function of the image other than the ISRs and board_init / board_encoder_read names
+ * them (libgcc and avr-libc are not compiled with those flags). */
+#define ISR_REG_ENC_PREV r2 /* encoder: old ab << 6 */
+#define ISR_REG_SREG r3     /* SREG while an ISR runs (they never nest) */
+#define ISR_REG_ENC_LO r4   /* encoder: wrapping X4 count, low byte */
+#define ISR_REG_ENC_HI r5   /* high byte */
+
 /* TWI transaction states, shared by board_twi.c and twi_isr.S. */
 #define TWI_ST_IDLE 0
 #define TWI_ST_BUSY 1
@@ -86,8 +95,6 @@
 
 /* ---- encoder_isr.S ---- */
 extern const uint8_t enc_isr_table[256];   /* flash, 256-aligned, ENC_ISR_INDEX (enc.h) */
-extern volatile uint8_t enc_isr_prev;      /* old ab << 6 */
-extern volatile uint16_t enc_isr_count;    /* wrapping X4 count */
 extern volatile uint16_t enc_isr_illegal;  /* wrapping illegal-transition count */
 extern volatile uint8_t board_tick;        /* 1 kHz tick, wraps */
 extern volatile uint8_t board_wake_tick;   /* the tick ISR wakes the loop at this tick */
