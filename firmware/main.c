@@ -220,7 +220,7 @@ static int32_t with_dir_sign(int32_t raw)
     return raw;
 }
 
-static void send_telemetry(void)
+__attribute__((noinline)) static void send_telemetry(void)
 {
     proto_telemetry_t tm;
     tm.time_ms = t_ms;
