@@ -125,6 +125,8 @@ extern uint8_t uart_tx_buf[UART_TX_SIZE]; /* loop writes [head, ...), ISR reads 
 extern volatile uint8_t uart_tx_head, uart_tx_tail; /* loop writes head, ISR writes tail */
 void uart_init(void);
 bool uart_read(uint8_t *byte);
+/* Up to max received bytes into dst; returns how many (0 when the ring is empty). */
+uint8_t uart_read_some(uint8_t *dst, uint8_t max);
 /* Queue a whole frame or nothing: never blocks. False (and counted) if it did not fit. */
 bool uart_write(const uint8_t *data, uint8_t len);
 /* Room for len bytes in one piece at the ring's head, or NULL (then use uart_write): a frame

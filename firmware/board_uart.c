@@ -33,6 +33,17 @@ bool uart_read(uint8_t *byte)
     return true;
 }
 
+uint8_t uart_read_some(uint8_t *dst, uint8_t max)
+{
+    uint8_t tail = uart_rx_tail, head = uart_rx_head, n = 0;
+    while (n < max && tail != head) {
+        dst[n++] = uart_rx_buf[tail];
+        tail = (uint8_t)((tail + 1u) & (UART_RX_SIZE - 1u));
+    }
+    uart_rx_tail = tail;
+    return n;
+}
+
 bool uart_write(const uint8_t *data, uint8_t len)
 {
     uint8_t head = uart_tx_head;

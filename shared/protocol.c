@@ -447,6 +447,15 @@ void proto_parser_push(proto_parser_t *p, uint8_t byte)
     if (p->need) p->need--;
 }
 
+uint8_t *proto_parser_body(proto_parser_t *p) { return p->buf + p->n; }
+
+void proto_parser_body_added(proto_parser_t *p, uint8_t k)
+{
+    /* need > 0 only when the buffer holds a header whose frame still fits: no overflow */
+    p->n = (uint8_t)(p->n + k);
+    p->need = (uint8_t)(p->need - k);
+}
+
 bool proto_parser_pop(proto_parser_t *p, proto_frame_t *out)
 {
     /* A frame's body: nothing to check until its last byte (the module parses 1100 bytes/s
