@@ -11,7 +11,7 @@ volatile uint16_t uart_rx_overflows_count;
 volatile uint8_t uart_rx_new;
 /* Not volatile: only the loop writes it and the ISR (assembly) reads it; the compiler
  * barrier in uart_write orders the copy before the new head is published. */
-uint8_t uart_tx_buf[UART_TX_SIZE];
+__attribute__((aligned(UART_TX_SIZE))) uint8_t uart_tx_buf[UART_TX_SIZE];
 volatile uint8_t uart_tx_head, uart_tx_tail;
 static uint16_t tx_dropped;
 

@@ -74,15 +74,13 @@ UART_UDRE_VECT:
     lds  r31, uart_tx_head
     cp   r30, r31
     breq 2f
-    mov  r31, r30
-    inc  r31
-    andi r31, UART_TX_SIZE - 1
-    sts  uart_tx_tail, r31
-    ldi  r31, 0
-    subi r30, lo8(-(uart_tx_buf))
-    sbci r31, hi8(-(uart_tx_buf))
-    ld   r30, Z
-    sts  _SFR_MEM_ADDR(UDR0), r30
+    ori  r30, lo8(uart_tx_buf)            ; the ring is aligned to its size (board_uart.c):
+    ldi  r31, hi8(uart_tx_buf)            ; its address is hi8:(lo8 | tail)
+    ld   r31, Z
+    sts  _SFR_MEM_ADDR(UDR0), r31
+    inc  r30
+    andi r30, UART_TX_SIZE - 1            ; (also drops the lo8 bits)
+    sts  uart_tx_tail, r30
 1:  in   r31, _SFR_IO_ADDR(ISR_SAVE1)
     out  _SFR_IO_ADDR(SREG), ISR_REG_SREG
     in   r30, _SFR_IO_ADDR(ISR_SAVE0)
