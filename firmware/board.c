@@ -148,9 +148,16 @@ void board_idle(uint8_t last_tick, uint8_t due_ms)
     uint8_t elapsed = (uint8_t)(board_tick - last_tick);
     uint8_t twi = twi_state;
     if (elapsed < due_ms && !(elapsed != 0 && uart_rx_new) && twi != TWI_ST_DONE && twi != TWI_ST_ERROR) {
-        do {
-            sleep_cpu();
-        } while (SMCR & (1 << SE));
+        /* Unrolled: a wake-up without work costs `in`, a skipping `sbrs` and the next
+         * `sleep` (4 cycles), not also a jump back (5). */
+        for (;;) {
+#define SLEEP_WHILE_SE                         \
+    sleep_cpu();                               \
+    if (!(SMCR & (1 << SE))) break;
+            SLEEP_WHILE_SE SLEEP_WHILE_SE SLEEP_WHILE_SE SLEEP_WHILE_SE
+            SLEEP_WHILE_SE SLEEP_WHILE_SE SLEEP_WHILE_SE SLEEP_WHILE_SE
+#undef SLEEP_WHILE_SE
+        }
     }
     SMCR = 0;
 }
