@@ -302,6 +302,7 @@ int main(void)
 
     uint8_t last_tick = board_tick;
     uint8_t phase_ms = 0;
+    uint8_t wake_ms = 1; /* ticks from last_tick to the next tick with work (below) */
     bool control_due = false;
     for (;;) {
         board_wdt_reset();
@@ -351,6 +352,15 @@ int main(void)
                 }
                 eeprom_busy = busy;
             }
+
+            /* The next tick with work: the INA219 cycle start (phase INA_PHASE_MS), the
+             * control step (phase 0), the command timeout. Only this block moves the phase
+             * and the setpoint's age, so the passes between ticks (the ends of TWI
+             * transactions) keep the figure. */
+            wake_ms = (uint8_t)(phase_ms < INA_PHASE_MS ? INA_PHASE_MS - phase_ms : CONTROL_PERIOD_MS - phase_ms);
+            uint32_t timeout_ms = safety_ms_to_timeout(&safety, t_ms);
+            if (timeout_ms < wake_ms) wake_ms = (uint8_t)timeout_ms;
+            if (wake_ms == 0) wake_ms = 1;
         }
 
         /* Every pass: a tick, or the end of a TWI transaction (the next one starts now). */
@@ -374,15 +384,9 @@ int main(void)
             control_step();
         }
 
-        /* The next tick with work: the INA219 cycle start (phase INA_PHASE_MS), the control
-         * step (phase 0), the command timeout; every tick while an INA219 transaction (its
-         * timeout is counted in ticks) or an EEPROM write is in progress. Between them the
-         * tick ISR lets the loop sleep (board_idle). */
-        uint8_t due_ms = (uint8_t)(phase_ms < INA_PHASE_MS ? INA_PHASE_MS - phase_ms
-                                                           : CONTROL_PERIOD_MS - phase_ms);
-        uint32_t timeout_ms = safety_ms_to_timeout(&safety, t_ms);
-        if (timeout_ms < due_ms) due_ms = (uint8_t)timeout_ms;
-        if (due_ms == 0 || eeprom_busy || ina_busy()) due_ms = 1;
-        board_idle(last_tick, due_ms);
+        /* Every tick while an INA219 transaction (its timeout is counted in ticks) or an
+         * EEPROM write is in progress. Between the ticks with work the tick ISR lets the
+         * loop sleep (board_idle). */
+        board_idle(last_tick, eeprom_busy || ina_busy() ? 1 : wake_ms);
     }
 }
