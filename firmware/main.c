@@ -332,8 +332,8 @@ int main(void)
             uint8_t elapsed = (uint8_t)(now - last_tick);
             last_tick = now;
             t_ms += elapsed;
-            safety_tick(&safety, t_ms);
-            after_safety();
+            uint32_t timeout_ms = safety_tick(&safety, t_ms);
+            if (timeout_ms == UINT32_MAX) after_safety(); /* the only case it can have changed anything */
             uint8_t before = phase_ms;
             phase_ms = (uint8_t)(phase_ms + elapsed);
             if (before < INA_PHASE_MS && phase_ms >= INA_PHASE_MS) ina_start_cycle(t_ms, duty_x10000 != 0);
@@ -358,7 +358,6 @@ int main(void)
              * and the setpoint's age, so the passes between ticks (the ends of TWI
              * transactions) keep the figure. */
             wake_ms = (uint8_t)(phase_ms < INA_PHASE_MS ? INA_PHASE_MS - phase_ms : CONTROL_PERIOD_MS - phase_ms);
-            uint32_t timeout_ms = safety_ms_to_timeout(&safety, t_ms);
             if (timeout_ms < wake_ms) wake_ms = (uint8_t)timeout_ms;
             if (wake_ms == 0) wake_ms = 1;
         }
