@@ -124,7 +124,6 @@ extern volatile uint8_t uart_rx_new; /* set by the RX ISR, cleared by the loop: 
 extern uint8_t uart_tx_buf[UART_TX_SIZE]; /* loop writes [head, ...), ISR reads [tail, head) */
 extern volatile uint8_t uart_tx_head, uart_tx_tail; /* loop writes head, ISR writes tail */
 void uart_init(void);
-bool uart_read(uint8_t *byte);
 /* Up to max received bytes into dst; returns how many (0 when the ring is empty). */
 uint8_t uart_read_some(uint8_t *dst, uint8_t max);
 /* Queue a whole frame or nothing: never blocks. False (and counted) if it did not fit. */

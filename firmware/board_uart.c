@@ -24,15 +24,6 @@ void uart_init(void)
     UCSR0B = (1 << RXEN0) | (1 << TXEN0) | (1 << RXCIE0);
 }
 
-bool uart_read(uint8_t *byte)
-{
-    uint8_t tail = uart_rx_tail;
-    if (tail == uart_rx_head) return false;
-    *byte = uart_rx_buf[tail];
-    uart_rx_tail = (uint8_t)((tail + 1u) & (UART_RX_SIZE - 1u));
-    return true;
-}
-
 uint8_t uart_read_some(uint8_t *dst, uint8_t max)
 {
     uint8_t tail = uart_rx_tail, head = uart_rx_head, n = 0;

@@ -313,15 +313,12 @@ int main(void)
              * same times (and so the same command timeouts) as when every byte woke the
              * loop, at one wake-up per tick with input instead of one per byte. */
             uart_rx_new = 0;
-            uint8_t byte;
-            while (uart_read(&byte)) {
-                proto_parser_push(&parser, byte);
-                if (parser.need) {
-                    /* inside a frame's body: what has arrived of it in one copy (a setpoint's
-                     * 7 body bytes: ~45 cycles each through uart_read and push) */
-                    proto_parser_body_added(&parser, uart_read_some(proto_parser_body(&parser), parser.need));
-                    if (parser.need) continue; /* the rest at a later tick */
-                }
+            /* A header, then a body, each in one copy out of the ring (byte by byte through
+             * a read and proto_parser_push a setpoint cost ~45 cycles a byte). */
+            uint8_t got;
+            while ((got = uart_read_some(proto_parser_next(&parser), proto_parser_room(&parser))) != 0) {
+                proto_parser_added(&parser, got);
+                if (parser.need) continue; /* inside a frame's body: nothing to check yet */
                 proto_frame_t frame;
                 while (proto_parser_pop(&parser, &frame)) handle_frame(&frame);
             }

@@ -447,13 +447,20 @@ void proto_parser_push(proto_parser_t *p, uint8_t byte)
     if (p->need) p->need--;
 }
 
-uint8_t *proto_parser_body(proto_parser_t *p) { return p->buf + p->n; }
-
-void proto_parser_body_added(proto_parser_t *p, uint8_t k)
+uint8_t proto_parser_room(const proto_parser_t *p)
 {
-    /* need > 0 only when the buffer holds a header whose frame still fits: no overflow */
+    /* need > 0 only when the buffer holds a header whose frame still fits; else pop has
+     * left fewer than a header's bytes: no overflow either way */
+    if (p->need) return p->need;
+    return p->n < PROTO_HEADER_SIZE ? (uint8_t)(PROTO_HEADER_SIZE - p->n) : 1u;
+}
+
+uint8_t *proto_parser_next(proto_parser_t *p) { return p->buf + p->n; }
+
+void proto_parser_added(proto_parser_t *p, uint8_t k)
+{
     p->n = (uint8_t)(p->n + k);
-    p->need = (uint8_t)(p->need - k);
+    p->need = p->need > k ? (uint8_t)(p->need - k) : 0u;
 }
 
 bool proto_parser_pop(proto_parser_t *p, proto_frame_t *out)

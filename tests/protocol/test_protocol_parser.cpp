@@ -288,11 +288,11 @@ TEST_CASE("a caller that never pops loses old bytes, not memory", "[protocol][pa
     CHECK(p.bytes_discarded == 1000 - PROTO_MAX_FRAME);
 }
 
-TEST_CASE("a body stored through proto_parser_body equals the same bytes pushed one by one",
+TEST_CASE("bytes stored through proto_parser_next equal the same bytes pushed one by one",
           "[protocol][parser]")
 {
-    // What the module does: push bytes until the parser is inside a body (need > 0), copy
-    // up to need of what has arrived (a random amount here) straight into the body, repeat.
+    // What the module does: copy up to proto_parser_room of what has arrived (a random
+    // amount here) straight into the parser, pop, repeat.
     std::mt19937_64 rng(16);
     Bytes stream;
     for (int i = 0; i < 300; ++i) {
@@ -312,27 +312,25 @@ TEST_CASE("a body stored through proto_parser_body equals the same bytes pushed 
     proto_parser_t p;
     proto_parser_init(&p);
     std::vector<Bytes> frames;
-    size_t body_copies = 0;
-    auto pop_all = [&] {
-        proto_frame_t f;
-        while (proto_parser_pop(&p, &f)) frames.push_back(wire_of(f));
-    };
+    size_t copies_over_1 = 0;
     size_t i = 0;
     while (i < stream.size()) {
-        proto_parser_push(&p, stream[i++]);
-        while (p.need && i < stream.size()) {
-            size_t k = std::min<size_t>({size_t(p.need), stream.size() - i, 1 + rng() % 40});
-            std::copy(stream.begin() + long(i), stream.begin() + long(i + k), proto_parser_body(&p));
-            proto_parser_body_added(&p, uint8_t(k));
-            i += k;
-            ++body_copies;
-        }
-        pop_all();
+        uint8_t room = proto_parser_room(&p);
+        REQUIRE(room >= 1);
+        REQUIRE(p.n + room <= PROTO_MAX_FRAME);
+        size_t k = std::min<size_t>({size_t(room), stream.size() - i, 1 + rng() % 40});
+        std::copy(stream.begin() + long(i), stream.begin() + long(i + k), proto_parser_next(&p));
+        proto_parser_added(&p, uint8_t(k));
+        i += k;
+        if (k > 1) ++copies_over_1;
+        proto_frame_t f;
+        while (proto_parser_pop(&p, &f)) frames.push_back(wire_of(f));
     }
-    CHECK(body_copies > 300);
+    CHECK(copies_over_1 > 300);
     REQUIRE(frames.size() == by_byte.frames.size());
     CHECK(frames == by_byte.frames);
     CHECK(p.n == by_byte.parser.n);
+    CHECK(p.need == by_byte.parser.need);
     CHECK(p.frames_ok == by_byte.parser.frames_ok);
     CHECK(p.crc_errors == by_byte.parser.crc_errors);
     CHECK(p.header_errors == by_byte.parser.header_errors);
