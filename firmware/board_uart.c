@@ -26,9 +26,11 @@ void uart_init(void)
 
 uint8_t uart_read_some(uint8_t *dst, uint8_t max)
 {
-    uint8_t tail = uart_rx_tail, head = uart_rx_head, n = 0;
-    while (n < max && tail != head) {
-        dst[n++] = uart_rx_buf[tail];
+    uint8_t tail = uart_rx_tail;
+    uint8_t n = (uint8_t)((uart_rx_head - tail) & (UART_RX_SIZE - 1u));
+    if (n > max) n = max;
+    for (uint8_t i = n; i != 0; --i) {
+        *dst++ = uart_rx_buf[tail];
         tail = (uint8_t)((tail + 1u) & (UART_RX_SIZE - 1u));
     }
     uart_rx_tail = tail;

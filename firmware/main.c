@@ -312,15 +312,18 @@ int main(void)
             /* Received bytes first, with t_ms still the millisecond they arrived in: the
              * same times (and so the same command timeouts) as when every byte woke the
              * loop, at one wake-up per tick with input instead of one per byte. */
-            uart_rx_new = 0;
             /* A header, then a body, each in one copy out of the ring (byte by byte through
-             * a read and proto_parser_push a setpoint cost ~45 cycles a byte). */
-            uint8_t got;
-            while ((got = uart_read_some(proto_parser_next(&parser), proto_parser_room(&parser))) != 0) {
-                proto_parser_added(&parser, got);
-                if (parser.need) continue; /* inside a frame's body: nothing to check yet */
-                proto_frame_t frame;
-                while (proto_parser_pop(&parser, &frame)) handle_frame(&frame);
+             * a read and proto_parser_push a setpoint cost ~45 cycles a byte). The RX ISR
+             * sets uart_rx_new with every byte it stores: without it the ring is empty. */
+            if (uart_rx_new) {
+                uart_rx_new = 0;
+                uint8_t got;
+                while ((got = uart_read_some(proto_parser_next(&parser), proto_parser_room(&parser))) != 0) {
+                    proto_parser_added(&parser, got);
+                    if (parser.need) continue; /* inside a frame's body: nothing to check yet */
+                    proto_frame_t frame;
+                    while (proto_parser_pop(&parser, &frame)) handle_frame(&frame);
+                }
             }
 
             /* The milliseconds since the last pass at once: the loop sleeps through ticks
