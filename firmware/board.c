@@ -138,18 +138,17 @@ void board_idle(uint8_t last_tick, uint8_t due_ms)
      * control step or command timeout), at the tick after a byte arrived (the RX ring holds
      * 2.5 ms) and at the end of a TWI transaction. The tick ISR and the TWI ISR clear SE
      * when they bring that work. So: set SE, look once for work that came before, then
-     * sleep while SE stays set; a wake-up that brings nothing costs the `in`, `sbrc` and
-     * jump back (5 cycles with the sleep). No cli() around the check (a window with
-     * interrupts off right after another ISR would delay the encoder ISR past the next edge
-     * at 200k edges/s): an ISR between the check and `sleep` clears SE, which makes that
-     * `sleep` a no-op and ends the loop. */
+     * sleep while SE stays set; a wake-up that brings nothing costs the `in`, a skipping
+     * `sbrs` and the next `sleep` (4 cycles, the loop below unrolled). No cli() around the
+     * check (a window with interrupts off right after another ISR would delay the encoder
+     * ISR past the next edge at 200k edges/s): an ISR between the check and `sleep` clears
+     * SE, which makes that `sleep` a no-op and ends the loop. */
     board_wake_tick = (uint8_t)(last_tick + due_ms);
     SMCR = SLEEP_SMCR_IDLE;
     uint8_t elapsed = (uint8_t)(board_tick - last_tick);
     uint8_t twi = twi_state;
     if (elapsed < due_ms && !(elapsed != 0 && uart_rx_new) && twi != TWI_ST_DONE && twi != TWI_ST_ERROR) {
-        /* Unrolled: a wake-up without work costs `in`, a skipping `sbrs` and the next
-         * `sleep` (4 cycles), not also a jump back (5). */
+        /* Unrolled: no jump back on every wake-up (5 cycles -> 4). */
         for (;;) {
 #define SLEEP_WHILE_SE                         \
     sleep_cpu();                               \

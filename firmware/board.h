@@ -56,9 +56,9 @@
 #define UART_UDRE_VECT USART_UDRE_vect
 #define TWI_VECT TWI_vect
 
-/* The assembly ISRs (encoder, TWI, UART) save registers and SREG in GPIOR0..2 (1 cycle
- * each instead of a 2-cycle push). No ISR enables interrupts, so they never nest and can
- * share the three registers; nothing else may use them. */
+/* The assembly ISRs (encoder, tick, TWI, UART) save registers in GPIOR0..2 (1 cycle each
+ * instead of a 2-cycle push) and SREG in ISR_REG_SREG (below). No ISR enables interrupts,
+ * so they never nest and can share them; nothing else may use them. */
 #define ISR_SAVE0 GPIOR0
 #define ISR_SAVE1 GPIOR1
 #define ISR_SAVE2 GPIOR2
