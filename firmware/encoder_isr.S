@@ -35,7 +35,7 @@ fw_wdt_marker:   .skip 2    ; WDT_MARKER0/1 written by the watchdog interrupt, s
  * and count in RAM); the chip adds its 4 cycles of interrupt response (8 when it wakes
  * from sleep), which simavr does not model.
  */
-    .section .text.enc_isr,"ax",@progbits
+    .text                                 ; before the C code: the vectors reach it with rjmp (Makefile)
     .global ENC_VECT
 ENC_VECT:
     out  _SFR_IO_ADDR(ISR_SAVE0), r30
@@ -74,7 +74,7 @@ ENC_VECT:
  * (board_wake_tick) or when a byte has arrived since it last drained the RX ring
  * (uart_rx_new): on the other ticks there is nothing for it to do. SREG in ISR_REG_SREG
  * (board.h). */
-    .section .text.tick_isr,"ax",@progbits
+    .text                                 ; before the C code: the vectors reach it with rjmp (Makefile)
     .global TICK_VECT
 TICK_VECT:
     out  _SFR_IO_ADDR(ISR_SAVE0), r24
@@ -101,7 +101,7 @@ TICK_VECT:
  * does not pass it on, so WDRF is lost. The watchdog runs in interrupt-then-reset mode:
  * the first timeout lands here and leaves a marker in .noinit RAM, the second resets,
  * and the boot code below reads the marker. 12 cycles; no flags touched. */
-    .section .text.wdt_isr,"ax",@progbits
+    .text                                 ; before the C code: the vectors reach it with rjmp (Makefile)
     .global WDT_VECT
 WDT_VECT:
     out  _SFR_IO_ADDR(ISR_SAVE0), r24

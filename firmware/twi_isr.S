@@ -25,7 +25,7 @@ twi_state:  .skip 1
 twi_wptr:   .skip 2
 twi_rptr:   .skip 2
 
-    .section .text.twi_isr,"ax",@progbits
+    .text                                 ; before the C code: the vectors reach it with rjmp (Makefile)
     .global TWI_VECT
 TWI_VECT:
     out  _SFR_IO_ADDR(ISR_SAVE0), r24

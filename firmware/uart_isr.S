@@ -19,7 +19,7 @@
 /* ---- receive: store the byte, count a lost one -----------------------------------------
  * uart_rx_overflows_count counts a byte lost to a full ring or to a hardware overrun
  * (DOR0), once if both (as the C handler did). T marks "counted"; SREG is restored. */
-    .section .text.uart_rx_isr,"ax",@progbits
+    .text                                 ; before the C code: the vectors reach it with rjmp (Makefile)
     .global UART_RX_VECT
 UART_RX_VECT:
     out  _SFR_IO_ADDR(ISR_SAVE0), r30
@@ -64,7 +64,7 @@ UART_RX_VECT:
 /* ---- data register empty: next byte, or mask this interrupt when the ring is empty ----
  * UDRE0 stays set while UDR0 is empty, so an empty ring must clear UDRIE0; uart_write sets
  * it again after queueing a frame. */
-    .section .text.uart_udre_isr,"ax",@progbits
+    .text                                 ; before the C code: the vectors reach it with rjmp (Makefile)
     .global UART_UDRE_VECT
 UART_UDRE_VECT:
     out  _SFR_IO_ADDR(ISR_SAVE0), r30
