@@ -305,7 +305,7 @@ void print_profile(const char* title, const Profiler& p, const SymbolMap& syms, 
         if (!pcs[pc]) continue;
         std::string name;
         if (pc < kVectorTableEnd) {
-            name = "vector table jmp";
+            name = "vector table jump";
         } else {
             const Symbol* s = syms.at(pc);
             name = s ? s->name : "?";
@@ -413,7 +413,7 @@ void section_isr(bool lines)
         print_profile(c.name, prof, syms, lines);
     }
     std::printf("\nAll three cases together. ISR: from the first instruction of the vector (its "
-                "jmp) to reti inclusive, as simavr counts; the chip adds 4 cycles of interrupt "
+                "jmp or rjmp) to reti inclusive, as simavr counts; the chip adds 4 cycles of interrupt "
                 "response (8 when it wakes from idle sleep), which simavr 1.6 does not model. "
                 "Handlers that re-enable interrupts (UART) include any encoder ISR nested in them.\n\n");
     std::printf("| handler | calls | min | mean | max |\n|---|---|---|---|---|\n");

@@ -30,8 +30,8 @@ fw_wdt_marker:   .skip 2    ; WDT_MARKER0/1 written by the watchdog interrupt, s
  * use (board.h, ISR_REG_*: the C code is compiled with -ffixed-r2..r5, the image checked by
  * check-isr-regs.sh at every build), so only r30:r31 are saved (GPIOR0..1); the high byte
  * of the count changes only when +1 carries out of the low byte or -1 (0xFF) does not.
- * Cost, measured in simavr (build/bench/fw_bench isr, docs/benchmarks.md): 29 cycles per
- * edge from the vector's jmp to reti inclusive on the common path (was 38 with the state
+ * Cost, measured in simavr (build/bench/fw_bench isr, docs/benchmarks.md): 28 cycles per
+ * edge from the vector's rjmp to reti inclusive on the common path (was 38 with the state
  * and count in RAM); the chip adds its 4 cycles of interrupt response (8 when it wakes
  * from sleep), which simavr does not model.
  */

@@ -2,7 +2,7 @@
  * TWI master interrupt in assembly: the C version spent ~75 cycles with interrupts off
  * (prologue, switch, epilogue), long enough to make the encoder ISR miss an edge at
  * 200k edges/s. This one saves registers in GPIOR0..2 and SREG in ISR_REG_SREG (board.h)
- * like the encoder ISR: 39..57 cycles from the vector's jmp to reti (build/bench/fw_bench
+ * like the encoder ISR: 38..56 cycles from the vector's rjmp to reti (build/bench/fw_bench
  * isr), the longest handler, so it sets the encoder's jittered edge-rate limit.
  * Protocol (board_twi.c starts it): write twi_wleft bytes from twi_wptr, then with a
  * repeated start read twi_rleft bytes to twi_rptr (ACK all but the last), STOP, and set

@@ -2,8 +2,8 @@
  * USART0 interrupts in assembly. They run once per byte (3300 bytes/s of telemetry out,
  * 1100 of setpoints in); the C versions measured 51..144 cycles (mean 69, TX) and 78..129
  * (mean 81, RX) and re-enabled interrupts part-way so the encoder ISR could preempt them.
- * These take 27..31 (TX) and 41 (RX) cycles, jmp to reti, measured by build/bench/fw_bench
- * (docs/benchmarks.md): shorter than the TWI ISR (39..57), so interrupts stay off all along.
+ * These take 26..28 (TX) and 40 (RX) cycles, rjmp to reti, measured by build/bench/fw_bench
+ * (docs/benchmarks.md): shorter than the TWI ISR (38..56), so interrupts stay off all along.
  * They save registers in GPIOR0..2 and SREG in ISR_REG_SREG like the other assembly ISRs
  * (board.h: none of them enables interrupts, so they never nest).
  * The rings are board_uart.c's. The RX ISR does not wake the main loop: it sets
