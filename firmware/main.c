@@ -113,6 +113,8 @@ static void apply_settings(void)
 {
     update_duty_cap();
     safety_configure(&safety, &settings);
+    /* the under-voltage threshold and its hysteresis band: fresh samples for the filter */
+    ina_watch_bus_below((uint16_t)(settings.undervoltage_mv + settings.undervoltage_hyst_mv));
     pid_set_gains(&pid, settings.kp, settings.ki, settings.kd, (float)(PID_T));
     foldback_configure(&foldback, settings.foldback_ma, settings.overcurrent_ma);
     vel_init(&vel, settings.counts_per_rev_x100, CONTROL_PERIOD_MS);
