@@ -45,13 +45,11 @@ static vel_t vel;
 static enc_extend_t enc_ext;
 static proto_parser_t parser;
 
-static uint32_t t_ms;
-static uint16_t seq_ack;
+/* The telemetry record is the home of the values it reports that the loop keeps anyway
+ * (module time, seq_ack, measured speed, position after dir_sign, encoder errors, duty in
+ * omega's sign convention): a frame copies only the rest into it. */
+static proto_telemetry_t live;
 static int16_t omega_sp_crpm;  /* last setpoint after limits */
-static int16_t omega_crpm;     /* measured */
-static int32_t position_counts; /* after dir_sign */
-static uint16_t encoder_errors;
-static int16_t duty_x10000;    /* in omega's sign convention */
 static bool duty_limited;
 static ina_reading_t power;
 static int16_t duty_cap_x10000;  /* for power.voltage_mv (a division: only when it changes) */
@@ -125,7 +123,7 @@ static void apply_settings(void)
 static void motor_stop(void)
 {
     board_motor_set(0);
-    duty_x10000 = 0;
+    live.duty_x10000 = 0;
     pid_reset(&pid);
     foldback_reset(&foldback);
 }
@@ -145,17 +143,17 @@ static void after_safety_slow(void)
     uint16_t fresh = safety_take_new(&safety);
     if (fresh) {
         proto_fault_t ft;
-        ft.time_ms = t_ms;
+        ft.time_ms = live.time_ms;
         ft.faults = fresh;
         ft.current_ma = power.current_ma;
         ft.voltage_mv = power.voltage_mv;
-        ft.omega_crpm = omega_crpm;
+        ft.omega_crpm = live.omega_crpm;
         ft.omega_cmd_crpm = omega_sp_crpm;
-        ft.duty_x10000 = duty_x10000;
-        if (duty_x10000 != 0 && !safety_motor_enabled(&safety)) motor_stop();
+        ft.duty_x10000 = live.duty_x10000;
+        if (live.duty_x10000 != 0 && !safety_motor_enabled(&safety)) motor_stop();
         ft.status = status_word();
         SEND_FRAME(PROTO_FRAME_SIZE(PROTO_LEN_FAULT), proto_encode_fault, &ft);
-    } else if (duty_x10000 != 0 && !safety_motor_enabled(&safety)) {
+    } else if (live.duty_x10000 != 0 && !safety_motor_enabled(&safety)) {
         motor_stop();
     }
 }
@@ -164,7 +162,7 @@ static void after_safety_slow(void)
  * as it should be) in a few cycles. */
 __attribute__((always_inline)) static inline void after_safety(void)
 {
-    if (safety.faults != safety.reported || (duty_x10000 != 0 && !safety_motor_enabled(&safety)))
+    if (safety.faults != safety.reported || (live.duty_x10000 != 0 && !safety_motor_enabled(&safety)))
         after_safety_slow();
 }
 
@@ -174,12 +172,12 @@ static void handle_frame(const proto_frame_t *f)
     case PROTO_T_SETPOINT: {
         proto_setpoint_t sp;
         if (!proto_decode_setpoint(f, &sp)) return;
-        seq_ack = sp.seq;
+        live.seq_ack = sp.seq;
         int16_t lim = (int16_t)settings.omega_max_crpm;
         int16_t w = sp.omega_crpm;
         if (w > lim) w = lim;
         if (w < -lim) w = (int16_t)-lim;
-        omega_sp_crpm = safety_on_setpoint(&safety, sp.flags, t_ms) ? w : 0;
+        omega_sp_crpm = safety_on_setpoint(&safety, sp.flags, live.time_ms) ? w : 0;
         after_safety();
         break;
     }
@@ -224,19 +222,12 @@ static int32_t with_dir_sign(int32_t raw)
 
 __attribute__((noinline)) static void send_telemetry(void)
 {
-    proto_telemetry_t tm;
-    tm.time_ms = t_ms;
-    tm.seq_ack = seq_ack;
-    tm.omega_crpm = omega_crpm;
-    tm.omega_cmd_crpm = safety_motor_enabled(&safety) ? omega_sp_crpm : 0;
-    tm.position_counts = position_counts;
-    tm.current_ma = power.current_ma;
-    tm.voltage_mv = power.voltage_mv;
-    tm.duty_x10000 = duty_x10000;
-    tm.status = status_word();
-    tm.rx_errors = (uint16_t)(proto_parser_dropped(&parser) + uart_rx_overflows());
-    tm.encoder_errors = encoder_errors;
-    SEND_FRAME(PROTO_FRAME_SIZE(PROTO_LEN_TELEMETRY), proto_encode_telemetry, &tm);
+    live.omega_cmd_crpm = safety_motor_enabled(&safety) ? omega_sp_crpm : 0;
+    live.current_ma = power.current_ma;
+    live.voltage_mv = power.voltage_mv;
+    live.status = status_word();
+    live.rx_errors = (uint16_t)(proto_parser_dropped(&parser) + uart_rx_overflows());
+    SEND_FRAME(PROTO_FRAME_SIZE(PROTO_LEN_TELEMETRY), proto_encode_telemetry, &live);
 }
 
 /* noinline: a symbol of its own, so the simulator benchmark (bench/fw_bench) can time it
@@ -245,23 +236,23 @@ __attribute__((noinline)) static void control_step(void)
 {
     uint16_t count, illegal;
     board_encoder_read(&count, &illegal);
-    position_counts = with_dir_sign(enc_extend(&enc_ext, count));
-    encoder_errors = illegal;
-    omega_crpm = vel_update_crpm(&vel, position_counts);
+    live.position_counts = with_dir_sign(enc_extend(&enc_ext, count));
+    live.encoder_errors = illegal;
+    live.omega_crpm = vel_update_crpm(&vel, live.position_counts);
 
     bool enabled = safety_motor_enabled(&safety);
     duty_limited = false;
     if (enabled) {
         int32_t limit = foldback_update(&foldback, power.current_ma, pid.u);
         int32_t u;
-        duty_x10000 = pid_step_duty(&pid, (int32_t)omega_sp_crpm - omega_crpm, duty_cap_x10000, limit,
+        live.duty_x10000 = pid_step_duty(&pid, (int32_t)omega_sp_crpm - live.omega_crpm, duty_cap_x10000, limit,
                                     &duty_limited, &u);
         /* the clamp at the foldback limit is the current limit's, not the duty cap's */
         if (limit < PID_U_ONE && (u == limit || u == -limit)) duty_limited = false;
-        safety_on_step(&safety, u, duty_x10000, omega_crpm, power.current_ma);
+        safety_on_step(&safety, u, live.duty_x10000, live.omega_crpm, power.current_ma);
         after_safety();
-        if (duty_x10000 != 0 || safety_motor_enabled(&safety))
-            board_motor_set(settings.dir_sign < 0 ? (int16_t)-duty_x10000 : duty_x10000);
+        if (live.duty_x10000 != 0 || safety_motor_enabled(&safety))
+            board_motor_set(settings.dir_sign < 0 ? (int16_t)-live.duty_x10000 : live.duty_x10000);
     } else {
         motor_stop();
     }
@@ -311,7 +302,7 @@ int main(void)
 
         uint8_t now = board_tick;
         if (now != last_tick) {
-            /* Received bytes first, with t_ms still the millisecond they arrived in: the
+            /* Received bytes first, with the module time still the millisecond they arrived in: the
              * same times (and so the same command timeouts) as when every byte woke the
              * loop, at one wake-up per tick with input instead of one per byte. */
             /* A header, then a body, each in one copy out of the ring (byte by byte through
@@ -333,16 +324,16 @@ int main(void)
              * events fall on the pass that woke for them. */
             uint8_t elapsed = (uint8_t)(now - last_tick);
             last_tick = now;
-            t_ms += elapsed;
-            uint32_t timeout_ms = safety_tick(&safety, t_ms);
+            live.time_ms += elapsed;
+            uint32_t timeout_ms = safety_tick(&safety, live.time_ms);
             if (timeout_ms == UINT32_MAX) after_safety(); /* the only case it can have changed anything */
             uint8_t before = phase_ms;
             phase_ms = (uint8_t)(phase_ms + elapsed);
-            if (before < INA_PHASE_MS && phase_ms >= INA_PHASE_MS) ina_start_cycle(t_ms, duty_x10000 != 0);
+            if (before < INA_PHASE_MS && phase_ms >= INA_PHASE_MS) ina_start_cycle(live.time_ms, live.duty_x10000 != 0);
             if (phase_ms >= CONTROL_PERIOD_MS) {
                 /* (more than a period late only if the loop was held up that long) */
                 while (phase_ms >= CONTROL_PERIOD_MS) phase_ms = (uint8_t)(phase_ms - CONTROL_PERIOD_MS);
-                if (phase_ms >= INA_PHASE_MS) ina_start_cycle(t_ms, duty_x10000 != 0);
+                if (phase_ms >= INA_PHASE_MS) ina_start_cycle(live.time_ms, live.duty_x10000 != 0);
                 control_due = true;
             }
 
@@ -366,7 +357,7 @@ int main(void)
 
         /* Every pass: a tick, or the end of a TWI transaction (the next one starts now). */
         if (ina_busy()) {
-            ina_poll(t_ms);
+            ina_poll(live.time_ms);
             ina_reading_t r;
             if (ina_take(&r)) {
                 power = r;
