@@ -305,7 +305,7 @@ void print_profile(const char* title, const Profiler& p, const SymbolMap& syms, 
         if (!pcs[pc]) continue;
         std::string name;
         if (pc < kVectorTableEnd) {
-            name = "vector table jmp";
+            name = "vector table jump";
         } else {
             const Symbol* s = syms.at(pc);
             name = s ? s->name : "?";
@@ -346,10 +346,13 @@ void print_profile(const char* title, const Profiler& p, const SymbolMap& syms, 
             std::printf("| `%s` | %.0f |\n", r[i].second.c_str(), double(r[i].first) / double(steps));
     }
     if (!lines) return;
-    print_lines("Source lines of 2000 cycles/s or more", pcs, syms, seconds, 2000);
+    // Source lines shown: at least LMIN cycles/s (default 2000), in the control step LMIN/100 a step.
+    const char* lmin_env = std::getenv("LMIN");
+    const double lmin = lmin_env ? std::atof(lmin_env) : 2000.0;
+    print_lines("Source lines of 2000 cycles/s or more (env LMIN: another threshold)", pcs, syms, seconds, lmin);
     uint64_t steps = p.control_excl().n ? p.control_excl().n : 1;
     print_lines("Control step: source lines of 20 cycles per step or more", p.control_busy_by_pc(), syms,
-                double(steps), 20);
+                double(steps), lmin / 100);
 }
 
 // ---- sections ----
@@ -410,7 +413,7 @@ void section_isr(bool lines)
         print_profile(c.name, prof, syms, lines);
     }
     std::printf("\nAll three cases together. ISR: from the first instruction of the vector (its "
-                "jmp) to reti inclusive, as simavr counts; the chip adds 4 cycles of interrupt "
+                "jmp or rjmp) to reti inclusive, as simavr counts; the chip adds 4 cycles of interrupt "
                 "response (8 when it wakes from idle sleep), which simavr 1.6 does not model. "
                 "Handlers that re-enable interrupts (UART) include any encoder ISR nested in them.\n\n");
     std::printf("| handler | calls | min | mean | max |\n|---|---|---|---|---|\n");

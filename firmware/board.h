@@ -56,12 +56,21 @@
 #define UART_UDRE_VECT USART_UDRE_vect
 #define TWI_VECT TWI_vect
 
-/* The assembly ISRs (encoder, TWI, UART) save registers and SREG in GPIOR0..2 (1 cycle
- * each instead of a 2-cycle push). No ISR enables interrupts, so they never nest and can
- * share the three registers; nothing else may use them. */
+/* The assembly ISRs (encoder, tick, TWI, UART) save registers in GPIOR0..2 (1 cycle each
+ * instead of a 2-cycle push) and SREG in ISR_REG_SREG (below). No ISR enables interrupts,
+ * so they never nest and can share them; nothing else may use them. */
 #define ISR_SAVE0 GPIOR0
 #define ISR_SAVE1 GPIOR1
 #define ISR_SAVE2 GPIOR2
+
+/* Registers that belong to the assembly ISRs: the C code is compiled with -ffixed-r2 ..
+ * -ffixed-r5 (firmware/Makefile), and every build runs check-isr-regs.sh, which fails if
+ * any function of the image other than the ISRs and board_init / board_encoder_read names
+ * them (libgcc and avr-libc are not compiled with those flags). */
+#define ISR_REG_ENC_PREV r2 /* encoder: old ab << 6 */
+#define ISR_REG_SREG r3     /* SREG while an ISR runs (they never nest) */
+#define ISR_REG_ENC_LO r4   /* encoder: wrapping X4 count, low byte */
+#define ISR_REG_ENC_HI r5   /* high byte */
 
 /* TWI transaction states, shared by board_twi.c and twi_isr.S. */
 #define TWI_ST_IDLE 0
@@ -86,8 +95,6 @@
 
 /* ---- encoder_isr.S ---- */
 extern const uint8_t enc_isr_table[256];   /* flash, 256-aligned, ENC_ISR_INDEX (enc.h) */
-extern volatile uint8_t enc_isr_prev;      /* old ab << 6 */
-extern volatile uint16_t enc_isr_count;    /* wrapping X4 count */
 extern volatile uint16_t enc_isr_illegal;  /* wrapping illegal-transition count */
 extern volatile uint8_t board_tick;        /* 1 kHz tick, wraps */
 extern volatile uint8_t board_wake_tick;   /* the tick ISR wakes the loop at this tick */
@@ -117,7 +124,8 @@ extern volatile uint8_t uart_rx_new; /* set by the RX ISR, cleared by the loop: 
 extern uint8_t uart_tx_buf[UART_TX_SIZE]; /* loop writes [head, ...), ISR reads [tail, head) */
 extern volatile uint8_t uart_tx_head, uart_tx_tail; /* loop writes head, ISR writes tail */
 void uart_init(void);
-bool uart_read(uint8_t *byte);
+/* Up to max received bytes into dst; returns how many (0 when the ring is empty). */
+uint8_t uart_read_some(uint8_t *dst, uint8_t max);
 /* Queue a whole frame or nothing: never blocks. False (and counted) if it did not fit. */
 bool uart_write(const uint8_t *data, uint8_t len);
 /* Room for len bytes in one piece at the ring's head, or NULL (then use uart_write): a frame

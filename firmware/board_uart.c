@@ -11,7 +11,7 @@ volatile uint16_t uart_rx_overflows_count;
 volatile uint8_t uart_rx_new;
 /* Not volatile: only the loop writes it and the ISR (assembly) reads it; the compiler
  * barrier in uart_write orders the copy before the new head is published. */
-uint8_t uart_tx_buf[UART_TX_SIZE];
+__attribute__((aligned(UART_TX_SIZE))) uint8_t uart_tx_buf[UART_TX_SIZE];
 volatile uint8_t uart_tx_head, uart_tx_tail;
 static uint16_t tx_dropped;
 
@@ -24,13 +24,17 @@ void uart_init(void)
     UCSR0B = (1 << RXEN0) | (1 << TXEN0) | (1 << RXCIE0);
 }
 
-bool uart_read(uint8_t *byte)
+uint8_t uart_read_some(uint8_t *dst, uint8_t max)
 {
     uint8_t tail = uart_rx_tail;
-    if (tail == uart_rx_head) return false;
-    *byte = uart_rx_buf[tail];
-    uart_rx_tail = (uint8_t)((tail + 1u) & (UART_RX_SIZE - 1u));
-    return true;
+    uint8_t n = (uint8_t)((uart_rx_head - tail) & (UART_RX_SIZE - 1u));
+    if (n > max) n = max;
+    for (uint8_t i = n; i != 0; --i) {
+        *dst++ = uart_rx_buf[tail];
+        tail = (uint8_t)((tail + 1u) & (UART_RX_SIZE - 1u));
+    }
+    uart_rx_tail = tail;
+    return n;
 }
 
 bool uart_write(const uint8_t *data, uint8_t len)

@@ -155,6 +155,15 @@
 #ifndef INA_VERIFY_CYCLES
 #define INA_VERIFY_CYCLES 10
 #endif
+/* The bus voltage is read every this many INA219 cycles while the pack is above
+ * undervoltage_mv + undervoltage_hyst_mv, every cycle once a reading is below that: a low pack is
+ * seen within INA_BUS_CYCLES x 10 ms, and the under-voltage filter (UNDERVOLTAGE_SAMPLES)
+ * then counts fresh readings, so it trips within (INA_BUS_CYCLES + UNDERVOLTAGE_SAMPLES) x
+ * 10 ms of the drop (280 ms) and a sag shorter than UNDERVOLTAGE_SAMPLES x 10 ms never
+ * trips. The duty cap follows the pack at 12.5 Hz. */
+#ifndef INA_BUS_CYCLES
+#define INA_BUS_CYCLES 8
+#endif
 /* Longest wait for one TWI transaction, ms (a 6-byte transaction takes 0.15 ms at 400 kHz). */
 #define TWI_TIMEOUT_MS 3u
 #define TWI_SCL_HZ 400000UL
@@ -229,6 +238,9 @@
 #endif
 #if INA_FAIL_CYCLES < 1 || INA_FAIL_CYCLES > 255
 #error "INA_FAIL_CYCLES must be 1..255"
+#endif
+#if INA_BUS_CYCLES < 1 || INA_BUS_CYCLES > 255
+#error "INA_BUS_CYCLES must be 1..255"
 #endif
 #if INA_VERIFY_CYCLES < 1 || INA_VERIFY_CYCLES > 255
 #error "INA_VERIFY_CYCLES must be 1..255"

@@ -10,9 +10,7 @@
 
 /* ---- data ------------------------------------------------------------------------------- */
     .section .bss.enc_isr_vars,"aw",@nobits
-    .global enc_isr_prev, enc_isr_count, enc_isr_illegal, board_tick, board_wake_tick
-enc_isr_prev:    .skip 1
-enc_isr_count:   .skip 2
+    .global enc_isr_illegal, board_tick, board_wake_tick
 enc_isr_illegal: .skip 2
 board_tick:      .skip 1
 board_wake_tick: .skip 1
@@ -27,54 +25,42 @@ fw_wdt_marker:   .skip 2    ; WDT_MARKER0/1 written by the watchdog interrupt, s
  * that to be seen as a separate step (it sets the flag again and the ISR runs once more).
  * Table: enc_isr_table (board.c), 256 bytes of flash, 256-aligned, entry at
  * (new_ab << 2) | (old_ab << 6): new_ab << 2 is PIND & 0x0C as read, and `swap` turns it
- * into the next edge's old_ab << 6 (enc_isr_prev), so no shifts. Entries: 0, +1, 0xFF
- * (-1) or ENC_ILLEGAL (0x80). Only r30, r31 and SREG are used, saved in GPIOR0..2 (no
- * push/pop); the high byte of the count takes the sign with sbrc/dec, which keep the carry.
- * Cost, measured in simavr (build/bench/fw_bench isr, docs/benchmarks.md): 43 cycles per
- * edge from the vector's jmp to reti inclusive (min = mean = max over 42 000 edges; an
- * illegal transition takes the same 43 by instruction count); the chip adds its 4 cycles of
- * interrupt response (8 when it wakes from sleep), which simavr does not model: 47 (51).
- * The previous version (RAM table indexed (new << 2) | old, push/pop) measured 51 (55).
+ * into the next edge's old_ab << 6, so no shifts. Entries: 0, +1, 0xFF (-1) or ENC_ILLEGAL
+ * (0x80). The previous pin state, the count and SREG live in registers that only the ISRs
+ * use (board.h, ISR_REG_*: the C code is compiled with -ffixed-r2..r5, the image checked by
+ * check-isr-regs.sh at every build), so only r30:r31 are saved (GPIOR0..1); the high byte
+ * of the count changes only when +1 carries out of the low byte or -1 (0xFF) does not.
+ * Cost, measured in simavr (build/bench/fw_bench isr, docs/benchmarks.md): 28 cycles per
+ * edge from the vector's rjmp to reti inclusive on the common path (was 38 with the state
+ * and count in RAM); the chip adds its 4 cycles of interrupt response (8 when it wakes
+ * from sleep), which simavr does not model.
  */
-    .section .text.enc_isr,"ax",@progbits
+    .text                                 ; before the C code: the vectors reach it with rjmp (Makefile)
     .global ENC_VECT
 ENC_VECT:
     out  _SFR_IO_ADDR(ISR_SAVE0), r30
     in   r30, _SFR_IO_ADDR(ENC_PIN)       ; sample the pins first
     out  _SFR_IO_ADDR(ISR_SAVE1), r31
-    in   r31, _SFR_IO_ADDR(SREG)
-    out  _SFR_IO_ADDR(ISR_SAVE2), r31
+    in   ISR_REG_SREG, _SFR_IO_ADDR(SREG)
     andi r30, ENC_AB_MASK                 ; new_ab << 2
-    lds  r31, enc_isr_prev                ; old_ab << 6
-    or   r31, r30                         ; table index
-    swap r30                              ; new_ab << 6: old_ab of the next edge
-    sts  enc_isr_prev, r30
-    mov  r30, r31
+    mov  r31, r30
+    or   r30, ISR_REG_ENC_PREV            ; table index
+    swap r31                              ; new_ab << 6: old_ab of the next edge
+    mov  ISR_REG_ENC_PREV, r31
     ldi  r31, hi8(enc_isr_table)          ; lo8(enc_isr_table) is 0 (256-aligned)
     lpm  r30, Z                           ; delta: 0, +1, 0xFF or ENC_ILLEGAL (0x80)
     cpi  r30, 0x80
     breq 4f
-    lds  r31, enc_isr_count
-    add  r31, r30
-    sts  enc_isr_count, r31
-    ; The high byte changes only when +1 carries out of the low byte or -1 (0xFF) does not:
-    ; one edge in 256. sts keeps the carry of the add.
+    add  ISR_REG_ENC_LO, r30
     brcs 2f
     sbrc r30, 7
-    rjmp 3f                               ; -1 without carry: borrow
-1:  in   r31, _SFR_IO_ADDR(ISR_SAVE2)
-    out  _SFR_IO_ADDR(SREG), r31
+    dec  ISR_REG_ENC_HI                   ; -1 without carry: borrow
+1:  out  _SFR_IO_ADDR(SREG), ISR_REG_SREG
     in   r31, _SFR_IO_ADDR(ISR_SAVE1)
     in   r30, _SFR_IO_ADDR(ISR_SAVE0)
     reti
-2:  sbrc r30, 7
-    rjmp 1b                               ; -1 with carry: the high byte stays
-    lds  r31, enc_isr_count+1             ; +1 with carry
-    inc  r31
-    rjmp 5f
-3:  lds  r31, enc_isr_count+1
-    dec  r31
-5:  sts  enc_isr_count+1, r31
+2:  sbrs r30, 7
+    inc  ISR_REG_ENC_HI                   ; +1 with carry (-1 with carry: the high byte stays)
     rjmp 1b
 4:  lds  r30, enc_isr_illegal
     lds  r31, enc_isr_illegal+1
@@ -86,14 +72,13 @@ ENC_VECT:
 /* ---- 1 kHz tick: Timer2 compare A ---------------------------------------------------------
  * Counts, and wakes the main loop (clears SE, board_idle) only at the tick it asked for
  * (board_wake_tick) or when a byte has arrived since it last drained the RX ring
- * (uart_rx_new): on the other ticks there is nothing for it to do. 28..31 cycles (measured,
- * jmp to reti). */
-    .section .text.tick_isr,"ax",@progbits
+ * (uart_rx_new): on the other ticks there is nothing for it to do. SREG in ISR_REG_SREG
+ * (board.h). */
+    .text                                 ; before the C code: the vectors reach it with rjmp (Makefile)
     .global TICK_VECT
 TICK_VECT:
     out  _SFR_IO_ADDR(ISR_SAVE0), r24
-    in   r24, _SFR_IO_ADDR(SREG)
-    out  _SFR_IO_ADDR(ISR_SAVE2), r24
+    in   ISR_REG_SREG, _SFR_IO_ADDR(SREG)
     out  _SFR_IO_ADDR(ISR_SAVE1), r25
     lds  r24, board_tick
     subi r24, 0xFF                        ; +1
@@ -104,12 +89,10 @@ TICK_VECT:
     lds  r25, uart_rx_new
     tst  r25
     breq 2f
-1:  in   r24, _SFR_IO_ADDR(SMCR)
-    andi r24, ~(1 << SE) & 0xFF           ; the main loop has work: no sleep (board_idle)
-    out  _SFR_IO_ADDR(SMCR), r24
+1:  ldi  r24, 0                           ; the main loop has work: no sleep (board_idle;
+    out  _SFR_IO_ADDR(SMCR), r24          ; SE is the only bit it ever sets)
 2:  in   r25, _SFR_IO_ADDR(ISR_SAVE1)
-    in   r24, _SFR_IO_ADDR(ISR_SAVE2)
-    out  _SFR_IO_ADDR(SREG), r24
+    out  _SFR_IO_ADDR(SREG), ISR_REG_SREG
     in   r24, _SFR_IO_ADDR(ISR_SAVE0)
     reti
 
@@ -118,7 +101,7 @@ TICK_VECT:
  * does not pass it on, so WDRF is lost. The watchdog runs in interrupt-then-reset mode:
  * the first timeout lands here and leaves a marker in .noinit RAM, the second resets,
  * and the boot code below reads the marker. 12 cycles; no flags touched. */
-    .section .text.wdt_isr,"ax",@progbits
+    .text                                 ; before the C code: the vectors reach it with rjmp (Makefile)
     .global WDT_VECT
 WDT_VECT:
     out  _SFR_IO_ADDR(ISR_SAVE0), r24

@@ -16,7 +16,8 @@ static bool have_values;  /* bus voltage and current of this cycle are read */
 static bool checked;      /* the configuration was read back this cycle */
 static bool driven;       /* the motor is driven this cycle */
 static uint8_t since_verify;
-static bool bus_due;      /* the bus voltage is read every other cycle */
+static uint8_t bus_wait;  /* cycles until the bus voltage is read again (INA_BUS_CYCLES) */
+static uint16_t bus_watch_mv; /* below this, the bus voltage is read every cycle */
 static uint32_t step_start_ms;
 static uint8_t tx[3];
 static uint8_t rx[2];
@@ -87,6 +88,8 @@ void ina_init(void)
     fail_streak = 0;
 }
 
+void ina_watch_bus_below(uint16_t mv) { bus_watch_mv = mv; }
+
 void ina_start_cycle(uint32_t t_ms, bool motor_driven)
 {
     if (step != STEP_IDLE) {
@@ -106,10 +109,13 @@ void ina_start_cycle(uint32_t t_ms, bool motor_driven)
         launch(STEP_CHECK, t_ms);
     } else {
         /* The battery voltage moves slowly (its sag under a current surge lasts as long as
-         * the surge); 50 Hz serves the duty cap and the 200 ms under-voltage filter, and
-         * saves a transaction (7 interrupts) every other period. */
-        bus_due = !bus_due;
-        launch(bus_due ? STEP_BUS : STEP_CURRENT, t_ms);
+         * the surge): every INA_BUS_CYCLES-th cycle serves the duty cap and finds a low pack
+         * within INA_BUS_CYCLES periods, after which (below bus_watch_mv) every reading is
+         * fresh, so the under-voltage filter counts real samples; a transaction (7
+         * interrupts) saved in the other cycles. */
+        bool bus = bus_wait == 0 || latest.voltage_mv < bus_watch_mv;
+        bus_wait = bus ? (uint8_t)(INA_BUS_CYCLES - 1u) : (uint8_t)(bus_wait - 1u);
+        launch(bus ? STEP_BUS : STEP_CURRENT, t_ms);
     }
 }
 

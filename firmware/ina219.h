@@ -1,5 +1,6 @@
 /*
- * INA219 driver: a non-blocking cycle (current read, and the bus voltage every other cycle)
+ * INA219 driver: a non-blocking cycle (current read, and the bus voltage every
+ * INA_BUS_CYCLES-th cycle, every cycle while the pack is low: ina_watch_bus_below)
  * started once per control period and advanced from the main loop over the interrupt-driven
  * TWI master.
  * Every INA_VERIFY_CYCLES cycles it first reads the configuration back and rewrites the
@@ -19,6 +20,9 @@ typedef struct {
 } ina_reading_t;
 
 void ina_init(void);
+/* While the last bus reading is below mv the bus voltage is read every cycle, not every
+ * INA_BUS_CYCLES-th (the under-voltage filter then counts fresh samples). */
+void ina_watch_bus_below(uint16_t mv);
 /* motor_driven: a current of 0 would be implausible (a reset chip reads 0). */
 void ina_start_cycle(uint32_t t_ms, bool motor_driven);
 void ina_poll(uint32_t t_ms);

@@ -45,13 +45,11 @@ static vel_t vel;
 static enc_extend_t enc_ext;
 static proto_parser_t parser;
 
-static uint32_t t_ms;
-static uint16_t seq_ack;
+/* The telemetry record is the home of the values it reports that the loop keeps anyway
+ * (module time, seq_ack, measured speed, position after dir_sign, encoder errors, duty in
+ * omega's sign convention): a frame copies only the rest into it. */
+static proto_telemetry_t live;
 static int16_t omega_sp_crpm;  /* last setpoint after limits */
-static int16_t omega_crpm;     /* measured */
-static int32_t position_counts; /* after dir_sign */
-static uint16_t encoder_errors;
-static int16_t duty_x10000;    /* in omega's sign convention */
 static bool duty_limited;
 static ina_reading_t power;
 static int16_t duty_cap_x10000;  /* for power.voltage_mv (a division: only when it changes) */
@@ -113,6 +111,8 @@ static void apply_settings(void)
 {
     update_duty_cap();
     safety_configure(&safety, &settings);
+    /* the under-voltage threshold and its hysteresis band: fresh samples for the filter */
+    ina_watch_bus_below((uint16_t)(settings.undervoltage_mv + settings.undervoltage_hyst_mv));
     pid_set_gains(&pid, settings.kp, settings.ki, settings.kd, (float)(PID_T));
     foldback_configure(&foldback, settings.foldback_ma, settings.overcurrent_ma);
     vel_init(&vel, settings.counts_per_rev_x100, CONTROL_PERIOD_MS);
@@ -123,7 +123,7 @@ static void apply_settings(void)
 static void motor_stop(void)
 {
     board_motor_set(0);
-    duty_x10000 = 0;
+    live.duty_x10000 = 0;
     pid_reset(&pid);
     foldback_reset(&foldback);
 }
@@ -143,17 +143,17 @@ static void after_safety_slow(void)
     uint16_t fresh = safety_take_new(&safety);
     if (fresh) {
         proto_fault_t ft;
-        ft.time_ms = t_ms;
+        ft.time_ms = live.time_ms;
         ft.faults = fresh;
         ft.current_ma = power.current_ma;
         ft.voltage_mv = power.voltage_mv;
-        ft.omega_crpm = omega_crpm;
+        ft.omega_crpm = live.omega_crpm;
         ft.omega_cmd_crpm = omega_sp_crpm;
-        ft.duty_x10000 = duty_x10000;
-        if (duty_x10000 != 0 && !safety_motor_enabled(&safety)) motor_stop();
+        ft.duty_x10000 = live.duty_x10000;
+        if (live.duty_x10000 != 0 && !safety_motor_enabled(&safety)) motor_stop();
         ft.status = status_word();
         SEND_FRAME(PROTO_FRAME_SIZE(PROTO_LEN_FAULT), proto_encode_fault, &ft);
-    } else if (duty_x10000 != 0 && !safety_motor_enabled(&safety)) {
+    } else if (live.duty_x10000 != 0 && !safety_motor_enabled(&safety)) {
         motor_stop();
     }
 }
@@ -162,7 +162,7 @@ static void after_safety_slow(void)
  * as it should be) in a few cycles. */
 __attribute__((always_inline)) static inline void after_safety(void)
 {
-    if (safety.faults != safety.reported || (duty_x10000 != 0 && !safety_motor_enabled(&safety)))
+    if (safety.faults != safety.reported || (live.duty_x10000 != 0 && !safety_motor_enabled(&safety)))
         after_safety_slow();
 }
 
@@ -172,12 +172,12 @@ static void handle_frame(const proto_frame_t *f)
     case PROTO_T_SETPOINT: {
         proto_setpoint_t sp;
         if (!proto_decode_setpoint(f, &sp)) return;
-        seq_ack = sp.seq;
+        live.seq_ack = sp.seq;
         int16_t lim = (int16_t)settings.omega_max_crpm;
         int16_t w = sp.omega_crpm;
         if (w > lim) w = lim;
         if (w < -lim) w = (int16_t)-lim;
-        omega_sp_crpm = safety_on_setpoint(&safety, sp.flags, t_ms) ? w : 0;
+        omega_sp_crpm = safety_on_setpoint(&safety, sp.flags, live.time_ms) ? w : 0;
         after_safety();
         break;
     }
@@ -220,21 +220,14 @@ static int32_t with_dir_sign(int32_t raw)
     return raw;
 }
 
-static void send_telemetry(void)
+__attribute__((noinline)) static void send_telemetry(void)
 {
-    proto_telemetry_t tm;
-    tm.time_ms = t_ms;
-    tm.seq_ack = seq_ack;
-    tm.omega_crpm = omega_crpm;
-    tm.omega_cmd_crpm = safety_motor_enabled(&safety) ? omega_sp_crpm : 0;
-    tm.position_counts = position_counts;
-    tm.current_ma = power.current_ma;
-    tm.voltage_mv = power.voltage_mv;
-    tm.duty_x10000 = duty_x10000;
-    tm.status = status_word();
-    tm.rx_errors = (uint16_t)(proto_parser_dropped(&parser) + uart_rx_overflows());
-    tm.encoder_errors = encoder_errors;
-    SEND_FRAME(PROTO_FRAME_SIZE(PROTO_LEN_TELEMETRY), proto_encode_telemetry, &tm);
+    live.omega_cmd_crpm = safety_motor_enabled(&safety) ? omega_sp_crpm : 0;
+    live.current_ma = power.current_ma;
+    live.voltage_mv = power.voltage_mv;
+    live.status = status_word();
+    live.rx_errors = (uint16_t)(proto_parser_dropped(&parser) + uart_rx_overflows());
+    SEND_FRAME(PROTO_FRAME_SIZE(PROTO_LEN_TELEMETRY), proto_encode_telemetry, &live);
 }
 
 /* noinline: a symbol of its own, so the simulator benchmark (bench/fw_bench) can time it
@@ -243,23 +236,23 @@ __attribute__((noinline)) static void control_step(void)
 {
     uint16_t count, illegal;
     board_encoder_read(&count, &illegal);
-    position_counts = with_dir_sign(enc_extend(&enc_ext, count));
-    encoder_errors = illegal;
-    omega_crpm = vel_update_crpm(&vel, position_counts);
+    live.position_counts = with_dir_sign(enc_extend(&enc_ext, count));
+    live.encoder_errors = illegal;
+    live.omega_crpm = vel_update_crpm(&vel, live.position_counts);
 
     bool enabled = safety_motor_enabled(&safety);
     duty_limited = false;
     if (enabled) {
         int32_t limit = foldback_update(&foldback, power.current_ma, pid.u);
         int32_t u;
-        duty_x10000 = pid_step_duty(&pid, (int32_t)omega_sp_crpm - omega_crpm, duty_cap_x10000, limit,
+        live.duty_x10000 = pid_step_duty(&pid, (int32_t)omega_sp_crpm - live.omega_crpm, duty_cap_x10000, limit,
                                     &duty_limited, &u);
         /* the clamp at the foldback limit is the current limit's, not the duty cap's */
         if (limit < PID_U_ONE && (u == limit || u == -limit)) duty_limited = false;
-        safety_on_step(&safety, u, duty_x10000, omega_crpm, power.current_ma);
+        safety_on_step(&safety, u, live.duty_x10000, live.omega_crpm, power.current_ma);
         after_safety();
-        if (duty_x10000 != 0 || safety_motor_enabled(&safety))
-            board_motor_set(settings.dir_sign < 0 ? (int16_t)-duty_x10000 : duty_x10000);
+        if (live.duty_x10000 != 0 || safety_motor_enabled(&safety))
+            board_motor_set(settings.dir_sign < 0 ? (int16_t)-live.duty_x10000 : live.duty_x10000);
     } else {
         motor_stop();
     }
@@ -302,22 +295,28 @@ int main(void)
 
     uint8_t last_tick = board_tick;
     uint8_t phase_ms = 0;
+    uint8_t wake_ms = 1; /* ticks from last_tick to the next tick with work (below) */
     bool control_due = false;
     for (;;) {
         board_wdt_reset();
 
         uint8_t now = board_tick;
         if (now != last_tick) {
-            /* Received bytes first, with t_ms still the millisecond they arrived in: the
+            /* Received bytes first, with the module time still the millisecond they arrived in: the
              * same times (and so the same command timeouts) as when every byte woke the
              * loop, at one wake-up per tick with input instead of one per byte. */
-            uart_rx_new = 0;
-            uint8_t byte;
-            while (uart_read(&byte)) {
-                proto_parser_push(&parser, byte);
-                if (parser.need) continue; /* inside a frame's body: nothing to check yet */
-                proto_frame_t frame;
-                while (proto_parser_pop(&parser, &frame)) handle_frame(&frame);
+            /* A header, then a body, each in one copy out of the ring (byte by byte through
+             * a read and proto_parser_push a setpoint cost ~45 cycles a byte). The RX ISR
+             * sets uart_rx_new with every byte it stores: without it the ring is empty. */
+            if (uart_rx_new) {
+                uart_rx_new = 0;
+                uint8_t got;
+                while ((got = uart_read_some(proto_parser_next(&parser), proto_parser_room(&parser))) != 0) {
+                    proto_parser_added(&parser, got);
+                    if (parser.need) continue; /* inside a frame's body: nothing to check yet */
+                    proto_frame_t frame;
+                    while (proto_parser_pop(&parser, &frame)) handle_frame(&frame);
+                }
             }
 
             /* The milliseconds since the last pass at once: the loop sleeps through ticks
@@ -325,16 +324,16 @@ int main(void)
              * events fall on the pass that woke for them. */
             uint8_t elapsed = (uint8_t)(now - last_tick);
             last_tick = now;
-            t_ms += elapsed;
-            safety_tick(&safety, t_ms);
-            after_safety();
+            live.time_ms += elapsed;
+            uint32_t timeout_ms = safety_tick(&safety, live.time_ms);
+            if (timeout_ms == UINT32_MAX) after_safety(); /* the only case it can have changed anything */
             uint8_t before = phase_ms;
             phase_ms = (uint8_t)(phase_ms + elapsed);
-            if (before < INA_PHASE_MS && phase_ms >= INA_PHASE_MS) ina_start_cycle(t_ms, duty_x10000 != 0);
+            if (before < INA_PHASE_MS && phase_ms >= INA_PHASE_MS) ina_start_cycle(live.time_ms, live.duty_x10000 != 0);
             if (phase_ms >= CONTROL_PERIOD_MS) {
                 /* (more than a period late only if the loop was held up that long) */
                 while (phase_ms >= CONTROL_PERIOD_MS) phase_ms = (uint8_t)(phase_ms - CONTROL_PERIOD_MS);
-                if (phase_ms >= INA_PHASE_MS) ina_start_cycle(t_ms, duty_x10000 != 0);
+                if (phase_ms >= INA_PHASE_MS) ina_start_cycle(live.time_ms, live.duty_x10000 != 0);
                 control_due = true;
             }
 
@@ -346,11 +345,19 @@ int main(void)
                 }
                 eeprom_busy = busy;
             }
+
+            /* The next tick with work: the INA219 cycle start (phase INA_PHASE_MS), the
+             * control step (phase 0), the command timeout. Only this block moves the phase
+             * and the setpoint's age, so the passes between ticks (the ends of TWI
+             * transactions) keep the figure. */
+            wake_ms = (uint8_t)(phase_ms < INA_PHASE_MS ? INA_PHASE_MS - phase_ms : CONTROL_PERIOD_MS - phase_ms);
+            if (timeout_ms < wake_ms) wake_ms = (uint8_t)timeout_ms;
+            if (wake_ms == 0) wake_ms = 1;
         }
 
         /* Every pass: a tick, or the end of a TWI transaction (the next one starts now). */
         if (ina_busy()) {
-            ina_poll(t_ms);
+            ina_poll(live.time_ms);
             ina_reading_t r;
             if (ina_take(&r)) {
                 power = r;
@@ -369,15 +376,9 @@ int main(void)
             control_step();
         }
 
-        /* The next tick with work: the INA219 cycle start (phase INA_PHASE_MS), the control
-         * step (phase 0), the command timeout; every tick while an INA219 transaction (its
-         * timeout is counted in ticks) or an EEPROM write is in progress. Between them the
-         * tick ISR lets the loop sleep (board_idle). */
-        uint8_t due_ms = (uint8_t)(phase_ms < INA_PHASE_MS ? INA_PHASE_MS - phase_ms
-                                                           : CONTROL_PERIOD_MS - phase_ms);
-        uint32_t timeout_ms = safety_ms_to_timeout(&safety, t_ms);
-        if (timeout_ms < due_ms) due_ms = (uint8_t)timeout_ms;
-        if (due_ms == 0 || eeprom_busy || ina_busy()) due_ms = 1;
-        board_idle(last_tick, due_ms);
+        /* Every tick while an INA219 transaction (its timeout is counted in ticks) or an
+         * EEPROM write is in progress. Between the ticks with work the tick ISR lets the
+         * loop sleep (board_idle). */
+        board_idle(last_tick, eeprom_busy || ina_busy() ? 1 : wake_ms);
     }
 }

@@ -161,7 +161,11 @@ int16_t pid_duty_x10000(int32_t u_q27, int16_t cap_x10000)
     /* u in Q15 (held to +-32767: 2^-15 of the cap at full output) times the cap (<= 10000)
      * is a 16x16 multiply; doubled, plus half a unit, its high word is the duty rounded half
      * up (bit 15 is the first fraction bit). */
-    int32_t u15 = u_q27 >> (PID_U_SHIFT - 15);
+    /* >> 12 as >> 8 (byte moves) and >> 4: the barrier keeps gcc from fusing them into
+     * one 12-step loop (84 cycles on the AVR; this: 36) */
+    int32_t u15 = u_q27 >> 8;
+    __asm__("" : "+r"(u15));
+    u15 >>= PID_U_SHIFT - 15 - 8;
     if (u15 > 32767) u15 = 32767;
     if (u15 < -32767) u15 = -32767;
     int32_t twice = (int32_t)(int16_t)u15 * cap_x10000 * 2 + 0x8000L;

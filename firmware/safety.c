@@ -56,13 +56,16 @@ bool safety_on_setpoint(safety_t *s, uint8_t flags, uint32_t t_ms)
     return s->enable_requested;
 }
 
-void safety_tick(safety_t *s, uint32_t t_ms)
+uint32_t safety_tick(safety_t *s, uint32_t t_ms)
 {
-    if (!s->setpoint_fresh) return;
-    if ((uint32_t)(t_ms - s->last_setpoint_ms) >= s->cmd_timeout_ms) {
+    if (!s->setpoint_fresh) return UINT32_MAX;
+    uint32_t age_ms = (uint32_t)(t_ms - s->last_setpoint_ms);
+    if (age_ms >= s->cmd_timeout_ms) {
         s->setpoint_fresh = false;
         if (s->enable_requested) latch(s, PROTO_F_CMD_TIMEOUT);
+        return UINT32_MAX;
     }
+    return (uint32_t)s->cmd_timeout_ms - age_ms;
 }
 
 uint32_t safety_ms_to_timeout(const safety_t *s, uint32_t t_ms)

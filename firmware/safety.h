@@ -49,8 +49,9 @@ void safety_init(safety_t *s, const proto_config_t *cfg, bool watchdog_reset);
 void safety_configure(safety_t *s, const proto_config_t *cfg);
 /* A valid setpoint frame arrived at t_ms. Returns true if its speed is to be used. */
 bool safety_on_setpoint(safety_t *s, uint8_t flags, uint32_t t_ms);
-/* Called every tick: the command timeout. */
-void safety_tick(safety_t *s, uint32_t t_ms);
+/* Called every tick: the command timeout. Returns what safety_ms_to_timeout returns after
+ * it (the main loop's next wake-up, without working out the age twice). */
+uint32_t safety_tick(safety_t *s, uint32_t t_ms);
 /* Milliseconds from t_ms to the tick at which safety_tick detects the command timeout (0:
  * t_ms itself); UINT32_MAX without a fresh setpoint. The main loop sleeps through the
  * ticks before it. */

@@ -1,8 +1,9 @@
 /*
  * TWI master interrupt in assembly: the C version spent ~75 cycles with interrupts off
  * (prologue, switch, epilogue), long enough to make the encoder ISR miss an edge at
- * 200k edges/s. This one saves registers in GPIOR0..2 like the encoder ISR and keeps the
- * common paths to 51..58 cycles including response and reti.
+ * 200k edges/s. This one saves registers in GPIOR0..2 and SREG in ISR_REG_SREG (board.h)
+ * like the encoder ISR: 38..56 cycles from the vector's rjmp to reti (build/bench/fw_bench
+ * isr), the longest handler, so it sets the encoder's jittered edge-rate limit.
  * Protocol (board_twi.c starts it): write twi_wleft bytes from twi_wptr, then with a
  * repeated start read twi_rleft bytes to twi_rptr (ACK all but the last), STOP, and set
  * twi_state to DONE, or to ERROR on any other status (NACK, arbitration, bus error).
@@ -24,39 +25,38 @@ twi_state:  .skip 1
 twi_wptr:   .skip 2
 twi_rptr:   .skip 2
 
-    .section .text.twi_isr,"ax",@progbits
+    .text                                 ; before the C code: the vectors reach it with rjmp (Makefile)
     .global TWI_VECT
 TWI_VECT:
     out  _SFR_IO_ADDR(ISR_SAVE0), r24
-    in   r24, _SFR_IO_ADDR(SREG)
-    out  _SFR_IO_ADDR(ISR_SAVE1), r24
+    in   ISR_REG_SREG, _SFR_IO_ADDR(SREG)
     out  _SFR_IO_ADDR(ISR_SAVE2), r25
-    push r30
+    out  _SFR_IO_ADDR(ISR_SAVE1), r30
     push r31
     lds  r24, _SFR_MEM_ADDR(TWSR)
     andi r24, 0xF8
     cpi  r24, 0x28                        ; data (or, in simavr, SLA+W) acknowledged
-    breq mt_ack
+    breq .Lmt_ack
     cpi  r24, 0x50                        ; byte received, ACK sent
-    breq mr_data_ack
+    breq .Lmr_data_ack
     cpi  r24, 0x58                        ; last byte received, NACK sent
     brne 3f
-    rjmp mr_data_nack
+    rjmp .Lmr_data_nack
 3:
     cpi  r24, 0x08                        ; START
-    breq start
+    breq .Lstart
     cpi  r24, 0x10                        ; repeated START
-    breq start
+    breq .Lstart
     cpi  r24, 0x18                        ; SLA+W acknowledged (real hardware)
-    breq mt_ack
+    breq .Lmt_ack
     cpi  r24, 0x40                        ; SLA+R acknowledged
     brne 4f
-    rjmp mr_sla_ack
+    rjmp .Lmr_sla_ack
 4:
     ldi  r25, TWI_ST_ERROR                ; 0x20, 0x30, 0x48 NACKs, 0x38, 0x00 bus error
-    rjmp stop
+    rjmp .Lstop
 
-start:                                    ; address: write phase first, then read
+.Lstart:                                ; address: write phase first, then read
     lds  r24, twi_sla
     lds  r25, twi_wleft
     tst  r25
@@ -64,9 +64,9 @@ start:                                    ; address: write phase first, then rea
     ori  r24, 1
 1:  sts  _SFR_MEM_ADDR(TWDR), r24
     ldi  r24, TWCR_RUN
-    rjmp out_twcr
+    rjmp .Lout_twcr
 
-mt_ack:
+.Lmt_ack:
     lds  r25, twi_wleft
     tst  r25
     breq 2f
@@ -79,14 +79,14 @@ mt_ack:
     sts  twi_wptr, r30
     sts  _SFR_MEM_ADDR(TWDR), r24
     ldi  r24, TWCR_RUN
-    rjmp out_twcr
+    rjmp .Lout_twcr
 2:  lds  r25, twi_rleft                   ; all written: read next, or finish
     tst  r25
-    breq done_ok
+    breq .Ldone_ok
     ldi  r24, TWCR_RUN | (1 << TWSTA)
-    rjmp out_twcr
+    rjmp .Lout_twcr
 
-mr_data_ack:
+.Lmr_data_ack:
     lds  r30, twi_rptr
     lds  r31, twi_rptr+1
     lds  r24, _SFR_MEM_ADDR(TWDR)
@@ -96,18 +96,18 @@ mr_data_ack:
     lds  r25, twi_rleft
     dec  r25
     sts  twi_rleft, r25
-ack_next:                                 ; r25 = bytes still to read: NACK the last
+.Lack_next:                             ; r25 = bytes still to read: NACK the last
     ldi  r24, TWCR_RUN
     cpi  r25, 2
-    brlo out_twcr
+    brlo .Lout_twcr
     ldi  r24, TWCR_RUN | (1 << TWEA)
-    rjmp out_twcr
+    rjmp .Lout_twcr
 
-mr_sla_ack:
+.Lmr_sla_ack:
     lds  r25, twi_rleft
-    rjmp ack_next
+    rjmp .Lack_next
 
-mr_data_nack:
+.Lmr_data_nack:
     lds  r30, twi_rptr
     lds  r31, twi_rptr+1
     lds  r24, _SFR_MEM_ADDR(TWDR)
@@ -117,24 +117,22 @@ mr_data_nack:
     lds  r25, twi_rleft
     dec  r25
     sts  twi_rleft, r25
-done_ok:
+.Ldone_ok:
     ldi  r25, TWI_ST_DONE
-stop:
+.Lstop:
     ldi  r24, TWCR_STOP
     sts  _SFR_MEM_ADDR(TWCR), r24
     sts  twi_state, r25
-    in   r24, _SFR_IO_ADDR(SMCR)
-    andi r24, ~(1 << SE) & 0xFF           ; the main loop has work: no sleep (board_idle)
-    out  _SFR_IO_ADDR(SMCR), r24
-    rjmp exit
+    ldi  r24, 0                           ; the main loop has work: no sleep (board_idle;
+    out  _SFR_IO_ADDR(SMCR), r24          ; SE is the only bit it ever sets)
+    rjmp .Lexit
 
-out_twcr:
+.Lout_twcr:
     sts  _SFR_MEM_ADDR(TWCR), r24
-exit:
+.Lexit:
     pop  r31
-    pop  r30
+    in   r30, _SFR_IO_ADDR(ISR_SAVE1)
     in   r25, _SFR_IO_ADDR(ISR_SAVE2)
-    in   r24, _SFR_IO_ADDR(ISR_SAVE1)
-    out  _SFR_IO_ADDR(SREG), r24
+    out  _SFR_IO_ADDR(SREG), ISR_REG_SREG
     in   r24, _SFR_IO_ADDR(ISR_SAVE0)
     reti

@@ -12,23 +12,26 @@
 
 /* ---- CRC ----------------------------------------------------------------------------- */
 
-uint16_t proto_crc_update(uint16_t crc, uint8_t byte)
+/* The arithmetic avr-libc documents for _crc_ccitt_update: the reflected CCITT polynomial,
+ * one byte per step. Static inline so that steps over constants (a frame's LEN and TYPE)
+ * fold at compile time. */
+static inline uint16_t crc_formula(uint16_t crc, uint8_t byte)
 {
-    /* The arithmetic avr-libc documents for _crc_ccitt_update: the reflected CCITT
-     * polynomial, one byte per step. */
     uint8_t d = (uint8_t)(byte ^ (uint8_t)(crc & 0xFFu));
     d = (uint8_t)(d ^ (uint8_t)(d << 4));
     return (uint16_t)((((uint16_t)d << 8) | (crc >> 8)) ^ (uint8_t)(d >> 4) ^
                       (uint16_t)((uint16_t)d << 3));
 }
 
+uint16_t proto_crc_update(uint16_t crc, uint8_t byte) { return crc_formula(crc, byte); }
+
 #ifdef __AVR__
 /* On the module a table in flash: the byte step above depends on lo8(crc) ^ byte only, plus
  * hi8(crc) shifted down, so crc' = hi8(crc) ^ T[lo8(crc) ^ byte] with T[x] the step from
  * crc = 0. The 512 bytes (low bytes of T, then high bytes, 256-aligned so that the index is
- * the address's low byte) cost 17 cycles a byte against 24 for _crc_ccitt_update's
- * arithmetic: a telemetry frame's CRC 685 -> about 500 cycles (docs/benchmarks.md). The
- * values come from the same formula at compile time; the host keeps the formula. */
+ * the address's low byte) make a step of 11 cycles (17 with a loop's load and count) against
+ * 24 for _crc_ccitt_update's arithmetic (docs/benchmarks.md). The values come from the same
+ * formula at compile time; the host keeps the formula. */
 #include <avr/pgmspace.h>
 
 #define CRC_D(x) ((uint8_t)((x) ^ ((x) << 4)))
@@ -44,61 +47,103 @@ __attribute__((aligned(256))) static const uint8_t crc_table[512] PROGMEM = {
     CRC_R256(CRC_LO), CRC_R256(CRC_HI)
 };
 
+/* One table step on the CRC in operand c (a register pair) for the byte in register B. */
+#define CRC_TABLE_STEP(B)                                                                       \
+    "eor  %A[c], " B "     \n\t" /* index */                                                      \
+    "mov  r30, %A[c]       \n\t"                                                                  \
+    "ldi  r31, hi8(%[tab]) \n\t"                                                                  \
+    "lpm  %A[c], Z         \n\t"                                                                  \
+    "eor  %A[c], %B[c]     \n\t" /* lo' = hi ^ lo8(T) */                                          \
+    "inc  r31              \n\t"                                                                  \
+    "lpm  %B[c], Z         \n\t" /* hi' = hi8(T) */
+
 uint16_t proto_crc(const uint8_t *data, size_t len)
 {
-    uint8_t lo = 0xFF, hi = 0xFF; /* PROTO_CRC_INIT */
-    if (len == 0) return PROTO_CRC_INIT;
+    uint16_t c = PROTO_CRC_INIT;
+    if (len == 0) return c;
     uint8_t tmp;
-    __asm__ __volatile__(
-        "1: ld   %[t], X+          \n\t"
-        "   eor  %[t], %[lo]       \n\t" /* index */
-        "   mov  r30, %[t]         \n\t"
-        "   ldi  r31, hi8(%[tab])  \n\t"
-        "   lpm  %[lo], Z          \n\t"
-        "   eor  %[lo], %[hi]      \n\t" /* lo' = hi ^ lo8(T) */
-        "   inc  r31               \n\t"
-        "   lpm  %[hi], Z          \n\t" /* hi' = hi8(T) */
-        "   sbiw %[n], 1           \n\t"
-        "   brne 1b                \n\t"
-        : [lo] "+r"(lo), [hi] "+r"(hi), [t] "=&r"(tmp), [n] "+w"(len), "+x"(data)
-        : [tab] "i"(crc_table)
-        : "r30", "r31", "memory");
-    return (uint16_t)(((uint16_t)hi << 8) | lo);
+    __asm__ __volatile__("1: ld   %[t], X+ \n\t" CRC_TABLE_STEP("%[t]") "sbiw %[n], 1 \n\t"
+                                                                       "brne 1b       \n\t"
+                         : [c] "+&r"(c), [t] "=&r"(tmp), [n] "+w"(len), "+x"(data)
+                         : [tab] "i"(crc_table)
+                         : "r30", "r31", "memory");
+    return c;
+}
+
+/* Store one byte of a frame and run it through the table: the encoders below compute the
+ * CRC as they write (st X+ and 11 cycles of table step a byte, no second pass). */
+static inline __attribute__((always_inline)) uint8_t *put_byte(uint8_t *p, uint16_t *crc, uint8_t byte)
+{
+    uint16_t c = *crc;
+    __asm__ __volatile__("st   X+, %[b] \n\t" CRC_TABLE_STEP("%[b]")
+                         : [c] "+&r"(c), [p] "+x"(p)
+                         : [b] "r"(byte), [tab] "i"(crc_table)
+                         : "r30", "r31", "memory");
+    *crc = c;
+    return p;
 }
 #else
 uint16_t proto_crc(const uint8_t *data, size_t len)
 {
     uint16_t crc = PROTO_CRC_INIT;
     for (size_t i = 0; i < len; ++i) {
-        crc = proto_crc_update(crc, data[i]);
+        crc = crc_formula(crc, data[i]);
     }
     return crc;
+}
+
+static inline uint8_t *put_byte(uint8_t *p, uint16_t *crc, uint8_t byte)
+{
+    *p = byte;
+    *crc = crc_formula(*crc, byte);
+    return p + 1;
 }
 #endif
 
 /* ---- little-endian packing --------------------------------------------------------------
- * At fixed offsets, so the compiler stores each byte with one instruction (the module packs
- * a telemetry frame every 10 ms: ~500 cycles with a moving pointer, ~150 like this). */
+ * In frame order, each byte going through the CRC as it is stored: the module packs a
+ * telemetry frame every 10 ms (packing and CRC as two passes ~750 cycles, ~400 like this).
+ * Each field names its payload offset (docs/protocol.md), checked on the host. */
 
-static inline void wr_u8(uint8_t *p, uint8_t v) { p[0] = v; }
+typedef struct {
+    uint8_t *p; /* next byte */
+    uint16_t crc;
+#ifndef __AVR__
+    const uint8_t *payload;
+#endif
+} writer_t;
 
-static inline void wr_u16(uint8_t *p, uint16_t v)
+#ifdef __AVR__
+#define AT(w, off) ((void)(off))
+#else
+#include <assert.h>
+#define AT(w, off) ((void)(off), assert((w)->p == (w)->payload + (off)))
+#endif
+
+static inline __attribute__((always_inline)) void wr_u8(writer_t *w, uint8_t off, uint8_t v)
 {
-    p[0] = (uint8_t)(v & 0xFFu);
-    p[1] = (uint8_t)(v >> 8);
+    AT(w, off);
+    w->p = put_byte(w->p, &w->crc, v);
 }
 
-static inline void wr_u32(uint8_t *p, uint32_t v)
+static inline __attribute__((always_inline)) void wr_u16(writer_t *w, uint8_t off, uint16_t v)
 {
-    wr_u16(p, (uint16_t)(v & 0xFFFFu));
-    wr_u16(p + 2, (uint16_t)(v >> 16));
+    AT(w, off);
+    w->p = put_byte(w->p, &w->crc, (uint8_t)(v & 0xFFu));
+    w->p = put_byte(w->p, &w->crc, (uint8_t)(v >> 8));
 }
 
-static inline void wr_f32(uint8_t *p, float v)
+static inline __attribute__((always_inline)) void wr_u32(writer_t *w, uint8_t off, uint32_t v)
+{
+    wr_u16(w, off, (uint16_t)(v & 0xFFFFu));
+    wr_u16(w, (uint8_t)(off + 2u), (uint16_t)(v >> 16));
+}
+
+static inline __attribute__((always_inline)) void wr_f32(writer_t *w, uint8_t off, float v)
 {
     uint32_t bits;
     memcpy(&bits, &v, sizeof bits);
-    wr_u32(p, bits);
+    wr_u32(w, off, bits);
 }
 
 static inline uint16_t rd_u16(const uint8_t *p) { return (uint16_t)(p[0] | (uint16_t)(p[1] << 8)); }
@@ -152,55 +197,62 @@ uint8_t proto_payload_len(uint8_t type)
     }
 }
 
-/* Writes the header, returns where the payload goes. */
-static uint8_t *frame_begin(uint8_t *out, uint8_t type, uint8_t len)
+/* Writes the header; the CRC starts over LEN and TYPE (constants: folded at compile time). */
+static inline __attribute__((always_inline)) writer_t frame_begin(uint8_t *out, uint8_t type, uint8_t len)
 {
     out[0] = PROTO_START0;
     out[1] = PROTO_START1;
     out[2] = len;
     out[3] = type;
-    return out + PROTO_HEADER_SIZE;
+    writer_t w;
+    w.p = out + PROTO_HEADER_SIZE;
+    w.crc = crc_formula(crc_formula(PROTO_CRC_INIT, len), type);
+#ifndef __AVR__
+    w.payload = w.p;
+#endif
+    return w;
 }
 
-/* Appends the CRC over LEN, TYPE and payload; returns the frame length. */
-static size_t frame_end(uint8_t *out)
+/* Appends the CRC (over LEN, TYPE and payload) after the payload; returns the frame length. */
+static inline __attribute__((always_inline)) size_t frame_end(writer_t *w, uint8_t len)
 {
-    uint8_t len = out[2];
-    wr_u16(out + PROTO_HEADER_SIZE + len, proto_crc(out + 2, 2u + len));
+    AT(w, len);
+    w->p[0] = (uint8_t)(w->crc & 0xFFu);
+    w->p[1] = (uint8_t)(w->crc >> 8);
     return PROTO_FRAME_SIZE(len);
 }
 
 size_t proto_encode_setpoint(const proto_setpoint_t *sp, uint8_t *out)
 {
-    uint8_t *p = frame_begin(out, PROTO_T_SETPOINT, PROTO_LEN_SETPOINT);
-    wr_u16(p + 0, sp->seq);
-    wr_u16(p + 2, from_i16(sp->omega_crpm));
-    wr_u8(p + 4, sp->flags);
-    return frame_end(out);
+    writer_t w = frame_begin(out, PROTO_T_SETPOINT, PROTO_LEN_SETPOINT);
+    wr_u16(&w, 0, sp->seq);
+    wr_u16(&w, 2, from_i16(sp->omega_crpm));
+    wr_u8(&w, 4, sp->flags);
+    return frame_end(&w, PROTO_LEN_SETPOINT);
 }
 
-static size_t encode_config_as(const proto_config_t *c, uint8_t *out, uint8_t type)
+static size_t encode_config_as(const proto_config_t *cfg, uint8_t *out, uint8_t type)
 {
-    uint8_t *p = frame_begin(out, type, PROTO_LEN_CONFIG);
-    wr_u8(p + 0, c->module_id);
-    wr_u8(p + 1, (uint8_t)c->dir_sign);
-    wr_u8(p + 2, c->flags);
-    wr_u32(p + 3, c->counts_per_rev_x100);
-    wr_f32(p + 7, c->kp);
-    wr_f32(p + 11, c->ki);
-    wr_f32(p + 15, c->kd);
-    wr_u16(p + 19, c->omega_max_crpm);
-    wr_u16(p + 21, c->overcurrent_ma);
-    wr_u8(p + 23, c->overcurrent_samples);
-    wr_u16(p + 24, c->undervoltage_mv);
-    wr_u16(p + 26, c->undervoltage_hyst_mv);
-    wr_u16(p + 28, c->motor_rated_mv);
-    wr_u16(p + 30, c->cmd_timeout_ms);
-    wr_u16(p + 32, c->foldback_ma);
-    wr_u16(p + 34, c->stall_current_ma);
-    wr_u16(p + 36, c->stall_time_ms);
-    wr_u8(p + 38, c->telemetry_period_ms);
-    return frame_end(out);
+    writer_t w = frame_begin(out, type, PROTO_LEN_CONFIG);
+    wr_u8(&w, 0, cfg->module_id);
+    wr_u8(&w, 1, (uint8_t)cfg->dir_sign);
+    wr_u8(&w, 2, cfg->flags);
+    wr_u32(&w, 3, cfg->counts_per_rev_x100);
+    wr_f32(&w, 7, cfg->kp);
+    wr_f32(&w, 11, cfg->ki);
+    wr_f32(&w, 15, cfg->kd);
+    wr_u16(&w, 19, cfg->omega_max_crpm);
+    wr_u16(&w, 21, cfg->overcurrent_ma);
+    wr_u8(&w, 23, cfg->overcurrent_samples);
+    wr_u16(&w, 24, cfg->undervoltage_mv);
+    wr_u16(&w, 26, cfg->undervoltage_hyst_mv);
+    wr_u16(&w, 28, cfg->motor_rated_mv);
+    wr_u16(&w, 30, cfg->cmd_timeout_ms);
+    wr_u16(&w, 32, cfg->foldback_ma);
+    wr_u16(&w, 34, cfg->stall_current_ma);
+    wr_u16(&w, 36, cfg->stall_time_ms);
+    wr_u8(&w, 38, cfg->telemetry_period_ms);
+    return frame_end(&w, PROTO_LEN_CONFIG);
 }
 
 size_t proto_encode_config(const proto_config_t *cfg, uint8_t *out)
@@ -215,53 +267,53 @@ size_t proto_encode_config_report(const proto_config_t *cfg, uint8_t *out)
 
 size_t proto_encode_request(const proto_request_t *rq, uint8_t *out)
 {
-    uint8_t *p = frame_begin(out, PROTO_T_REQUEST, PROTO_LEN_REQUEST);
-    wr_u8(p, rq->what);
-    return frame_end(out);
+    writer_t w = frame_begin(out, PROTO_T_REQUEST, PROTO_LEN_REQUEST);
+    wr_u8(&w, 0, rq->what);
+    return frame_end(&w, PROTO_LEN_REQUEST);
 }
 
 size_t proto_encode_telemetry(const proto_telemetry_t *tm, uint8_t *out)
 {
-    uint8_t *p = frame_begin(out, PROTO_T_TELEMETRY, PROTO_LEN_TELEMETRY);
-    wr_u32(p + 0, tm->time_ms);
-    wr_u16(p + 4, tm->seq_ack);
-    wr_u16(p + 6, from_i16(tm->omega_crpm));
-    wr_u16(p + 8, from_i16(tm->omega_cmd_crpm));
-    wr_u32(p + 10, from_i32(tm->position_counts));
-    wr_u16(p + 14, from_i16(tm->current_ma));
-    wr_u16(p + 16, tm->voltage_mv);
-    wr_u16(p + 18, from_i16(tm->duty_x10000));
-    wr_u16(p + 20, tm->status);
-    wr_u16(p + 22, tm->rx_errors);
-    wr_u16(p + 24, tm->encoder_errors);
-    return frame_end(out);
+    writer_t w = frame_begin(out, PROTO_T_TELEMETRY, PROTO_LEN_TELEMETRY);
+    wr_u32(&w, 0, tm->time_ms);
+    wr_u16(&w, 4, tm->seq_ack);
+    wr_u16(&w, 6, from_i16(tm->omega_crpm));
+    wr_u16(&w, 8, from_i16(tm->omega_cmd_crpm));
+    wr_u32(&w, 10, from_i32(tm->position_counts));
+    wr_u16(&w, 14, from_i16(tm->current_ma));
+    wr_u16(&w, 16, tm->voltage_mv);
+    wr_u16(&w, 18, from_i16(tm->duty_x10000));
+    wr_u16(&w, 20, tm->status);
+    wr_u16(&w, 22, tm->rx_errors);
+    wr_u16(&w, 24, tm->encoder_errors);
+    return frame_end(&w, PROTO_LEN_TELEMETRY);
 }
 
 size_t proto_encode_identity(const proto_identity_t *id, uint8_t *out)
 {
-    uint8_t *p = frame_begin(out, PROTO_T_IDENTITY, PROTO_LEN_IDENTITY);
-    wr_u8(p + 0, id->module_id);
-    wr_u8(p + 1, id->protocol_version);
-    wr_u8(p + 2, id->fw_major);
-    wr_u8(p + 3, id->fw_minor);
-    wr_u8(p + 4, id->fw_patch);
-    wr_u8(p + 5, id->reset_cause);
-    wr_u8(p + 6, id->flags);
-    return frame_end(out);
+    writer_t w = frame_begin(out, PROTO_T_IDENTITY, PROTO_LEN_IDENTITY);
+    wr_u8(&w, 0, id->module_id);
+    wr_u8(&w, 1, id->protocol_version);
+    wr_u8(&w, 2, id->fw_major);
+    wr_u8(&w, 3, id->fw_minor);
+    wr_u8(&w, 4, id->fw_patch);
+    wr_u8(&w, 5, id->reset_cause);
+    wr_u8(&w, 6, id->flags);
+    return frame_end(&w, PROTO_LEN_IDENTITY);
 }
 
 size_t proto_encode_fault(const proto_fault_t *ft, uint8_t *out)
 {
-    uint8_t *p = frame_begin(out, PROTO_T_FAULT, PROTO_LEN_FAULT);
-    wr_u32(p + 0, ft->time_ms);
-    wr_u16(p + 4, ft->faults);
-    wr_u16(p + 6, ft->status);
-    wr_u16(p + 8, from_i16(ft->current_ma));
-    wr_u16(p + 10, ft->voltage_mv);
-    wr_u16(p + 12, from_i16(ft->omega_crpm));
-    wr_u16(p + 14, from_i16(ft->omega_cmd_crpm));
-    wr_u16(p + 16, from_i16(ft->duty_x10000));
-    return frame_end(out);
+    writer_t w = frame_begin(out, PROTO_T_FAULT, PROTO_LEN_FAULT);
+    wr_u32(&w, 0, ft->time_ms);
+    wr_u16(&w, 4, ft->faults);
+    wr_u16(&w, 6, ft->status);
+    wr_u16(&w, 8, from_i16(ft->current_ma));
+    wr_u16(&w, 10, ft->voltage_mv);
+    wr_u16(&w, 12, from_i16(ft->omega_crpm));
+    wr_u16(&w, 14, from_i16(ft->omega_cmd_crpm));
+    wr_u16(&w, 16, from_i16(ft->duty_x10000));
+    return frame_end(&w, PROTO_LEN_FAULT);
 }
 
 /* A parser-returned frame always has the right length for its type; checking it again
@@ -393,6 +445,22 @@ void proto_parser_push(proto_parser_t *p, uint8_t byte)
     }
     p->buf[p->n++] = byte;
     if (p->need) p->need--;
+}
+
+uint8_t proto_parser_room(const proto_parser_t *p)
+{
+    /* need > 0 only when the buffer holds a header whose frame still fits; else pop has
+     * left fewer than a header's bytes: no overflow either way */
+    if (p->need) return p->need;
+    return p->n < PROTO_HEADER_SIZE ? (uint8_t)(PROTO_HEADER_SIZE - p->n) : 1u;
+}
+
+uint8_t *proto_parser_next(proto_parser_t *p) { return p->buf + p->n; }
+
+void proto_parser_added(proto_parser_t *p, uint8_t k)
+{
+    p->n = (uint8_t)(p->n + k);
+    p->need = p->need > k ? (uint8_t)(p->need - k) : 0u;
 }
 
 bool proto_parser_pop(proto_parser_t *p, proto_frame_t *out)

@@ -224,6 +224,15 @@ void proto_parser_init(proto_parser_t *p);
 void proto_parser_push(proto_parser_t *p, uint8_t byte);
 /* The next complete valid frame, if the buffered bytes hold one. */
 bool proto_parser_pop(proto_parser_t *p, proto_frame_t *out);
+/* Instead of pushing byte by byte, after pop has returned false a caller may store up to
+ * proto_parser_room(p) bytes at proto_parser_next(p) and report them with
+ * proto_parser_added(p, k): the same as k calls of proto_parser_push, at a copy's cost (the
+ * module copies a frame's header, then its body, straight out of its receive ring). The
+ * room is what pop needs before it can check anything: the rest of a frame's body, else
+ * the rest of a header (at least 1). */
+uint8_t proto_parser_room(const proto_parser_t *p);
+uint8_t *proto_parser_next(proto_parser_t *p);
+void proto_parser_added(proto_parser_t *p, uint8_t k); /* k <= proto_parser_room(p) */
 /* Frames dropped so far: crc_errors + header_errors (wraps). */
 uint16_t proto_parser_dropped(const proto_parser_t *p);
 

@@ -37,7 +37,8 @@ TEST_CASE("safety: ms to the timeout is when safety_tick detects it")
     for (uint32_t t = 1000; t < 1400; ++t) {
         uint32_t due = safety_ms_to_timeout(&s, t);
         bool before = safety_motor_enabled(&s);
-        safety_tick(&s, t);
+        uint32_t left = safety_tick(&s, t);
+        CHECK(left == safety_ms_to_timeout(&s, t)); // what the main loop sleeps by
         // detected at t exactly when the deadline is t itself
         CHECK((before && !safety_motor_enabled(&s)) == (before && due == 0));
         if (t < 1250) CHECK(due == 1250 - t);

@@ -13,9 +13,24 @@ namespace {
 
 using Bytes = std::vector<uint8_t>;
 
+// A returned frame re-serialised as it was on the wire.
+Bytes wire_of(const proto_frame_t& f)
+{
+    Bytes wire(PROTO_FRAME_SIZE(f.len));
+    wire[0] = PROTO_START0;
+    wire[1] = PROTO_START1;
+    wire[2] = f.len;
+    wire[3] = f.type;
+    std::copy(f.payload, f.payload + f.len, wire.begin() + PROTO_HEADER_SIZE);
+    uint16_t crc = proto_crc(wire.data() + 2, 2u + f.len);
+    wire[PROTO_HEADER_SIZE + f.len] = uint8_t(crc & 0xFF);
+    wire[PROTO_HEADER_SIZE + f.len + 1] = uint8_t(crc >> 8);
+    return wire;
+}
+
 struct Feed {
     proto_parser_t parser;
-    std::vector<Bytes> frames;  // each returned frame, re-serialised as it was on the wire
+    std::vector<Bytes> frames;  // each returned frame, as it was on the wire
 
     Feed() { proto_parser_init(&parser); }
 
@@ -24,14 +39,7 @@ struct Feed {
         proto_frame_t f;
         for (uint8_t b : bytes) {
             proto_parser_push(&parser, b);
-            while (proto_parser_pop(&parser, &f)) {
-                Bytes wire{PROTO_START0, PROTO_START1, f.len, f.type};
-                wire.insert(wire.end(), f.payload, f.payload + f.len);
-                uint16_t crc = proto_crc(wire.data() + 2, 2u + f.len);
-                wire.push_back(uint8_t(crc & 0xFF));
-                wire.push_back(uint8_t(crc >> 8));
-                frames.push_back(wire);
-            }
+            while (proto_parser_pop(&parser, &f)) frames.push_back(wire_of(f));
         }
     }
 };
@@ -278,4 +286,54 @@ TEST_CASE("a caller that never pops loses old bytes, not memory", "[protocol][pa
     for (int i = 0; i < 1000; ++i) proto_parser_push(&p, uint8_t(i));
     CHECK(p.n <= PROTO_MAX_FRAME);
     CHECK(p.bytes_discarded == 1000 - PROTO_MAX_FRAME);
+}
+
+TEST_CASE("bytes stored through proto_parser_next equal the same bytes pushed one by one",
+          "[protocol][parser]")
+{
+    // What the module does: copy up to proto_parser_room of what has arrived (a random
+    // amount here) straight into the parser, pop, repeat.
+    std::mt19937_64 rng(16);
+    Bytes stream;
+    for (int i = 0; i < 300; ++i) {
+        Bytes f = random_frame(rng);
+        if (rng() % 4 == 0) f = damage(f, Damage(rng() % 6), rng);
+        if (rng() % 4 == 0) {
+            Bytes g = garbage(rng, rng() % 20, true);
+            stream.insert(stream.end(), g.begin(), g.end());
+        }
+        stream.insert(stream.end(), f.begin(), f.end());
+    }
+    stream.insert(stream.end(), kFlush.begin(), kFlush.end());
+
+    Feed by_byte;
+    by_byte.push(stream);
+
+    proto_parser_t p;
+    proto_parser_init(&p);
+    std::vector<Bytes> frames;
+    size_t copies_over_1 = 0;
+    size_t i = 0;
+    while (i < stream.size()) {
+        uint8_t room = proto_parser_room(&p);
+        REQUIRE(room >= 1);
+        REQUIRE(p.n + room <= PROTO_MAX_FRAME);
+        size_t k = std::min<size_t>({size_t(room), stream.size() - i, 1 + rng() % 40});
+        std::copy(stream.begin() + long(i), stream.begin() + long(i + k), proto_parser_next(&p));
+        proto_parser_added(&p, uint8_t(k));
+        i += k;
+        if (k > 1) ++copies_over_1;
+        proto_frame_t f;
+        while (proto_parser_pop(&p, &f)) frames.push_back(wire_of(f));
+    }
+    CHECK(copies_over_1 > 300);
+    REQUIRE(frames.size() == by_byte.frames.size());
+    CHECK(frames == by_byte.frames);
+    CHECK(p.n == by_byte.parser.n);
+    CHECK(p.need == by_byte.parser.need);
+    CHECK(p.frames_ok == by_byte.parser.frames_ok);
+    CHECK(p.crc_errors == by_byte.parser.crc_errors);
+    CHECK(p.header_errors == by_byte.parser.header_errors);
+    CHECK(p.bytes_discarded == by_byte.parser.bytes_discarded);
+    CHECK(p.crc_errors + p.header_errors > 0);  // the damaged frames were there
 }
