@@ -39,7 +39,7 @@
 namespace {
 
 constexpr double kCpuHz = 16e6;
-// docs/simulator.md and MODEL-NOTES.md: 23 rpm at 12 V, 369:1 (estimate), 48 X4 counts.
+// docs/simulator.md and docs/model-notes.md: 23 rpm at 12 V, 369:1 (estimate), 48 X4 counts.
 constexpr double kNoLoadRpmAt12V = 23.0;
 constexpr double kGearRatio = 369.0;
 constexpr double kCountsPerMotorRev = 48.0;

@@ -355,7 +355,7 @@ static void motor_step_to_parts(void *ctx, avr_cycle_count_t from, avr_cycle_cou
 static void extint_fix(avr_t *avr)
 {
 	/* without this, a low PD2/PD3 makes simavr poll INT0/INT1 every cycle, masked or
-	 * not (SIMAVR-NOTES.md): 5-100x slower */
+	 * not (docs/simulator.md): 5-100x slower */
 	avr_extint_set_strict_lvl_trig(avr, 0, 0);
 	avr_extint_set_strict_lvl_trig(avr, 1, 0);
 }

@@ -1,4 +1,4 @@
-// The `auger` command-line tool is one binary with subcommands (DESIGN.md: workbench, control
+// The `auger` command-line tool is one binary with subcommands (docs/design.md: workbench, control
 // client, operator tools). Each group lives in its own directory and hands its subcommands to
 // main.cpp through one of the functions below, so groups are added without touching each other.
 #pragma once

@@ -28,7 +28,7 @@
 
 namespace augerd {
 
-// The columns beyond LOG-FORMAT.md's (docs/daemon.md "The log"): what `auger replay` needs to
+// The columns beyond docs/log-format.md's (docs/daemon.md "The log"): what `auger replay` needs to
 // run the core's estimator and controller again on this log and compare.
 const std::vector<std::string>& replay_columns();
 

@@ -1,4 +1,4 @@
-// Model construction: eqs. (1)-(4), (7)-(10) from the per-screw table of MODEL-NOTES.md.
+// Model construction: eqs. (1)-(4), (7)-(10) from the per-screw table of docs/model-notes.md.
 #include "auger/model.hpp"
 
 #include <stdexcept>
@@ -16,7 +16,7 @@ double wrap_angle(double a) {
 }
 
 std::array<ScrewMount, 4> screw_table(const RobotParams& p) {
-  // Positions and signs of MODEL-NOTES.md; the signs are the only "typed-in" data.
+  // Positions and signs of docs/model-notes.md; the signs are the only "typed-in" data.
   return {{{"front-right", +p.l_x_m, -p.l_y_m, -1.0, +1.0},
            {"rear-right", -p.l_x_m, -p.l_y_m, +1.0, -1.0},
            {"rear-left", -p.l_x_m, +p.l_y_m, +1.0, +1.0},

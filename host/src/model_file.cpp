@@ -140,7 +140,7 @@ ModelFile parse_model_file(const std::string& source, const std::string& name) {
       have_schema = true;
     } else if (key == "omega_unit") {
       f.omega_unit = text(name, v, key);
-      // sigma of Tables 2-3 is per rpm (MODEL-NOTES decision); a file in rad/s would silently
+      // sigma of Tables 2-3 is per rpm (docs/model-notes.md decision); a file in rad/s would silently
       // scale every force by 9.5, so it is refused rather than guessed.
       if (f.omega_unit != "rpm")
         fail(name, v, "omega_unit '" + f.omega_unit + "' is not supported: sigma must be per rpm");

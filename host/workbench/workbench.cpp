@@ -113,7 +113,7 @@ namespace {
 // of B would otherwise turn it).
 constexpr double kGantryYawDamping = 1e12;
 
-// The paper's tables (MODEL-NOTES.md; the same values as models/robot.toml, models/gantry.toml).
+// The paper's tables (docs/model-notes.md; the same values as models/robot.toml, models/gantry.toml).
 TerrainParams robot_terrain(const std::string& name, bool* known) {
   *known = true;
   if (name == "frozen_grass") return {"frozen_grass", 0.4, 0.16, 509.81, 210.50, 4.52};
@@ -457,7 +457,7 @@ void simulate_range(const Model& model, const Dataset& data, const SimOptions& o
     if (k + 1 < n) {
       const double dt = data.t_s[k + 1] - t;
       // A row's omega is the encoder's mean over the interval ending at its t_s (module
-      // telemetry, LOG-FORMAT.md), so the speed over [t_k, t_k+1] is row k+1's.
+      // telemetry, docs/log-format.md), so the speed over [t_k, t_k+1] is row k+1's.
       const Vec4 w = data.omega_rpm[k + 1];
       dyn.t_s = t;
       dynamics_step(model, dyn, eta, zeta, w, std::min(dt, 0.1), o.n_sub);

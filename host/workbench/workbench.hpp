@@ -4,9 +4,9 @@
 // (compare.cpp, diagnose.cpp, fit.cpp, report.cpp) are thin shells around these functions.
 //
 // Channels ("DOF" in the JSON): x, y, psi of the external pose, and imu_psi (the IMU heading,
-// which the model predicts as psi plus the sensor effects). A gantry log (LOG-FORMAT.md) is
+// which the model predicts as psi plus the sensor effects). A gantry log (docs/log-format.md) is
 // the robot model with yaw locked, screws 0 and 1 driven, and one active channel: x for the
-// longitudinal axis, y for the lateral one (MODEL-NOTES eqs. (11)-(17)).
+// longitudinal axis, y for the lateral one (docs/model-notes.md eqs. (11)-(17)).
 #pragma once
 
 #include <array>

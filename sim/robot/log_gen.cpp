@@ -83,7 +83,7 @@ Vec4 ideal_screw_step(Vec4& omega_rpm, const Vec4& target_rpm, double tau_s, dou
 }
 
 // Encoder: counts of a shaft angle (in revolutions); the speed reported for a 10 ms window is
-// the count difference (MODEL-NOTES: 48 counts per motor revolution, ~369:1), in 0.01 rpm.
+// the count difference (docs/model-notes.md: 48 counts per motor revolution, ~369:1), in 0.01 rpm.
 double encoder_rpm(double rev_prev, double rev_now, double counts_per_rev) {
   const double counts = std::floor(rev_now * counts_per_rev) - std::floor(rev_prev * counts_per_rev);
   const double rpm = counts / counts_per_rev / kTick_s * 60.0;
