@@ -121,4 +121,10 @@ Vec4 kinematic_screw_speeds_rpm(const Model& model, const Vec3& zeta) {
   return (model.K_i * zeta / model.robot.r_s_m) / kRpmToRadps;  // eq. (3)
 }
 
+double pose_delay_s(const Model& model) {
+  double delay_s = 0.0;
+  for (const auto& e : model.effects) delay_s += e->pose_delay_s();
+  return delay_s;
+}
+
 }  // namespace auger

@@ -95,6 +95,11 @@ struct Model {
 Model make_model(const RobotParams& robot, const TerrainParams& terrain,
                  std::vector<std::shared_ptr<const Effect>> effects = {});
 
+// How much earlier than their t_s the model's pose rows show the robot, in s: the sum of its
+// effects' pose_delay_s() (effect pose_time_offset). The workbench shifts the screw speeds
+// against the poses by it, the controller's EKF takes each pose as of that much earlier.
+double pose_delay_s(const Model& model);
+
 // eq. (9): body to world.
 Mat3 rotation_J(double psi_rad);
 
