@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "auger/log.hpp"
+#include "true_gantry.hpp"
 #include "true_robot.hpp"
 
 namespace auger::sim {
@@ -239,6 +240,44 @@ void apply_robot_effect(const EffectSpec& e, double seconds, TruthParams& tp, Mo
     tp.soft_patch.on = true;
     tp.soft_patch.extra = param(e, "extra");
     tp.soft_patch.radius_m = param(e, "radius_m");
+  }
+}
+
+// The same effects on the gantry (TrueGantry), in the module's own forms along the rail: the
+// robot's shapes along one DOF. gp holds the rail's mass, sigma, drag and B on entry.
+void apply_gantry_effect(const EffectSpec& e, bool lateral, double rail_m, GantryTruthParams& gp) {
+  const std::string& id = e.id;
+  if (id == "paper_params") {
+    gp.sigma *= param(e, lateral ? "sigma_lat" : "sigma_long");
+    gp.drag *= param(e, lateral ? "D_y" : "D_x");
+  } else if (id == "coulomb_friction" || id == "stick_slip_friction") {
+    gp.friction.on = true;
+    gp.friction.coulomb_n = param(e, lateral ? "force_y_n" : "force_x_n");
+    gp.friction.stiction_n =
+        id == "stick_slip_friction" ? gp.friction.coulomb_n * param(e, "stiction_ratio") : gp.friction.coulomb_n;
+    gp.friction.stribeck_mps = id == "stick_slip_friction" ? param(e, "stribeck_mps") : 1;
+    gp.friction.eps_mps = std::max(0.0001, gp.friction.stiction_n / gp.mass_kg * (kCouple_s / 2) / 2.2);  // as the robot's
+  } else if (id == "quadratic_drag") {
+    gp.quad_drag.on = true;
+    gp.quad_drag.c_nspm2 = param(e, lateral ? "c_y" : "c_x");
+  } else if (id == "traction_saturation") {
+    gp.saturation.on = true;
+    gp.saturation.max_n = param(e, lateral ? "lat_max_n" : "long_max_n");
+    gp.saturation.sharpness = param(e, "sharpness");
+  } else if (id == "force_lag") {
+    gp.lag.on = true;
+    gp.lag.tau_s = param(e, "tau_s");
+    gp.lag.damping = param(e, "damping");
+  } else if (id == "screw_dead_band") {
+    gp.dead_band.on = true;
+    gp.dead_band.omega_dead_rpm = param(e, "omega_rpm");
+    gp.dead_band.corner_rpm = param(e, "corner_frac") * gp.dead_band.omega_dead_rpm;
+  } else if (id == "soft_patch") {
+    // A stretch of rail of length 2 radius_m centred at at_frac of the rail.
+    gp.soft_patch.on = true;
+    gp.soft_patch.centre_m = param(e, "at_frac") * rail_m;
+    gp.soft_patch.half_length_m = param(e, "radius_m");
+    gp.soft_patch.extra = param(e, "extra");
   }
 }
 
@@ -487,95 +526,20 @@ LogGenResult generate_gantry_log(const TerrainParams& terrain, double mass_kg, c
   if (!(mass_kg > 0)) throw std::invalid_argument("gantry mass must be > 0");
   const bool lateral = cfg.gantry == GantryAxis::lateral;
   const std::string& id = e.id;
-  // eqs. (11)-(14): m x'' = -D u + sigma B omega, B_x = [-1, -1], B_y = [-1, 1].
-  double sigma = lateral ? terrain.sigma_lat : terrain.sigma_long;
-  double drag = lateral ? terrain.D_y : terrain.D_x;
-  const std::array<double, 2> b = lateral ? std::array<double, 2>{-1.0, 1.0} : std::array<double, 2>{-1.0, -1.0};
-  if (id == "paper_params") {
-    sigma *= param(e, lateral ? "sigma_lat" : "sigma_long");
-    drag *= param(e, lateral ? "D_y" : "D_x");
-  }
   const auto n_ticks = static_cast<std::size_t>(std::lround(cfg.seconds / kTick_s)) + 1;
   const double rail_m = 0.5;
 
-  // Effect parameters in the module's own forms (see the robot's: same shapes, one DOF).
-  const bool fric = id == "coulomb_friction" || id == "stick_slip_friction";
-  const bool quad = id == "quadratic_drag", sat = id == "traction_saturation";
-  const bool lag = id == "force_lag", dead = id == "screw_dead_band", patch = id == "soft_patch";
-  const double f_c = fric ? param(e, lateral ? "force_y_n" : "force_x_n") : 0;
-  const double f_s = id == "stick_slip_friction" ? f_c * param(e, "stiction_ratio") : f_c;
-  const double v_s = id == "stick_slip_friction" ? param(e, "stribeck_mps") : 1;
-  const double eps_mps = std::max(0.0001, f_s / mass_kg * (kCouple_s / 2) / 2.2);  // as the robot's
-  const double c_quad = quad ? param(e, lateral ? "c_y" : "c_x") : 0;
-  const double f_max = sat ? param(e, lateral ? "lat_max_n" : "long_max_n") : 0;
-  const double sat_n = sat ? param(e, "sharpness") : 0;
-  const double tau = lag ? param(e, "tau_s") : 0, zeta_lag = lag ? param(e, "damping") : 0;
-  const double w0 = dead ? param(e, "omega_rpm") : 0;
-  const double corner = dead ? param(e, "corner_frac") * w0 : 0;
-  // Gantry soft patch: a stretch of rail of length 2 radius_m centred at at_frac of the rail.
-  const double patch_c = patch ? param(e, "at_frac") * rail_m : 0, patch_r = patch ? param(e, "radius_m") : 0;
-  const double patch_extra = patch ? param(e, "extra") : 0;
-
-  struct S {
-    double x = 0, u = 0;
-    std::array<double, 2> y{}, yd{};  // lag filter per screw
-  };
-  auto traction = [&](const S& s, const Vec4& w, std::array<double, 2>& f) {
-    for (int i = 0; i < 2; ++i) {
-      double wi = lag ? s.y[static_cast<std::size_t>(i)] : w[i];
-      if (dead && !lag) wi = dead_band_rpm(wi, w0, corner);
-      double fi = sigma * b[static_cast<std::size_t>(i)] * wi;
-      if (sat) fi = saturate_force(fi, f_max, sat_n);
-      f[static_cast<std::size_t>(i)] = fi;
-    }
-  };
-  auto deriv = [&](const S& s, const Vec4& w, S& d) {
-    std::array<double, 2> f{};
-    traction(s, w, f);
-    double k_drag = 1.0;
-    if (patch) k_drag += patch_extra * 0.5 * (1.0 - std::tanh((std::fabs(s.x - patch_c) - patch_r) / 0.01));
-    double force = f[0] + f[1] - k_drag * drag * s.u;
-    if (fric) {
-      const double level = f_c + (f_s - f_c) * std::exp(-(s.u / v_s) * (s.u / v_s));
-      force -= level * std::tanh(s.u / eps_mps);
-    }
-    // Smooth at rest (u sqrt(u^2 + u0^2), u0 = 5 mm/s), not the workbench's u|u|.
-    if (quad) force -= c_quad * s.u * std::sqrt(s.u * s.u + 2.5e-5);
-    d.x = s.u;
-    d.u = force / mass_kg;
-    for (int i = 0; i < 2; ++i) {
-      const auto ii = static_cast<std::size_t>(i);
-      double wi = w[i];
-      if (dead) wi = dead_band_rpm(wi, w0, corner);
-      d.y[ii] = s.yd[ii];
-      d.yd[ii] = lag ? (wi - s.y[ii] - 2.0 * zeta_lag * tau * s.yd[ii]) / (tau * tau) : 0.0;
-    }
-  };
-  auto add = [](const S& s, const S& d, double h) {
-    S o = s;
-    o.x += h * d.x;
-    o.u += h * d.u;
-    for (std::size_t i = 0; i < 2; ++i) {
-      o.y[i] += h * d.y[i];
-      o.yd[i] += h * d.yd[i];
-    }
-    return o;
-  };
-  auto rk4 = [&](S& s, const Vec4& w, double h) {
-    S k1, k2, k3, k4;
-    deriv(s, w, k1);
-    deriv(add(s, k1, h / 2), w, k2);
-    deriv(add(s, k2, h / 2), w, k3);
-    deriv(add(s, k3, h), w, k4);
-    S o = s;
-    o.x += h / 6 * (k1.x + 2 * k2.x + 2 * k3.x + k4.x);
-    o.u += h / 6 * (k1.u + 2 * k2.u + 2 * k3.u + k4.u);
-    for (std::size_t i = 0; i < 2; ++i) {
-      o.y[i] += h / 6 * (k1.y[i] + 2 * k2.y[i] + 2 * k3.y[i] + k4.y[i]);
-      o.yd[i] += h / 6 * (k1.yd[i] + 2 * k2.yd[i] + 2 * k3.yd[i] + k4.yd[i]);
-    }
-    s = o;
-  };
+  // eqs. (11)-(14): m x'' = -D u + sigma B omega, B_x = [-1, -1], B_y = [-1, 1].
+  GantryTruthParams gp;
+  gp.mass_kg = mass_kg;
+  gp.sigma = lateral ? terrain.sigma_lat : terrain.sigma_long;
+  gp.drag = lateral ? terrain.D_y : terrain.D_x;
+  gp.b = lateral ? std::array<double, 2>{-1.0, 1.0} : std::array<double, 2>{-1.0, -1.0};
+  apply_gantry_effect(e, lateral, rail_m, gp);
+  const std::array<double, 2>& b = gp.b;
+  const bool patch = gp.soft_patch.on;
+  TrueGantry gantry(gp);
+  const double patch_c = gp.soft_patch.centre_m, patch_r = gp.soft_patch.half_length_m;
 
   // Runs along the rail (the paper's 0.5 m), reversing at its ends: single-dof at 5, 10, 20 rpm
   // (jittered), manual at random speeds 3-22 rpm; 1-2 s standing between runs.
@@ -600,21 +564,21 @@ LogGenResult generate_gantry_log(const TerrainParams& terrain, double mass_kg, c
                              }()}});
   LogGenResult res;
   res.truth.reserve(n_ticks);
-  S s;
-  s.x = 0.05;
+  GantryState& s = gantry.state();
+  s.x_m = 0.05;
   double dir = 1.0, speed = run_speed(0), rest_until = 0.0, sq = 0;
   int run_no = 0;
   std::array<double, 2> rev{u01(rng), u01(rng)}, rev_prev = rev;
   Vec4 omega = Vec4::Zero(), target = Vec4::Zero();
   double force_window_n = 0.0;
   // Base alongside for the effect size (same commands, no effect, reset every segment).
-  double base_x = s.x, base_u = 0, next_reset = 0;
-  const double a_base = std::exp(-drag / mass_kg * kCouple_s);
+  double base_x = s.x_m, base_u = 0, next_reset = 0;
+  const double a_base = std::exp(-gp.drag / mass_kg * kCouple_s);
   for (std::size_t k = 0; k < n_ticks; ++k) {
     const double t = static_cast<double>(k) * kTick_s;
     // Command: a run until the end of the rail, then rest and reverse.
     if (t >= rest_until) {
-      const bool at_end = (dir > 0 && s.x >= rail_m - 0.05) || (dir < 0 && s.x <= 0.05);
+      const bool at_end = (dir > 0 && s.x_m >= rail_m - 0.05) || (dir < 0 && s.x_m <= 0.05);
       if (at_end) {
         dir = -dir;
         speed = run_speed(++run_no);
@@ -634,24 +598,22 @@ LogGenResult generate_gantry_log(const TerrainParams& terrain, double mass_kg, c
     // encoder speed (its anti-aliasing filter), so both columns describe the same interval.
     g.force_n = (k == 0 ? 0.0 : force_window_n / 10.0) + cfg.gantry_force_noise_n * n01(noise_rng);
     force_window_n = 0.0;
-    g.position_m = s.x + cfg.gantry_position_noise_m * n01(noise_rng);
+    g.position_m = s.x_m + cfg.gantry_position_noise_m * n01(noise_rng);
     log.write(g);
     bool acting = id != "none";
-    if (patch) acting = std::fabs(s.x - patch_c) < patch_r;
-    res.truth.push_back({t, Vec3(s.x, 0, 0), Vec3(s.u, 0, 0), acting});
+    if (patch) acting = std::fabs(s.x_m - patch_c) < patch_r;
+    res.truth.push_back({t, Vec3(s.x_m, 0, 0), Vec3(s.u_mps, 0, 0), acting});
     if (t >= next_reset - 1e-9) {
-      base_x = s.x;
-      base_u = s.u;
+      base_x = s.x_m;
+      base_u = s.u_mps;
       next_reset += cfg.size_segment_s;
     }
-    sq += (s.x - base_x) * (s.x - base_x);
+    sq += (s.x_m - base_x) * (s.x_m - base_x);
     if (k + 1 == n_ticks) break;
     for (int j = 0; j < 10; ++j) {
       const Vec4 mean_rpm = ideal_screw_step(omega, target, cfg.ideal_tau_s, kCouple_s);
-      for (int h = 0; h < 2; ++h) rk4(s, mean_rpm, kCouple_s / 2);
-      std::array<double, 2> f{};
-      traction(s, mean_rpm, f);
-      force_window_n += f[0] + f[1];
+      for (int h = 0; h < 2; ++h) gantry.step(mean_rpm, kCouple_s / 2);
+      force_window_n += gantry.traction_n(mean_rpm);
       for (int i = 0; i < 2; ++i) rev[static_cast<std::size_t>(i)] += mean_rpm[i] * (kCouple_s / 60.0);
       // Base: exact first-order step of m u' = -D u + sigma_nominal B omega.
       const double sig0 = lateral ? terrain.sigma_lat : terrain.sigma_long;
