@@ -36,16 +36,34 @@ Json& Json::end_array() {
   return *this;
 }
 
-Json& Json::num(const char* key, double v) {
-  if (!std::isfinite(v)) return add(key, nullptr, false);
-  // 10 significant digits: what the analysis resolves; whole numbers as integers.
+nlohmann::ordered_json json_number(double v, int digits) {
+  if (!std::isfinite(v)) return nullptr;
   char buf[40];
-  std::snprintf(buf, sizeof buf, "%.10g", v);
+  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
   const double rounded = std::strtod(buf, nullptr);
-  if (rounded == std::trunc(rounded) && std::fabs(rounded) < 1e15)
-    return add(key, static_cast<long long>(rounded), false);
-  return add(key, rounded, false);
+  if (rounded == std::trunc(rounded) && std::fabs(rounded) < 1e15) return static_cast<long long>(rounded);
+  return rounded;
 }
+
+std::string json_for_script(const nlohmann::ordered_json& j) {
+  const std::string text = j.dump(-1, ' ', false, nlohmann::ordered_json::error_handler_t::replace);
+  std::string out;
+  out.reserve(text.size());
+  for (char c : text) {
+    if (c == '<')
+      out += "\\u003c";
+    else if (c == '>')
+      out += "\\u003e";
+    else if (c == '&')
+      out += "\\u0026";
+    else
+      out += c;
+  }
+  return out;
+}
+
+// 10 significant digits: what the analysis resolves.
+Json& Json::num(const char* key, double v) { return add(key, json_number(v, 10), false); }
 
 Json& Json::str(const char* key, const std::string& v) { return add(key, v, false); }
 Json& Json::boolean(const char* key, bool v) { return add(key, v, false); }

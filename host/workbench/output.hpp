@@ -34,4 +34,11 @@ class Json {
 };
 void json_windows(Json& j, const char* key, const std::vector<Window>& windows);
 
+// v to `digits` significant digits as a JSON number (whole numbers as integers), null if not
+// finite: what Json::num (10 digits) and the report's chart data (6) write.
+nlohmann::ordered_json json_number(double v, int digits);
+// JSON text that is safe inside an HTML <script> element: "<", ">" and "&" (in JSON only ever
+// inside strings) written as \u003c, \u003e, \u0026, so no "</script>" can end the element.
+std::string json_for_script(const nlohmann::ordered_json& j);
+
 }  // namespace auger::wb

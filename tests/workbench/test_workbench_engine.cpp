@@ -249,6 +249,16 @@ TEST_CASE("JSON: numbers to 10 significant digits, whole ones as integers; bad U
                     "\"path\":\"log\xef\xbf\xbd\xef\xbf\xbd.csv\",\"ok\":\"\xc3\xa9\"}");
 }
 
+TEST_CASE("JSON for a <script> element: no markup characters, the same value") {
+  const nlohmann::ordered_json j = {{"label", "x </script><b>&amp;"}, {"y", json_number(0.29462699999999997, 6)}};
+  const std::string text = json_for_script(j);
+  CHECK(text.find_first_of("<>&") == std::string::npos);
+  CHECK(nlohmann::ordered_json::parse(text) == j);
+  CHECK(text.rfind("{\"label\":\"x \\u003c/script\\u003e\\u003cb\\u003e\\u0026amp;\",\"y\":", 0) == 0);
+  // 6 significant digits (nlohmann's shortest form is not always the shortest: the same double).
+  CHECK(nlohmann::ordered_json::parse(text)["y"].get<double>() == 0.294627);
+}
+
 TEST_CASE("every library effect: fitted from data made with it, the error falls to the noise floor",
           "[effects]") {
   // The same test applies to an effect added to the registry (docs/workbench.md): its typical
