@@ -1,5 +1,6 @@
 // The effect search's machinery (search.hpp is its public side), shared by diagnose and fit
-// (search.cpp, search_diagnose.cpp) and explain (explain.cpp); internal to the workbench engine (docs/workbench.md "How effects are fitted").
+// (search.cpp, search_diagnose.cpp) and explain (explain.cpp); internal to the workbench engine
+// (docs/workbench.md "How effects are fitted").
 // A model under test is a list of Parts (the paper's parameters, library effects), fitted by
 // simulation error over segments of one or more logs (a Problem) with Levenberg-Marquardt.
 #pragma once
