@@ -34,12 +34,13 @@
 #include "protocol.h"
 #include "sim_avr.h"
 #include "fil_rig.hpp"
+#include "encoder_rate.h"
 #include "simmod.h"
 
 namespace {
 
 constexpr double kCpuHz = 16e6;
-// docs/simulator.md and MODEL-NOTES.md: 23 rpm at 12 V, 369:1 (estimate), 48 X4 counts.
+// docs/simulator.md and docs/model-notes.md: 23 rpm at 12 V, 369:1 (estimate), 48 X4 counts.
 constexpr double kNoLoadRpmAt12V = 23.0;
 constexpr double kGearRatio = 369.0;
 constexpr double kCountsPerMotorRev = 48.0;
@@ -380,7 +381,7 @@ void section_isr(bool lines)
         Profiler prof(b.sim(), syms);
         b.command(0, c.omega_rpm, PROTO_SP_ENABLE);
         b.run_for(0.5);
-        if (c.forced_edges_per_s > 0) simmod_force_encoder_rate(b.sim(), 0, c.forced_edges_per_s, 0.5, 12345);
+        if (c.forced_edges_per_s > 0) encoder_rate_force(b.sim(), 0, c.forced_edges_per_s, 0.5, 12345);
         prof.set_collecting(true);
         b.run_for(1.0);
         prof.set_collecting(false);
@@ -440,10 +441,10 @@ RateResult try_rate(double edges_per_s, double jitter, double seconds)
     b.command(0, 10.0, PROTO_SP_ENABLE);
     b.run_for(0.3);
     int64_t start = simmod_encoder_count(b.sim(), 0);
-    simmod_force_encoder_rate(b.sim(), 0, edges_per_s, jitter, 0x5eed + uint64_t(edges_per_s));
+    encoder_rate_force(b.sim(), 0, edges_per_s, jitter, 0x5eed + uint64_t(edges_per_s));
     b.run_for(seconds);
     // Hold the pins (a rate of one edge in 30 years), let a telemetry frame report the count.
-    simmod_force_encoder_rate(b.sim(), 0, 1e-9, 0, 1);
+    encoder_rate_force(b.sim(), 0, 1e-9, 0, 1);
     b.run_for(0.03);
     int64_t truth = simmod_encoder_count(b.sim(), 0);
     const proto_telemetry_t& tm = b.last(0).tm;  // throws without telemetry
@@ -458,7 +459,7 @@ void section_rate()
                 "One module, battery 21 V, the host commanding 10 rpm with ENABLE every 10 ms "
                 "(the PID saturates against the forced speed: the control step runs its full "
                 "path), INA219 read every 10 ms, telemetry every 10 ms. The encoder is forced "
-                "(`simmod_force_encoder_rate`) for 0.5 s per rate; lost = |true count - "
+                "(`encoder_rate_force`) for 0.5 s per rate; lost = |true count - "
                 "telemetry position_counts| + encoder_errors after the run. Rates rise in steps "
                 "of 10 000 edges/s until the first loss. Motor top rate: %.0f edges/s with the "
                 "firmware's 12 V duty cap, %.0f edges/s uncapped at 21 V (23 rpm x 21/12 x 369 "
@@ -530,7 +531,7 @@ void section_load()
         }
         b.command(0, c.omega_rpm, c.flags);
         b.run_for(0.5);
-        if (c.forced > 0) simmod_force_encoder_rate(b.sim(), 0, c.forced, 0.0, 7);
+        if (c.forced > 0) encoder_rate_force(b.sim(), 0, c.forced, 0.0, 7);
         uint64_t c0 = simmod_cycles(b.sim(), 0), s0 = simmod_sleep_cycles(b.sim(), 0);
         int64_t e0 = simmod_encoder_count(b.sim(), 0);
         double t0 = simmod_time_s(b.sim());

@@ -20,7 +20,7 @@
 #ifndef DIR_SIGN
 #define DIR_SIGN 1
 #endif
-/* 12 encoder cycles per motor revolution, X4 decoded (MODEL-NOTES.md, from sibling models). */
+/* 12 encoder cycles per motor revolution, X4 decoded (docs/model-notes.md, from sibling models). */
 #ifndef ENC_COUNTS_PER_MOTOR_REV
 #define ENC_COUNTS_PER_MOTOR_REV 48
 #endif
@@ -117,7 +117,7 @@
 #ifndef PID_T
 #define PID_T 0.01
 #endif
-/* Units of eqs. (23)-(24), an open question (MODEL-NOTES.md): the error e fed to the PID is
+/* Units of eqs. (23)-(24), an open question (docs/model-notes.md): the error e fed to the PID is
  * omega error [rpm] * PID_E_PER_RPM, and u = PID_U_FULL means the motor's rated voltage
  * (duty = u / PID_U_FULL * motor_rated_mv / battery_mv). Defaults: e in screw rpm, u the
  * share of the rated voltage (-1..1). */

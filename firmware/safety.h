@@ -1,5 +1,5 @@
 /*
- * Safety state machine (DESIGN.md "Safety semantics"): the module boots disabled, drives
+ * Safety state machine (docs/design.md "Safety semantics"): the module boots disabled, drives
  * the motor only while the last valid setpoint asked for it, is fresh (cmd_timeout_ms) and
  * no fault is latched. Faults (PROTO_F_*) latch until a setpoint with
  * PROTO_SP_CLEAR_FAULTS. Under-voltage latches after UNDERVOLTAGE_SAMPLES readings in a row

@@ -9,7 +9,7 @@
  * twi_state to DONE, or to ERROR on any other status (NACK, arbitration, bus error).
  * The phase comes from the counters, not from the status code alone: simavr 1.6 reports
  * 0x28 instead of 0x18 after an acknowledged SLA+W and 0x30 instead of 0x20 after a
- * refused one (SIMAVR-NOTES.md), so 0x18 and 0x28 are handled alike.
+ * refused one (docs/simulator.md), so 0x18 and 0x28 are handled alike.
  */
 #include "board.h"
 

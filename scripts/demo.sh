@@ -44,7 +44,7 @@ t_s,x_m,y_m,psi_rad
 EOF
 # The diagonal on sand: the direction in which screws 0 and 2 alone drive the nominal robot,
 # atan((sigma_lat / D_y) / (sigma_long / D_x)) = 28.0 deg, near the 30 deg helix angle; the
-# pseudo-inverse stops screws 1 and 3 there and they block (MODEL-NOTES.md).
+# pseudo-inverse stops screws 1 and 3 there and they block (docs/model-notes.md).
 cat > "$work/diagonal.csv" <<'EOF'
 t_s,x_m,y_m,psi_rad
 0,0.4414,0.2351,0

@@ -15,7 +15,7 @@ packages=(
   # firmware-in-the-loop simulation
   simavr libsimavr-dev libelf-dev arduino-core-avr
   # host; augerd's ROS 2 interface: Eclipse Cyclone DDS and its IDL compiler idlc
-  libeigen3-dev libtomlplusplus-dev libserial-dev catch2 cyclonedds-dev cyclonedds-tools
+  libeigen3-dev libtomlplusplus-dev nlohmann-json3-dev libserial-dev catch2 cyclonedds-dev cyclonedds-tools
   # fuzzing (libFuzzer) and sanitizers
   clang libclang-rt-14-dev
   # benchmarks (instruction counts)
@@ -42,7 +42,7 @@ fi
 # arm64, only then).
 multiarch=()
 if [[ ${1:-} == board ]]; then
-  packages=(build-essential cmake ninja-build pkg-config libeigen3-dev libtomlplusplus-dev catch2 avrdude)
+  packages=(build-essential cmake ninja-build pkg-config libeigen3-dev libtomlplusplus-dev nlohmann-json3-dev catch2 avrdude)
   [[ $(dpkg --print-architecture) == arm64 ]] || packages+=(g++-aarch64-linux-gnu qemu-user)
   # `make board ROS2=1`: augerd with its ROS 2 interface, against Cyclone DDS for arm64; idlc
   # (cyclonedds-tools) runs on the build machine.

@@ -75,7 +75,7 @@ typedef struct {
 /* Settings stored in the module's EEPROM. PID gains are in the firmware's units
  * (docs/firmware.md). Accepted only while the motor is disabled. */
 typedef struct {
-    uint8_t module_id;             /* 0..3 on the robot (screw index of MODEL-NOTES.md) */
+    uint8_t module_id;             /* 0..3 on the robot (screw index of docs/model-notes.md) */
     int8_t dir_sign;               /* +1 or -1: motor direction that counts as positive omega */
     uint8_t flags;                 /* reserved, send 0 */
     uint32_t counts_per_rev_x100;  /* encoder counts (X4) per screw revolution, x100 */

@@ -84,8 +84,8 @@ static void encoder_push(encoder_t *e, avr_cycle_count_t when, int64_t count)
 void encoder_move(encoder_t *e, avr_cycle_count_t from, avr_cycle_count_t to,
 		double angle_from_rad, double angle_to_rad)
 {
-	if (e->forced)
-		return; /* the pins follow the imposed rate, not the shaft */
+	if (e->held)
+		return; /* someone else drives the pins (encoder_hold) */
 	angle_from_rad += e->offset_counts * e->rad_per_count;
 	angle_to_rad += e->offset_counts * e->rad_per_count;
 	double da = angle_to_rad - angle_from_rad;
@@ -127,8 +127,7 @@ void encoder_init(avr_t *avr, encoder_t *e, int counts_per_rev)
 	e->ext_port = 0;
 	e->ext_mask_a = e->ext_mask_b = 0;
 	e->offset_counts = 0;
-	e->forced = 0;
-	e->rng_state = 1;
+	e->held = 0;
 }
 
 void encoder_drive_port(encoder_t *e, char port, int bit_a, int bit_b)
@@ -146,13 +145,10 @@ void encoder_attach(encoder_t *e, avr_irq_t *pin_a, avr_irq_t *pin_b)
 	encoder_restart(e, 0);
 }
 
-static avr_cycle_count_t encoder_forced_timer(avr_t *avr, avr_cycle_count_t when, void *param);
-
 void encoder_restart(encoder_t *e, double angle_rad)
 {
 	avr_cycle_timer_cancel(e->avr, encoder_edge_timer, e);
-	avr_cycle_timer_cancel(e->avr, encoder_forced_timer, e);
-	e->forced = 0;
+	e->held = 0;
 	e->head = e->pending = 0;
 	int64_t c = (int64_t)floor(angle_rad / e->rad_per_count + e->offset_counts);
 	e->count = e->target_count = c;
@@ -165,65 +161,28 @@ void encoder_restart(encoder_t *e, double angle_rad)
 	avr_raise_irq(e->irq + IRQ_ENCODER_B, b);
 }
 
-/* ---- forced rate ---- */
+/* ---- held: a bench drives the pins ---- */
 
-static double uniform01(encoder_t *e)
-{
-	/* xorshift64 (Marsaglia): deterministic, no shared state between modules/threads */
-	uint64_t x = e->rng_state;
-	x ^= x << 13;
-	x ^= x >> 7;
-	x ^= x << 17;
-	e->rng_state = x;
-	return (double)(x >> 11) * (1.0 / 9007199254740992.0); /* 53 bits -> [0, 1) */
-}
-
-static double forced_interval_cycles(encoder_t *e)
-{
-	return e->forced_mean_cycles * (1.0 + e->forced_jitter * (2.0 * uniform01(e) - 1.0));
-}
-
-static avr_cycle_count_t encoder_forced_timer(avr_t *avr, avr_cycle_count_t when, void *param)
-{
-	(void)avr;
-	encoder_t *e = (encoder_t *)param;
-	if (!e->forced)
-		return 0;
-	encoder_drive(e, e->count + e->forced_dir);
-	e->target_count = e->count;
-	/* Keep the exact fractional schedule so rounding does not bias the rate; at least one
-	 * cycle later (a timer returned for the past is dropped). */
-	e->forced_next_cycle += forced_interval_cycles(e);
-	avr_cycle_count_t next = (avr_cycle_count_t)llround(e->forced_next_cycle);
-	return next > when ? next : when + 1;
-}
-
-void encoder_force_rate(encoder_t *e, double edges_per_s, double jitter, uint64_t seed,
-		double shaft_angle_rad)
+void encoder_hold(encoder_t *e)
 {
 	avr_cycle_timer_cancel(e->avr, encoder_edge_timer, e);
-	avr_cycle_timer_cancel(e->avr, encoder_forced_timer, e);
 	/* Pending shaft edges are dropped: the count stays at what the pins show now. */
 	e->head = e->pending = 0;
 	e->target_count = e->count;
-	if (edges_per_s == 0) {
-		e->forced = 0;
-		/* Continue from the current count, in the middle of its cell: the shaft's next
-		 * half count of motion either way moves the pins. */
-		e->offset_counts = (double)e->count + 0.5 - shaft_angle_rad / e->rad_per_count;
-		return;
-	}
-	if (jitter < 0)
-		jitter = 0;
-	if (jitter > 1)
-		jitter = 1;
-	e->forced = 1;
-	e->forced_dir = edges_per_s > 0 ? 1 : -1;
-	e->forced_mean_cycles = (double)e->avr->frequency / fabs(edges_per_s);
-	e->forced_jitter = jitter;
-	e->rng_state = seed ? seed : 0x9E3779B97F4A7C15ull; /* xorshift must not start at 0 */
-	e->forced_next_cycle = (double)e->avr->cycle + forced_interval_cycles(e);
-	avr_cycle_count_t next = (avr_cycle_count_t)llround(e->forced_next_cycle);
-	avr_cycle_timer_register(e->avr, next > e->avr->cycle ? next - e->avr->cycle : 1,
-			encoder_forced_timer, e);
+	e->held = 1;
+}
+
+void encoder_step(encoder_t *e, int dir)
+{
+	encoder_drive(e, e->count + (dir > 0 ? 1 : -1));
+	e->target_count = e->count;
+}
+
+void encoder_release(encoder_t *e, double shaft_angle_rad)
+{
+	encoder_hold(e);
+	e->held = 0;
+	/* Continue from the current count, in the middle of its cell: the shaft's next half
+	 * count of motion either way moves the pins. */
+	e->offset_counts = (double)e->count + 0.5 - shaft_angle_rad / e->rad_per_count;
 }

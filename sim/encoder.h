@@ -37,16 +37,10 @@ typedef struct encoder_t {
 	uint64_t overflows;       /* edges dropped because the queue was full */
 	char ext_port;            /* port whose 'external' pin state follows A and B, or 0 */
 	uint8_t ext_mask_a, ext_mask_b;
-	/* counts added to the shaft's (angle / rad_per_count): non-zero after a forced run,
-	 * so that the physical mode continues from the count the forced run left */
+	/* counts added to the shaft's (angle / rad_per_count): non-zero after the pins were
+	 * held, so that they follow the shaft from the count they were left at */
 	double offset_counts;
-	/* forced mode (encoder_force_rate): edges at an imposed rate, the shaft ignored */
-	int forced;
-	int forced_dir;           /* +1 counts up, -1 down */
-	double forced_mean_cycles; /* mean interval between edges */
-	double forced_jitter;     /* interval uniform in mean x [1 - j, 1 + j] */
-	double forced_next_cycle; /* exact (fractional) time of the next edge */
-	uint64_t rng_state;       /* xorshift64 state: deterministic per seed */
+	int held;                 /* encoder_hold: the pins ignore the shaft */
 } encoder_t;
 
 /* counts_per_rev: X4 counts per motor revolution (48 for 12 cycles). */
@@ -62,15 +56,16 @@ void encoder_drive_port(encoder_t *e, char port, int bit_a, int bit_b);
 void encoder_move(encoder_t *e, avr_cycle_count_t from, avr_cycle_count_t to,
 		double angle_from_rad, double angle_to_rad);
 /* After an avr_reset (cycle timers cleared): drop pending edges, jump to the count of
- * angle_rad and re-drive the pins. Ends a forced run. */
+ * angle_rad and re-drive the pins. Ends a hold. */
 void encoder_restart(encoder_t *e, double angle_rad);
-/* Test and benchmark hook: drive the pins at edges_per_s (sign = direction) whatever the
- * shaft does. Intervals are uniform in mean x [1 - jitter, 1 + jitter] (jitter 0..1, 0 =
- * regular), drawn from a xorshift64 generator seeded with seed. edges_per_s = 0 stops
- * forcing and returns to the shaft: the count stays where the forced run left it and
- * follows the shaft's motion from shaft_angle_rad on (no jump on the pins). */
-void encoder_force_rate(encoder_t *e, double edges_per_s, double jitter, uint64_t seed,
-		double shaft_angle_rad);
+/* For a bench that drives the pins itself (bench/encoder_rate.h): the shaft's pending edges
+ * are dropped and the pins stay where they are, whatever the shaft does, until
+ * encoder_release. While held, encoder_step moves them one X4 count (dir > 0 up, else down). */
+void encoder_hold(encoder_t *e);
+void encoder_step(encoder_t *e, int dir);
+/* Back to the shaft: the count stays where the pins were left and follows the shaft's motion
+ * from shaft_angle_rad on (no jump on the pins). */
+void encoder_release(encoder_t *e, double shaft_angle_rad);
 
 #ifdef __cplusplus
 }

@@ -126,15 +126,9 @@ uint64_t simmod_cycles(const simmod_t *sim, int module);
 uint64_t simmod_sleep_cycles(const simmod_t *sim, int module);
 
 /* ---- test and benchmark hooks ---- */
-/* Drive the encoder pins at edges_per_s (the sign gives the direction) instead of from the
- * shaft, e.g. to find the highest edge rate the firmware decodes. Intervals between edges
- * are uniform in mean x [1 - jitter, 1 + jitter] (jitter 0..1; 0: regular spacing) from a
- * deterministic generator seeded by seed. The motor model runs on unchanged.
- * edges_per_s = 0 returns to the shaft without a jump: the count goes on from where the
- * forced run left it (simmod_encoder_count stays the true count on the pins throughout).
- * A reset of the AVR also ends a forced run. */
-void simmod_force_encoder_rate(simmod_t *sim, int module, double edges_per_s, double jitter,
-		uint64_t seed);
+/* The module's encoder part (encoder.h), for a bench that drives its pins itself, e.g. at an
+ * imposed edge rate (bench/encoder_rate.h). */
+struct encoder_t *simmod_encoder(simmod_t *sim, int module);
 
 /* One avr_run() of a module: one instruction, or one sleep span; an interrupt taken at its
  * end leaves pc_after on the vector. simavr 1.6 adds no cycles for the interrupt response

@@ -1,4 +1,4 @@
-// augerd: the I/O shell around auger_core's controller (DESIGN.md): the 100 Hz loop on
+// augerd: the I/O shell around auger_core's controller (docs/design.md): the 100 Hz loop on
 // CLOCK_MONOTONIC over the module bus (module_bus.hpp), the command and sensor sockets
 // (line_server.hpp, docs/daemon-protocol.md), the logs (data_log.hpp), the safety rules
 // (docs/daemon.md) and the ROS 2 interface (docs/ros2.md). The loop is daemon.cpp; what a

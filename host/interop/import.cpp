@@ -1,5 +1,5 @@
 // `auger import`: the bag and CSV reader is Python (python/auger_interop, on the `rosbags` library:
-// DESIGN.md), so that ROS 2 bags need no ROS; this front runs it in the project's venv with the
+// docs/design.md), so that ROS 2 bags need no ROS; this front runs it in the project's venv with the
 // user's arguments as an argument vector (execv: no shell ever sees them), so the user has one
 // tool. The Python side parses the options and prints its own usage and errors.
 #include <unistd.h>

@@ -7,7 +7,7 @@
 namespace auger::io {
 namespace {
 
-// DESIGN.md: after the DTR reset the bootloader waits about 1 s; allow 2 s before asking.
+// docs/design.md: after the DTR reset the bootloader waits about 1 s; allow 2 s before asking.
 constexpr double kBootWait_s = 2.0;
 
 }  // namespace

@@ -1,6 +1,6 @@
 // A serial port for talking to motor modules: exclusive (flock), raw, any baud rate (Linux
 // termios2/BOTHER: 250000 baud is not one of the POSIX rates, and LibSerial 1.0 offers only
-// those). Used by auger-module now and by augerd (DESIGN.md, "Serial link").
+// those). Used by auger-module now and by augerd (docs/design.md, "Serial link").
 #pragma once
 
 #include <cstddef>

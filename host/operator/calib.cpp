@@ -8,7 +8,7 @@
 //    operator how many were counted on the marked screw, report the counts and the implied
 //    counts per revolution, and write it.
 //  * --check-motion, through augerd: +u, +v and +r each commanded briefly; the pose must move
-//    forward, left and counter-clockwise (MODEL-NOTES.md frames, REP-103).
+//    forward, left and counter-clockwise (docs/model-notes.md frames, REP-103).
 #include <fcntl.h>
 #include <poll.h>
 #include <sys/socket.h>

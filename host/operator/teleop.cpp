@@ -23,7 +23,7 @@ namespace auger::op {
 namespace {
 
 // Speed steps (+/-): u and v in m/s, r in rad/s. The robot's top speed at 23 rpm is about
-// 0.1 m/s on sand (MODEL-NOTES.md), so the steps stay below that.
+// 0.1 m/s on sand (docs/model-notes.md), so the steps stay below that.
 constexpr double kSpeedSteps_mps[] = {0.01, 0.02, 0.04, 0.06, 0.08, 0.1};
 constexpr double kYawStep_radps_per_mps = 2.0;  // r step in rad/s per m/s of the linear step
 constexpr int kSteps = sizeof kSpeedSteps_mps / sizeof kSpeedSteps_mps[0];

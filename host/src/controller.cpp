@@ -12,8 +12,7 @@ Controller::Controller(const Model& model, const ControllerConfig& config)
     : model_(model), config_(config), dr_(model) {
   // A model fitted with pose_time_offset (auger fit) says by how much the poses lag the screw
   // speeds: the EKF then takes each pose as of that much earlier.
-  for (const auto& e : model_.effects)
-    if (e->id() == "pose_time_offset") pose_delay_s_ = e->params().front().second;
+  pose_delay_s_ = pose_delay_s(model_);
   reset(Vec3::Zero());
 }
 

@@ -489,12 +489,21 @@ GantryLogReader::GantryLogReader(std::istream& in, std::string name) : csv_(in, 
 void GantryLogReader::bind() {
   csv_.check_format(kGantryLogFormat);
   for (const auto& m : csv_.metadata()) {
-    if (m.key == "mass_kg") csv_.metadata_number(m, limits::kGantryMass);
+    if (m.key == "mass_kg") meta_.mass_kg = csv_.metadata_number(m, limits::kGantryMass);
     if (m.key == "axis" && m.value != "longitudinal" && m.value != "lateral")
       throw LogError(csv_.name(), m.line, 1, "metadata 'axis' must be longitudinal or lateral, not " + quote(m.value));
+    if (m.key == "axis") meta_.axis = m.value;
+    if (m.key == "terrain") meta_.terrain = m.value;
   }
   csv_.require_columns(kGantryColumns);
   for (std::size_t k = 0; k < kGantryColumns.size(); ++k) index_[k] = csv_.column_index(kGantryColumns[k]);
+}
+
+const std::string& GantryLogReader::axis() const {
+  if (meta_.axis.empty())
+    throw LogError(csv_.name(), csv_.header_line(), 1,
+                   "no '# axis:' metadata before the header (longitudinal or lateral)");
+  return meta_.axis;
 }
 
 bool GantryLogReader::next(GantrySample& s) {

@@ -1,4 +1,4 @@
-// Model construction: eqs. (1)-(4), (7)-(10) from the per-screw table of MODEL-NOTES.md.
+// Model construction: eqs. (1)-(4), (7)-(10) from the per-screw table of docs/model-notes.md.
 #include "auger/model.hpp"
 
 #include <stdexcept>
@@ -16,7 +16,7 @@ double wrap_angle(double a) {
 }
 
 std::array<ScrewMount, 4> screw_table(const RobotParams& p) {
-  // Positions and signs of MODEL-NOTES.md; the signs are the only "typed-in" data.
+  // Positions and signs of docs/model-notes.md; the signs are the only "typed-in" data.
   return {{{"front-right", +p.l_x_m, -p.l_y_m, -1.0, +1.0},
            {"rear-right", -p.l_x_m, -p.l_y_m, +1.0, -1.0},
            {"rear-left", -p.l_x_m, +p.l_y_m, +1.0, +1.0},
@@ -119,6 +119,12 @@ Vec3 kinematic_body_velocity(const Model& model, const Vec4& omega_rpm) {
 
 Vec4 kinematic_screw_speeds_rpm(const Model& model, const Vec3& zeta) {
   return (model.K_i * zeta / model.robot.r_s_m) / kRpmToRadps;  // eq. (3)
+}
+
+double pose_delay_s(const Model& model) {
+  double delay_s = 0.0;
+  for (const auto& e : model.effects) delay_s += e->pose_delay_s();
+  return delay_s;
 }
 
 }  // namespace auger

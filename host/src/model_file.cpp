@@ -1,7 +1,9 @@
-// Model file reader (toml++, header-only, used only in this file).
+// Model file reader and writer (toml++, header-only, used only in this file).
 #include "auger/model_file.hpp"
 
+#include <cmath>
 #include <fstream>
+#include <limits>
 #include <set>
 #include <sstream>
 
@@ -67,9 +69,25 @@ Vec3 vec3(const std::string& file, const toml::node& n, const std::string& key) 
   return v;
 }
 
-template <class E>
+// The names of [control]'s choices, for the reader and the writer.
+const std::pair<const char*, AllocatorKind> kAllocatorNames[] = {{"pseudo_inverse", AllocatorKind::pseudo_inverse},
+                                                                 {"null_space", AllocatorKind::null_space}};
+const std::pair<const char*, AllocationPriority> kPriorityNames[] = {{"yaw", AllocationPriority::yaw},
+                                                                     {"translation", AllocationPriority::translation}};
+const std::pair<const char*, EstimatorKind> kEstimatorNames[] = {{"dead_reckoning", EstimatorKind::dead_reckoning},
+                                                                 {"dead_reckoning_imu", EstimatorKind::dead_reckoning_imu},
+                                                                 {"ekf", EstimatorKind::ekf}};
+
+template <class E, std::size_t N>
+const char* name_of(const std::pair<const char*, E> (&options)[N], E value) {
+  for (const auto& [name, v] : options)
+    if (v == value) return name;
+  return "";
+}
+
+template <class E, std::size_t N>
 E choice(const std::string& file, const toml::node& n, const std::string& key,
-         std::initializer_list<std::pair<const char*, E>> options) {
+         const std::pair<const char*, E> (&options)[N]) {
   const std::string v = text(file, n, key);
   std::string known;
   for (const auto& [name, value] : options) {
@@ -90,15 +108,11 @@ void read_control(const std::string& file, const toml::table& t, ControlSection&
     else if (key == "omega_min_rpm") c.omega_min_rpm = number(file, v, key);
     else if (key == "engage_rpm") c.engage_rpm = number(file, v, key);
     else if (key == "allocator")
-      c.allocator = choice<AllocatorKind>(file, v, key, {{"pseudo_inverse", AllocatorKind::pseudo_inverse},
-                                                         {"null_space", AllocatorKind::null_space}});
+      c.allocator = choice(file, v, key, kAllocatorNames);
     else if (key == "priority")
-      c.priority = choice<AllocationPriority>(file, v, key, {{"yaw", AllocationPriority::yaw},
-                                                             {"translation", AllocationPriority::translation}});
+      c.priority = choice(file, v, key, kPriorityNames);
     else if (key == "estimator")
-      c.estimator = choice<EstimatorKind>(file, v, key, {{"dead_reckoning", EstimatorKind::dead_reckoning},
-                                                         {"dead_reckoning_imu", EstimatorKind::dead_reckoning_imu},
-                                                         {"ekf", EstimatorKind::ekf}});
+      c.estimator = choice(file, v, key, kEstimatorNames);
     else
       fail(file, v, "unknown key '" + key + "' in [control] (known: gamma_per_s, kp, kd, ki, integral_limit, "
                     "allocator, priority, omega_min_rpm, engage_rpm, estimator)");
@@ -110,7 +124,80 @@ void read_control(const std::string& file, const toml::table& t, ControlSection&
   }
 }
 
+// ---- writer ----
+
+// The degree value that deg_to_rad turns back into exactly `rad`: the plain conversion can be an
+// ulp off, so its neighbours are tried. Every angle read from a file (degrees) has one.
+double degrees_for(double rad) {
+  double deg = rad * 180.0 / kPi;
+  for (int i = 0; i < 16 && deg_to_rad(deg) != rad; ++i)
+    deg = std::nextafter(deg, deg_to_rad(deg) < rad ? std::numeric_limits<double>::infinity()
+                                                    : -std::numeric_limits<double>::infinity());
+  return deg_to_rad(deg) == rad ? deg : rad * 180.0 / kPi;
+}
+
+toml::array toml_vec3(const Vec3& v) { return toml::array{v[0], v[1], v[2]}; }
+
+// One table as toml++ formats it (doubles to 17 significant digits, so they read back to the
+// same bits; keys in toml++'s order), after its comment lines.
+void put(std::ostringstream& o, const toml::table& t, const std::string& comment = "") {
+  std::istringstream lines(comment);
+  for (std::string line; std::getline(lines, line);) o << "# " << line << "\n";
+  o << toml::toml_formatter(t, toml::format_flags::none) << "\n";
+}
+
 }  // namespace
+
+std::string write_model_file(const ModelFile& f) {
+  std::ostringstream o;
+  {
+    std::istringstream lines(f.comment);
+    for (std::string line; std::getline(lines, line);) o << "# " << line << "\n";
+  }
+  // schema first, one key at a time: a table would sort them.
+  o << toml::toml_formatter(toml::table{{"schema", f.schema}}, toml::format_flags::none) << "\n";
+  o << toml::toml_formatter(toml::table{{"omega_unit", f.omega_unit}}, toml::format_flags::none) << "\n";
+  o << toml::toml_formatter(toml::table{{"frame", f.frame}}, toml::format_flags::none) << "\n\n";
+  if (f.robot) {
+    const RobotParams& r = *f.robot;
+    put(o, toml::table{{"robot", toml::table{{"r_s_m", r.r_s_m},
+                                             {"phi_deg", degrees_for(r.phi_rad)},
+                                             {"l_x_m", r.l_x_m},
+                                             {"l_y_m", r.l_y_m},
+                                             {"alpha_deg", degrees_for(r.alpha_rad)},
+                                             {"m_kg", r.m_kg},
+                                             {"I_z_kgm2", r.I_z_kgm2},
+                                             {"omega_max_rpm", r.omega_max_rpm}}}});
+  }
+  if (f.gantry_mass_kg) put(o, toml::table{{"gantry", toml::table{{"mass_kg", *f.gantry_mass_kg}}}});
+  for (const TerrainEntry& e : f.terrains) {
+    const TerrainParams& p = e.params;
+    toml::table t{{"sigma_long", p.sigma_long}, {"sigma_lat", p.sigma_lat}, {"D_x", p.D_x}, {"D_y", p.D_y}};
+    if (!std::isnan(p.D_psi)) t.insert("D_psi", p.D_psi);
+    put(o, toml::table{{"terrain", toml::table{{p.name, std::move(t)}}}}, e.comment);
+  }
+  for (const EffectConfig& c : f.effects) {
+    toml::table t{{"id", c.id}};
+    for (const auto& p : c.params) t.insert(p.name, p.value);
+    put(o, toml::table{{"effect", toml::array{std::move(t)}}}, c.comment);
+  }
+  const ControlSection& c = f.control;
+  toml::table control;
+  if (c.gamma_per_s) control.insert("gamma_per_s", toml_vec3(*c.gamma_per_s));
+  if (c.kp) control.insert("kp", toml_vec3(*c.kp));
+  if (c.kd) control.insert("kd", toml_vec3(*c.kd));
+  if (c.ki) control.insert("ki", toml_vec3(*c.ki));
+  if (c.integral_limit) control.insert("integral_limit", toml_vec3(*c.integral_limit));
+  if (c.allocator) control.insert("allocator", name_of(kAllocatorNames, *c.allocator));
+  if (c.priority) control.insert("priority", name_of(kPriorityNames, *c.priority));
+  if (c.omega_min_rpm) control.insert("omega_min_rpm", *c.omega_min_rpm);
+  if (c.engage_rpm) control.insert("engage_rpm", *c.engage_rpm);
+  if (c.estimator) control.insert("estimator", name_of(kEstimatorNames, *c.estimator));
+  if (!control.empty()) put(o, toml::table{{"control", std::move(control)}});
+  std::string text = o.str();
+  while (text.size() > 1 && text[text.size() - 1] == '\n' && text[text.size() - 2] == '\n') text.pop_back();
+  return text;
+}
 
 const TerrainEntry* ModelFile::find_terrain(const std::string& name) const {
   for (const auto& t : terrains)
@@ -140,7 +227,7 @@ ModelFile parse_model_file(const std::string& source, const std::string& name) {
       have_schema = true;
     } else if (key == "omega_unit") {
       f.omega_unit = text(name, v, key);
-      // sigma of Tables 2-3 is per rpm (MODEL-NOTES decision); a file in rad/s would silently
+      // sigma of Tables 2-3 is per rpm (docs/model-notes.md decision); a file in rad/s would silently
       // scale every force by 9.5, so it is refused rather than guessed.
       if (f.omega_unit != "rpm")
         fail(name, v, "omega_unit '" + f.omega_unit + "' is not supported: sigma must be per rpm");

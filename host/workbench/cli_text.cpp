@@ -2,6 +2,7 @@
 #include "cli_text.hpp"
 
 #include <cmath>
+#include <sstream>
 
 namespace auger::wb {
 
@@ -111,6 +112,15 @@ std::string typed(const std::string& path) {
   std::string q = "'";
   for (char c : path) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
   return q + "'";
+}
+
+std::vector<std::string> split_ids(const std::string& text) {
+  std::vector<std::string> ids;
+  std::stringstream ss(text);
+  std::string id;
+  while (std::getline(ss, id, ','))
+    if (!id.empty()) ids.push_back(id);
+  return ids;
 }
 
 }  // namespace auger::wb

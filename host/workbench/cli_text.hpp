@@ -42,6 +42,9 @@ const char* rank_group_id(RankGroup g);     // "improves", "improves_implausible
 const char* rank_group_words(RankGroup g);  // a heading for the group's rows
 extern const char* const kRankingRule;
 
+// "a,b,,c" -> {"a", "b", "c"}: the effect ids of --add and --only.
+std::vector<std::string> split_ids(const std::string& text);
+
 // A path as it would be typed in a shell (quoted when it holds anything but [A-Za-z0-9._/-]),
 // for the "next:" commands the subcommands print. Display only: nothing here is run.
 std::string typed(const std::string& path);

@@ -13,15 +13,6 @@
 
 namespace auger::wb {
 
-std::vector<std::string> split_ids(const std::string& text) {
-  std::vector<std::string> ids;
-  std::stringstream ss(text);
-  std::string id;
-  while (std::getline(ss, id, ','))
-    if (!id.empty()) ids.push_back(id);
-  return ids;
-}
-
 namespace {
 
 // What a researcher runs after this verdict.

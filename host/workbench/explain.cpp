@@ -14,7 +14,7 @@
 #include <set>
 #include <sstream>
 
-#include "search.hpp"
+#include "fitting.hpp"
 
 namespace auger::wb {
 
@@ -736,29 +736,22 @@ class Explainer {
       res.final_ratio[static_cast<std::size_t>(c)] = cnt[static_cast<std::size_t>(c)] > 0
                                                           ? std::sqrt(sum[static_cast<std::size_t>(c)] / cnt[static_cast<std::size_t>(c)])
                                                           : kNaN;
-    res.model_toml = model_file(f, res);
+    res.model_toml = model_file(res);
     verdict(f, res);
   }
 
-  std::string model_file(const State& f, const ExplainResult& res) const {
-    std::vector<FittedEffect> fe = res.final_fitted;
-    std::string text = model_to_toml(res.final_models.front().model, *ctx_.front().full, fe);
+  std::string model_file(const ExplainResult& res) const {
+    ModelFile file = fitted_model_file(res.final_models.front().model, *ctx_.front().full, res.final_fitted);
     // Other terrains' re-identified parameters (several logs on different ground).
     std::set<std::string> written{ctx_.front().base.terrain.name};
     for (std::size_t i = 1; i < ctx_.size(); ++i) {
-      const TerrainParams& t = res.final_models[i].model.terrain;
-      if (!written.insert(t.name).second) continue;
-      std::ostringstream o;
-      o.precision(17);
-      o << "\n# paper_params (eqs. (15)-(17)) of " << t.name << ", re-identified from " << ctx_[i].full->path
-        << "\n[terrain." << t.name << "]\nsigma_long = " << t.sigma_long << "\nsigma_lat = " << t.sigma_lat
-        << "\nD_x = " << t.D_x << "\nD_y = " << t.D_y << "\nD_psi = " << t.D_psi << "\n";
-      // Before the first [[effect]] so the table is not read as part of it.
-      const auto at = text.find("\n[[effect]]");
-      text.insert(at == std::string::npos ? text.size() : at, o.str());
+      TerrainEntry t;
+      t.params = res.final_models[i].model.terrain;
+      if (!written.insert(t.params.name).second) continue;
+      t.comment = "paper_params (eqs. (15)-(17)) of " + t.params.name + ", re-identified from " + ctx_[i].full->path;
+      file.terrains.push_back(t);
     }
-    (void)f;
-    return text;
+    return write_model_file(file);
   }
 
   void verdict(const State& f, ExplainResult& res) const {

@@ -15,8 +15,6 @@
 
 namespace auger::wb {
 
-std::vector<std::string> split_ids(const std::string& text);  // diagnose.cpp
-
 namespace {
 
 constexpr const char* kUsage =

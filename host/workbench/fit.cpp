@@ -14,8 +14,6 @@
 
 namespace auger::wb {
 
-std::vector<std::string> split_ids(const std::string& text);  // diagnose.cpp
-
 int run_fit(int argc, char** argv) {
   Args a;
   if (!parse_args(argc, argv, {"--json", "--help", "--progress"}, {"--model", "--add", "--out"}, a)) return 2;

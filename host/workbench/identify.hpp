@@ -1,4 +1,4 @@
-// The paper's identification of sigma and D from gantry logs (eqs. (11)-(17), MODEL-NOTES.md
+// The paper's identification of sigma and D from gantry logs (eqs. (11)-(17), docs/model-notes.md
 // "Identification"), with confidence intervals. Called by `auger identify` (identify.cpp) and by
 // the tests; pure computation on logs already in memory.
 #pragma once

@@ -354,24 +354,11 @@ GantryData read_gantry_data(const std::string& path) {
   const CsvLogReader& csv = reader.csv();
   GantryData g;
   g.file = path;
-  int axis_line = csv.header_line();
-  for (const auto& m : csv.metadata()) {
-    if (m.key == "axis") g.axis = m.value, axis_line = m.line;
-    if (m.key == "terrain") g.terrain = m.value;
-    if (m.key == "mass_kg") {
-      char* end = nullptr;
-      g.mass_kg = std::strtod(m.value.c_str(), &end);
-      if (end == m.value.c_str() || *end != '\0' || !(g.mass_kg > 0) || !std::isfinite(g.mass_kg))
-        throw LogError(path, m.line, 1, "mass_kg '" + m.value + "' is not a positive number");
-      g.mass_from_log = true;
-    }
-  }
-  if (g.axis.empty())
-    throw LogError(path, csv.header_line(), 1,
-                   "no '# axis:' metadata before the header (longitudinal or lateral)");
-  if (g.axis != "longitudinal" && g.axis != "lateral")
-    throw LogError(path, axis_line, 1, "axis '" + g.axis + "' is neither longitudinal nor lateral");
-  if (g.terrain.empty()) g.terrain = "unknown";
+  // The reader has checked the metadata (docs/log-format.md "Gantry log").
+  g.axis = reader.axis();
+  g.terrain = reader.metadata().terrain.empty() ? "unknown" : reader.metadata().terrain;
+  g.mass_from_log = reader.metadata().mass_kg.has_value();
+  g.mass_kg = reader.metadata().mass_kg.value_or(g.mass_kg);
   // eqs. (12), (14): B_x = [-1, -1], B_y = [-1, 1].
   const double b1 = g.axis == "longitudinal" ? -1 : 1;
   GantrySample s;

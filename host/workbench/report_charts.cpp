@@ -8,6 +8,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "output.hpp"
 #include "report_plot.hpp"
 
 namespace auger::wb {
@@ -27,37 +28,6 @@ std::string without_source_map(std::string s) {
   if (p == std::string::npos) return s;
   const std::size_t line = s.rfind('\n', p);
   return s.substr(0, line == std::string::npos ? 0 : line + 1);
-}
-
-// A JSON string literal safe inside <script>: "<" escaped so no "</script>" can end the element.
-std::string js_str(const std::string& s) {
-  std::string o = "\"";
-  for (unsigned char c : s) {
-    switch (c) {
-      case '"': o += "\\\""; break;
-      case '\\': o += "\\\\"; break;
-      case '\n': o += "\\n"; break;
-      case '<': o += "\\u003c"; break;
-      case '>': o += "\\u003e"; break;
-      case '&': o += "\\u0026"; break;
-      default:
-        if (c < 0x20) {
-          char b[8];
-          std::snprintf(b, sizeof b, "\\u%04x", c);
-          o += b;
-        } else {
-          o += static_cast<char>(c);
-        }
-    }
-  }
-  return o + "\"";
-}
-
-std::string js_num(double v) {
-  if (!std::isfinite(v)) return "null";
-  char b[32];
-  std::snprintf(b, sizeof b, "%.6g", v);
-  return b;
 }
 
 // Rows to keep: all of them, or per bin of rows each series' largest |value| (and the bin's first).
@@ -179,33 +149,28 @@ ChartSet::ChartSet() {
 std::string ChartSet::add(Chart c, std::size_t max_rows) {
   const std::string id = "chart-" + std::to_string(specs_.size() + 1);
   const std::vector<std::size_t> rows = rows_to_keep(c, max_rows);
-  std::ostringstream j;
-  j << "{\"id\":" << js_str(id) << ",\"labels\":[" << js_str(c.xlabel);
-  for (const auto& s : c.series) j << "," << js_str(s.label);
-  j << "],\"styles\":[";
-  for (std::size_t i = 0; i < c.series.size(); ++i) j << (i ? "," : "") << js_str(c.series[i].style);
-  j << "],\"colors\":[";
-  for (std::size_t i = 0; i < c.series.size(); ++i) j << (i ? "," : "") << js_str(c.series[i].color);
-  j << "],\"xlabel\":" << js_str(c.xlabel) << ",\"ylabel\":" << js_str(c.ylabel) << ",\"group\":" << js_str(c.group)
-    << ",\"height\":" << c.height_px << ",\"integer_x\":" << (c.integer_x ? "true" : "false")
-    << ",\"log_y\":" << (c.log_y ? "true" : "false") << ",\"bands\":[";
-  for (std::size_t i = 0; i < c.bands.size(); ++i)
-    j << (i ? "," : "") << "[" << js_num(c.bands[i].x0) << "," << js_num(c.bands[i].x1) << "," << js_str(c.bands[i].label)
-      << "]";
-  j << "],\"data\":[";
-  bool first = true;
+  using nlohmann::ordered_json;
+  ordered_json labels = ordered_json::array({c.xlabel}), styles = ordered_json::array(),
+               colors = ordered_json::array(), bands = ordered_json::array(), data = ordered_json::array();
+  for (const auto& s : c.series) {
+    labels.push_back(s.label);
+    styles.push_back(s.style);
+    colors.push_back(s.color);
+  }
+  for (const auto& b : c.bands) bands.push_back(ordered_json::array({json_number(b.x0, 6), json_number(b.x1, 6), b.label}));
   for (std::size_t r : rows) {
     // A row with no value at all only widens the x-range: drop it.
     bool any = false;
     for (const auto& s : c.series) any = any || std::isfinite(s.y[r]);
     if (!any) continue;
-    j << (first ? "" : ",") << "[" << js_num(c.x[r]);
-    for (const auto& s : c.series) j << "," << js_num(s.y[r]);
-    j << "]";
-    first = false;
+    ordered_json row = ordered_json::array({json_number(c.x[r], 6)});
+    for (const auto& s : c.series) row.push_back(json_number(s.y[r], 6));
+    data.push_back(std::move(row));
   }
-  j << "]}";
-  specs_.push_back(j.str());
+  ordered_json j = {{"id", id},         {"labels", labels}, {"styles", styles},   {"colors", colors},
+                    {"xlabel", c.xlabel}, {"ylabel", c.ylabel}, {"group", c.group}, {"height", c.height_px},
+                    {"integer_x", c.integer_x}, {"log_y", c.log_y}, {"bands", bands}, {"data", data}};
+  specs_.push_back(json_for_script(j));
   std::ostringstream h;
   h << "<div class=\"chart-box\">";
   if (!c.title.empty()) h << "<div class=\"chart-title\">" << html_escape(c.title) << "</div>";

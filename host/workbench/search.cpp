@@ -2,7 +2,7 @@
 // by simulation error over segments re-initialised from the measured pose (not by regression on
 // differentiated data), with Levenberg-Marquardt on finite-difference Jacobians, from several
 // starting points, on training segments; judged on held-out segments.
-#include "search.hpp"
+#include "fitting.hpp"
 
 #include <algorithm>
 #include <atomic>

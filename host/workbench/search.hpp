@@ -1,142 +1,169 @@
-// The effect search's machinery, shared by diagnose and fit (search.cpp) and explain
-// (explain.cpp); internal to the workbench engine (docs/workbench.md "How effects are fitted").
-// A model under test is a list of Parts (the paper's parameters, library effects), fitted by
-// simulation error over segments of one or more logs (a Problem) with Levenberg-Marquardt.
+// The workbench engine's effect search (docs/workbench.md "How effects are fitted"): diagnose,
+// fit and explain, the residual tests, the effect library, and the model file a fit writes.
+// Their machinery (parts, problems, Levenberg-Marquardt) is internal: fitting.hpp.
 #pragma once
 
-#include <functional>
+#include <array>
 #include <string>
-#include <utility>
 #include <vector>
 
-#include <Eigen/Dense>
+#include "auger/effect.hpp"
+#include "auger/model_file.hpp"
+#include "dataset.hpp"
+#include "simulation.hpp"
 
-#include "workbench.hpp"
+namespace auger::wb {
 
-namespace auger::wb::search {
+// ---- the effect search (diagnose, fit) ----
 
-using Segments = std::vector<std::pair<std::size_t, std::size_t>>;
-constexpr const char* kPaperParams = "paper_params";
+// A candidate the search can fit: a registry effect (or the pseudo-effect "paper_params",
+// which re-identifies sigma_long, sigma_lat, D_x, D_y, D_psi of eqs. (15)-(17)).
+struct FitParam {
+  std::string name;
+  double value = 0;
+  double sigma = kNaN;  // 1-sigma uncertainty (Gauss-Newton, scaled by n_eff)
+  std::string unit;
+  // Why the value is not to be trusted ("" if plausible): outside the parameter's physical
+  // range, at a search bound, or an uncertainty larger than the value.
+  std::string flag;
+};
+struct FittedEffect {
+  std::string effect;               // identifier, docs/workbench.md
+  std::vector<FitParam> params;     // as written to a model file
+  std::string description;          // plain words, e.g. "a constant force of 15 N opposing ..."
+};
 
-// One effect (or paper_params) in a fit: its full parameter values and which are free.
-struct Part {
+struct Candidate {
+  FittedEffect fitted;
+  double train_cost = 0;        // sum of squared noise-normalised residuals, training part
+  double delta_bic = 0;         // vs the nominal model, with n_eff
+  ChannelValues heldout_rms{kNaN, kNaN, kNaN, kNaN};
+  double heldout_ratio = 0;     // RMS over channels of heldout_rms / noise
+  bool near_tie = false;
+  std::string tell_apart;       // the experiment that separates it from its near tie
+  bool flagged = false;         // a parameter (its own or a refitted one) is flagged
+  bool implausible = false;     // ... outside or at the end of its physical range (ranks after plausible fits)
+  std::vector<FittedEffect> refitted;  // diagnose --model: the model's effects, refitted with it
+};
+
+struct DiagnoseOptions {
+  std::vector<std::string> only;  // restrict to these effect ids (empty = the whole library)
+  int threads = 2;
+  bool progress = false;          // progress lines on stderr
+};
+
+struct DiagnoseResult {
+  ModelChoice model;
+  ChannelValues noise_floor{};
+  ErrorStats nominal;          // segments, whole log
+  double nominal_heldout_ratio = 0;
+  double n_eff = 0, n = 0;
+  std::vector<Candidate> candidates;  // ranked, best first
+  bool significant = false;
+  std::string verdict;                // plain words
+  std::vector<Window> where;          // worst windows of what remains after the best candidate
+  bool refits_model = false;          // the model had effects: refitted jointly with each candidate
+};
+// Marks neighbours in a ranking that cannot be told apart, with the experiment that would.
+void mark_near_ties(std::vector<Candidate>& ranked);
+DiagnoseResult diagnose(const Dataset& data, ModelChoice model, const DiagnoseOptions& options = {});
+
+// The log as the search simulates it: rows with a pose plus enough others for steps of at most
+// max_dt_s, omega averaged over each merged interval (5x fewer steps for a 20 Hz camera).
+Dataset decimate_for_search(const Dataset& data, double max_dt_s = 0.05);
+
+// `fit`: re-identify the paper's parameters together with the given effects.
+struct FitResult {
+  ModelChoice before, after;
+  ChannelValues noise_floor{};
+  ErrorStats err_before, err_after;   // segments, whole log
+  std::vector<FittedEffect> effects;  // includes "paper_params" (the terrain set) first
+  std::string model_toml;             // the model file text
+};
+FitResult fit(const Dataset& data, ModelChoice model, const std::vector<std::string>& effect_ids,
+              bool progress = false);
+
+// The effect library as the workbench knows it: registry entries plus paper_params, with the
+// fitting metadata (documented in docs/workbench.md "Adding an effect").
+struct LibraryEffect {
   std::string id;
-  const EffectRegistry::Entry* entry = nullptr;  // null for paper_params
-  std::vector<ParamSpec> specs;
-  std::vector<double> values;  // current full values
-  std::vector<int> free;       // indices into values that Gauss-Newton moves
-  int log = -1;                // the log it applies to (-1: every log of the problem)
-  std::string terrain;         // paper_params: the terrain set it re-identifies
+  std::string summary;
+  std::vector<ParamSpec> params;  // as in the registry
+  std::vector<std::string> units;
+  bool needs_imu = false;
+  bool yaw_only = false;  // shows only with the robot's yaw and several screws (not on a gantry rail)
 };
+std::vector<LibraryEffect> effect_library();
 
-// A part for an effect id (or paper_params) at its defaults; the free parameters are those the
-// data can move (a gantry moves one DOF). Throws std::invalid_argument on an unknown id.
-Part make_part(const std::string& id, const Model& base, const Dataset& d);
-// The parts of a model's own effects, at the model's values (so they can be refitted).
-std::vector<Part> parts_of(const Model& model, const Dataset& d);
-// The model without its effects (the base the parts are applied to).
-Model without_effects(const Model& model);
-// The model with the parts that apply to log `log` (paper_params replaces the terrain set, the
-// effects are added after the base model's own).
-Model build(const Model& base, const std::vector<Part>& parts, int log = 0);
-// Parts with nothing free (held while other parts are fitted).
-std::vector<Part> frozen(std::vector<Part> parts);
-
-// One log's share of a problem: its segments and the residuals' (sample, channel) index.
-struct LogTerm {
-  const Dataset* data = nullptr;
-  const Model* base = nullptr;
-  ChannelValues noise{};
-  Segments segs;
-  std::vector<std::pair<std::size_t, int>> index;
-  SimOptions options;
-  int log = 0;
-  // Gantry: the load cell's force is a second measurement of the drive force (eq. (7) with the
-  // drive effects): a dead band, lag or saturation changes it, friction does not. Its residuals
-  // follow the pose residuals, normalised by its own noise floor.
-  std::vector<std::size_t> force_index;
-  double force_noise = kNaN;
-  std::size_t size() const { return index.size() + force_index.size(); }
+// ---- residual tests (residual_tests.cpp): what a model leaves, white and independent of the
+// inputs? (MATLAB's `resid` for an output-error model: the simulation error over segments of
+// 25 s, each segment's mean removed.)
+struct ChannelResidualTest {
+  int channel = 0;
+  std::size_t n = 0;            // residuals tested (fewer than 50: not tested)
+  std::vector<double> acf;      // lags 1..max_lag
+  double whiteness_q = 0, whiteness_limit = 0;  // Ljung-Box Q and its 1 % limit
+  bool white = true;
+  double independence_z = 0, independence_limit = 0;  // largest |correlation| sqrt(n) with an input
+  int worst_input = 0, worst_lag = 0;  // input: drive force x, y, yaw torque (eq. (7)); lag in samples
+  bool independent = true;
 };
-struct Problem {
-  std::vector<LogTerm> terms;
-  std::size_t size() const;
-  const Dataset& data(int log = 0) const;
+struct ResidualTests {
+  int max_lag = 10;
+  std::vector<ChannelResidualTest> channels;
+  bool white = true, independent = true;
 };
+ResidualTests residual_tests(const Model& model, const Dataset& data, const ChannelValues& noise, int max_lag = 10);
+std::string describe_residual_tests(const ResidualTests& t);  // plain words, "" never
 
-// Segments of about segment_s, each starting at a measured pose.
-Segments make_segments(const Dataset& d, double segment_s);
-// Segment length of the search: 25 s, or a seventh of a short log, at least 5 s.
-double search_segment_s(const Dataset& data);
-// Training and held-out segments, interleaved (every third held out), so that something that
-// starts at some time (a terrain change) is in both.
-void split_segments(const Segments& all, Segments& train, Segments& held);
-// The problem over `segs` of the decimated log `data` of `full` (the force noise from the full
-// log); add_log adds one more log to it.
-Problem make_problem(const Dataset& data, const Dataset& full, const Model& base, const ChannelValues& noise,
-                     Segments segs);
-void add_log(Problem& pr, const Dataset& data, const Dataset& full, const Model& base, const ChannelValues& noise,
-             Segments segs, int log);
-void build_index(LogTerm& t);
-
-using Workspace = std::vector<Prediction>;
-// Noise-normalised residuals of the model with the parts applied, all logs one after the other;
-// false if the model cannot be built (a parameter outside what the effect accepts).
-bool residuals(const Problem& pr, const std::vector<Part>& parts, Eigen::VectorXd& r, Workspace& work);
-
-struct FitOutcome {
-  std::vector<Part> parts;
-  double cost = std::numeric_limits<double>::infinity();
-  Eigen::MatrixXd JtJ;  // at the optimum, internal coordinates
-  Eigen::VectorXd r;
-  int n_params = 0;     // identifiable free parameters
-  int sims = 0;
+// ---- explain (explain.cpp): the loop compare -> diagnose -> fit -> diagnose ... in one command.
+struct ExplainOptions {
+  int max_effects = 4;   // effects added at most
+  int beam = 2;          // model structures carried per step (near ties are not settled greedily)
+  int threads = 2;
+  bool progress = false;          // a line per step on stderr
+  bool progress_detail = false;   // and a line per candidate fitted
+  std::vector<std::string> only;  // restrict the candidates (empty: the whole library)
 };
-FitOutcome levenberg_marquardt(const Problem& pr, std::vector<Part> parts, int max_iter);
-// Levenberg-Marquardt restarted with a fresh damping while it still gains (a stalled step is
-// often a poor finite-difference direction, not the optimum).
-FitOutcome refit(const Problem& pr, std::vector<Part> parts, int max_iter, int restarts = 3);
+struct ExplainStep {
+  int index = 0;
+  std::string added;                  // effect added at this step ("" for step 0: the model as given)
+  std::vector<std::string> dropped;   // effects the backward check removed at this step
+  std::vector<std::string> effects;   // the model's effects after the step, in the order added
+  std::vector<FittedEffect> fitted;   // every part after the step (paper_params first), jointly fitted
+  ChannelValues heldout_ratio{kNaN, kNaN, kNaN, kNaN};  // per channel, times the noise floor
+  double heldout_combined = kNaN;     // RMS over channels
+  double delta_bic = 0;               // against the step before
+  bool flagged = false;               // an implausible or unidentified parameter
+  bool implausible = false;           // a value outside or at the end of its physical range
+  std::vector<Candidate> alternatives;  // candidates this step nearly chose instead (near ties)
+};
+struct ExplainResult {
+  std::vector<std::string> logs;
+  std::vector<ChannelValues> noise_floor;  // per log
+  std::array<bool, kChannels> active{};    // channels any log measures
+  std::vector<ExplainStep> steps;          // the path of the final model, step 0 first
+  std::vector<std::string> effects;        // ids in the order added
+  ChannelValues final_ratio{kNaN, kNaN, kNaN, kNaN};    // as compare --model computes it, all logs
+  ChannelValues final_heldout{kNaN, kNaN, kNaN, kNaN};  // the last step's held-out ratio
+  std::vector<FittedEffect> final_fitted;  // refitted on every segment, polished on the full logs
+  std::vector<ResidualTests> tests;        // per log, of the final model
+  std::string verdict_kind;  // "noise", "near_noise", "unexplained", "max_effects"
+  std::string verdict;
+  std::vector<Window> where;       // worst windows left (first log)
+  std::vector<RegimeRow> regimes;  // the regimes with the largest error left (first log)
+  int structures_tried = 0;        // joint fits run
+  std::vector<ModelChoice> final_models;  // per log
+  std::string model_toml;
+};
+// logs and models: one model choice per log (its terrain); effects are shared, the paper's
+// parameters are shared per terrain.
+ExplainResult explain(const std::vector<Dataset>& logs, const std::vector<ModelChoice>& models,
+                      const ExplainOptions& options = {});
 
-// The best fit of the last part with the parts before it held, over integer choices (which
-// screw), a change time searched over the whole log first, and several starts. coulomb_fit: the
-// Coulomb friction fit of the same problem and held parts (stick-slip starts from it).
-FitOutcome fit_candidate(const Problem& pr, const std::vector<Part>& held, const Part& candidate, int max_iter,
-                         const FitOutcome* coulomb_fit = nullptr);
-// The candidate fitted on top of `state`, then everything (integers and change times kept)
-// refitted jointly: how a candidate is judged once other effects are in the model.
-FitOutcome fit_joint(const Problem& pr, const std::vector<Part>& state, const Part& candidate, int max_iter,
-                     const FitOutcome* coulomb_fit = nullptr);
-// Change times (terrain_change) searched over the whole log again with the other parts held at
-// o's values, then everything refitted; the better fit is returned.
-FitOutcome research_change_times(const Problem& pr, FitOutcome o, int max_iter);
-// fit_joint's second half: everything refitted from `first`, fit_candidate's result.
-FitOutcome refit_joint(const Problem& pr, const std::vector<Part>& state, const Part& candidate, FitOutcome first,
-                       int max_iter);
+// The model file (docs/model.md) of a model and its fitted effects, as `fit` and `explain` write
+// it (auger::write_model_file): the gantry's mass or the robot, the terrain set re-identified,
+// the effects with their descriptions as comments.
+ModelFile fitted_model_file(const Model& model, const Dataset& data, const std::vector<FittedEffect>& effects);
 
-// Runs fn(i) for every index of `which` on `threads` threads (the caller's included); an index
-// whose wait_for is another index (>= 0) starts only when that one is done.
-void run_parallel(int threads, const std::vector<std::size_t>& which, const std::function<int(std::size_t)>& wait_for,
-                  const std::function<void(std::size_t)>& fn);
-
-// Lag-1 autocorrelation of residuals, within each (log, segment, channel) run.
-double lag1_autocorrelation(const Problem& pr, const Eigen::VectorXd& r);
-// n (1 - rho) / (1 + rho), at least min(n, 10).
-double effective_n(double n, double rho);
-double combined_ratio(const ErrorStats& e, const Dataset& d);
-ErrorStats segments_error(const Model& m, const Dataset& d, const Segments& segs, const ChannelValues& noise);
-// Parameter values with 1-sigma uncertainties (Gauss-Newton covariance, times s2_scale).
-std::vector<FitParam> fit_params(const FitOutcome& o, double s2_scale);
-std::string describe(const Part& p, const Model& base);
-// Which experiment separates two effects that explain a log equally well.
-std::string tell_apart(const std::string& a, const std::string& b);
-// The library's candidates for this log (effects that need an IMU heading only with one; a
-// gantry log gets no yaw effects).
-std::vector<std::string> candidate_ids(const Dataset& d, const std::vector<std::string>& only = {});
-// Flags of implausible or unidentifiable values (docs/workbench.md "Plausibility").
-void flag_params(std::vector<FitParam>& params, const Part& part);
-bool any_flag(const std::vector<FitParam>& params);
-// A flag that makes a fit implausible (outside or at the end of a physical range), as opposed
-// to an unidentified parameter (an effect that fitted as a simpler one it contains).
-bool any_implausible(const std::vector<FitParam>& params);
-
-}  // namespace auger::wb::search
+}  // namespace auger::wb

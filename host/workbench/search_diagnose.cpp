@@ -6,7 +6,7 @@
 #include <mutex>
 #include <sstream>
 
-#include "search.hpp"
+#include "fitting.hpp"
 
 namespace auger::wb {
 
@@ -280,39 +280,33 @@ FitResult fit(const Dataset& full, ModelChoice mc, const std::vector<std::string
   res.err_before = error_stats(full, p, res.noise_floor);
   simulate(res.after.model, full, sim_options_for(res.after.model), p);
   res.err_after = error_stats(full, p, res.noise_floor);
-  res.model_toml = model_to_toml(res.after.model, data, res.effects);
+  res.model_toml = write_model_file(fitted_model_file(res.after.model, data, res.effects));
   return res;
 }
 
 // ---------------------------------------------------------------- model file
-std::string model_to_toml(const Model& m, const Dataset& d, const std::vector<FittedEffect>& effects) {
-  std::ostringstream o;
-  o.precision(17);  // max_digits10: a fitted model reads back to the same doubles
-  o << "# Written by auger fit from " << d.path << " (docs/workbench.md). Schema: docs/model.md.\n";
-  o << "schema = 1\nomega_unit = \"rpm\"\nframe = \"rep103\"\n\n";
-  const RobotParams& r = m.robot;
-  if (d.gantry) {
-    o << "[gantry]\nmass_kg = " << r.m_kg << "\n\n";
-  } else {
-    o << "[robot]\nr_s_m = " << r.r_s_m << "\nphi_deg = " << r.phi_rad * 180 / kPi << "\nl_x_m = " << r.l_x_m
-      << "\nl_y_m = " << r.l_y_m << "\nalpha_deg = " << r.alpha_rad * 180 / kPi << "\nm_kg = " << r.m_kg
-      << "\nI_z_kgm2 = " << r.I_z_kgm2 << "\nomega_max_rpm = " << r.omega_max_rpm << "\n\n";
-  }
-  const TerrainParams& t = m.terrain;
-  o << "# paper_params (eqs. (15)-(17)), re-identified\n";
-  o << "[terrain." << (t.name.empty() ? "sand" : t.name) << "]\nsigma_long = " << t.sigma_long
-    << "\nsigma_lat = " << t.sigma_lat << "\nD_x = " << t.D_x << "\nD_y = " << t.D_y << "\n";
-  if (!d.gantry) o << "D_psi = " << t.D_psi << "\n";
+ModelFile fitted_model_file(const Model& m, const Dataset& d, const std::vector<FittedEffect>& effects) {
+  ModelFile f;
+  f.comment = "Written by auger fit from " + d.path + " (docs/workbench.md). Schema: docs/model.md.";
+  if (d.gantry)
+    f.gantry_mass_kg = m.robot.m_kg;
+  else
+    f.robot = m.robot;
+  TerrainEntry t;
+  t.params = m.terrain;
+  if (t.params.name.empty()) t.params.name = "sand";
+  if (d.gantry) t.params.D_psi = kNaN;
+  t.comment = "paper_params (eqs. (15)-(17)), re-identified";
+  f.terrains.push_back(t);
   for (const auto& e : m.effects) {
-    std::string words;
+    EffectConfig c;
+    c.id = e->id();
     for (const auto& fe : effects)
-      if (fe.effect == e->id()) words = fe.description;
-    o << "\n";
-    if (!words.empty()) o << "# " << words << "\n";
-    o << "[[effect]]\nid = \"" << e->id() << "\"\n";
-    for (const auto& [name, value] : e->params()) o << name << " = " << value << "\n";
+      if (fe.effect == e->id()) c.comment = fe.description;
+    for (const auto& [name, value] : e->params()) c.params.push_back({name, value, 0, 0});
+    f.effects.push_back(std::move(c));
   }
-  return o.str();
+  return f;
 }
 
 }  // namespace auger::wb

@@ -1,4 +1,4 @@
-// auger-sim-log: writes robot or gantry logs (LOG-FORMAT.md) with one hidden effect, in batch
+// auger-sim-log: writes robot or gantry logs (docs/log-format.md) with one hidden effect, in batch
 // (ideal screws, no firmware, no pacing). docs/robot-sim.md "auger-sim-log".
 #include <chrono>
 #include <cstdio>

@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "auger/log.hpp"
+#include "true_gantry.hpp"
 #include "true_robot.hpp"
 
 namespace auger::sim {
@@ -19,50 +20,201 @@ namespace {
 constexpr double kTick_s = 0.01;     // log rows and screw commands (the host loop, 100 Hz)
 constexpr double kCouple_s = 0.001;  // screw lag <-> robot exchange, as the scheduler does
 
-const std::vector<EffectInfo>& effect_table() {
-  static const std::vector<EffectInfo> t = {
-      {"none", true, true, {}, "no hidden effect: the truth is the nominal model"},
-      {"coulomb_friction", true, true, {{"force_x_n", 8.0}, {"force_y_n", 6.0}, {"torque_nm", 1.0}},
-       "per axis level x tanh(speed / 0.3 mm/s) (smooth, no breakaway peak); yaw the same on r"},
-      {"stick_slip_friction", true, true,
-       {{"force_x_n", 8.0}, {"force_y_n", 6.0}, {"torque_nm", 1.0}, {"stiction_ratio", 1.5}, {"stribeck_mps", 0.01}},
-       "per axis Stribeck curve (breakaway stiction_ratio x the sliding level, decaying as exp(-(v/v_s)^2)) x tanh"},
-      {"quadratic_drag", true, true, {{"c_x", 1500.0}, {"c_y", 1500.0}, {"c_psi", 0.0}},
-       "per DOF -c u sqrt(u^2 + u0^2), u0 5 mm/s (smooth at rest); yaw c_psi with r0 0.01 rad/s"},
-      {"screw_traction_loss", true, false, {{"screw", 0}, {"loss", 0.6}, {"t_on_s", 0.0}},
-       "one screw loses the fraction loss of its traction, at its contact point"},
-      {"traction_saturation", true, true, {{"long_max_n", 12.0}, {"lat_max_n", 4.0}, {"sharpness", 0.0}},
-       "per screw and axis f / (1 + |f / f_max|^n)^(1/n) (n = sharpness; 0: f_max tanh(f / f_max))"},
-      {"force_lag", true, true, {{"tau_s", 0.15}, {"damping", 0.8}}, "second-order build-up of traction"},
-      {"screw_dead_band", true, true, {{"omega_rpm", 2.0}, {"corner_frac", 0.1}},
-       "smooth dead band: softplus corner of width corner_frac w0 (0: omega - w0 tanh(omega / w0))"},
-      {"terrain_slope", true, false, {{"roll_deg", 0.0}, {"pitch_deg", 2.0}},
-       "3-D incline: ground normal R_y(pitch) R_x(roll) e_z"},
-      {"resistance_offset", true, false, {{"asym", 0.2}},
-       "front contacts plough (1 + asym), rear (1 - asym) x their drag"},
-      {"pose_time_offset", true, false, {{"dt_s", 0.1}}, "pose at t is the true pose at t - dt_s"},
-      {"imu_heading_bias", true, false, {{"bias_rad", 0.05}}, "imu_psi = psi + bias"},
-      {"imu_heading_drift", true, false, {{"drift_radps", 3e-4}}, "imu_psi = psi + drift t"},
-      {"terrain_change", true, false,
-       {{"t_frac", 0.5}, {"sigma_scale", 0.7}, {"drag_scale", 1.3}, {"width_s", 0.5}},
-       "sigma and drag scaled from t_frac of the run on (tanh blend)"},
-      {"paper_params", true, true,
-       {{"sigma_long", 1.0}, {"sigma_lat", 1.0}, {"D_x", 1.0}, {"D_y", 1.0}, {"D_psi", 1.0}},
-       "the paper's sigma, D multiplied by these factors"},
-      {"soft_patch", true, true, {{"extra", 2.0}, {"radius_m", 0.2}, {"at_frac", 0.5}},
-       "OUTSIDE the library: a disc (gantry: a stretch of rail) of soft ground, drag x (1 + extra), "
-       "placed where the base path passes once, near at_frac of the run (gantry: at at_frac of the rail)"},
+double param(const EffectSpec& e, const std::string& name);
+
+// What an effect sets on the robot's truth, and on the gantry's.
+struct RobotTruth {
+  TruthParams& tp;
+  Model& model;    // the truth's nominal part (paper_params rebuilds it)
+  double seconds;  // the run's length (terrain_change's time)
+};
+struct GantryTruth {
+  GantryTruthParams& gp;  // holds the rail's mass, sigma, drag and B on entry
+  bool lateral;
+  double rail_m;
+};
+using RobotForm = void (*)(const EffectSpec&, RobotTruth&);
+using GantryForm = void (*)(const EffectSpec&, GantryTruth&);
+
+// One row per hidden effect: its parameters with their defaults, and its physics in the true
+// robot (TrueRobot) and on the gantry (TrueGantry, the robot's shapes along one DOF). A null form
+// changes no physics: the sensor effects act when the log is written.
+struct EffectRow {
+  EffectInfo info;
+  RobotForm robot = nullptr;
+  GantryForm gantry = nullptr;
+};
+
+void robot_friction(const EffectSpec& e, RobotTruth& r) {
+  TruthParams& tp = r.tp;
+  const bool stick = e.id == "stick_slip_friction";
+  const double ratio = stick ? param(e, "stiction_ratio") : 1.0;
+  tp.friction.on = true;
+  tp.friction.per_axis = true;
+  tp.friction.coulomb_n = param(e, "force_x_n");
+  tp.friction.y_ratio = param(e, "force_x_n") > 0 ? param(e, "force_y_n") / param(e, "force_x_n") : 1.0;
+  tp.friction.stiction_n = param(e, "force_x_n") * ratio;
+  tp.friction.stribeck_mps = stick ? param(e, "stribeck_mps") : 0.01;
+  // Yaw: the same curve at the contacts' distance from the centre (about 0.33 m), so the
+  // Stribeck speed in yaw is v_s / 0.33 m; smoothing 0.5 mrad/s (RK4 allows far less).
+  tp.friction.stribeck_radps = tp.friction.stribeck_mps / 0.33;
+  tp.friction.eps_radps = 0.0005;
+  tp.friction.coulomb_nm = param(e, "torque_nm");
+  tp.friction.stiction_nm = param(e, "torque_nm") * ratio;
+  // Smoothing width as small as the 0.5 ms RK4 step allows (slope F_s / eps at rest, lambda h
+  // about 2.2 of TrueRobot's limit 2.5): a force below the breakaway level creeps at about
+  // eps atanh(F / F_s), which must stay well below what the camera resolves.
+  const double f_max = std::max(tp.friction.stiction_n, tp.friction.stiction_n * tp.friction.y_ratio);
+  tp.friction.eps_mps = std::max(0.0001, f_max / r.model.robot.m_kg * 0.0005 / 2.2);
+}
+
+void gantry_friction(const EffectSpec& e, GantryTruth& g) {
+  GantryTruthParams& gp = g.gp;
+  const bool stick = e.id == "stick_slip_friction";
+  gp.friction.on = true;
+  gp.friction.coulomb_n = param(e, g.lateral ? "force_y_n" : "force_x_n");
+  gp.friction.stiction_n = stick ? gp.friction.coulomb_n * param(e, "stiction_ratio") : gp.friction.coulomb_n;
+  gp.friction.stribeck_mps = stick ? param(e, "stribeck_mps") : 1;
+  gp.friction.eps_mps = std::max(0.0001, gp.friction.stiction_n / gp.mass_kg * (kCouple_s / 2) / 2.2);  // as the robot's
+}
+
+const std::vector<EffectRow>& effect_rows() {
+  static const std::vector<EffectRow> t = {
+      {{"none", true, true, {}, "no hidden effect: the truth is the nominal model"}},
+      {{"coulomb_friction", true, true, {{"force_x_n", 8.0}, {"force_y_n", 6.0}, {"torque_nm", 1.0}},
+        "per axis level x tanh(speed / 0.3 mm/s) (smooth, no breakaway peak); yaw the same on r"},
+       robot_friction, gantry_friction},
+      {{"stick_slip_friction", true, true,
+        {{"force_x_n", 8.0}, {"force_y_n", 6.0}, {"torque_nm", 1.0}, {"stiction_ratio", 1.5}, {"stribeck_mps", 0.01}},
+        "per axis Stribeck curve (breakaway stiction_ratio x the sliding level, decaying as exp(-(v/v_s)^2)) x tanh"},
+       robot_friction, gantry_friction},
+      {{"quadratic_drag", true, true, {{"c_x", 1500.0}, {"c_y", 1500.0}, {"c_psi", 0.0}},
+        "per DOF -c u sqrt(u^2 + u0^2), u0 5 mm/s (smooth at rest); yaw c_psi with r0 0.01 rad/s"},
+       [](const EffectSpec& e, RobotTruth& r) {
+         r.tp.quad_drag.on = true;
+         r.tp.quad_drag.c_x_nspm2 = param(e, "c_x");
+         r.tp.quad_drag.c_y_nspm2 = param(e, "c_y");
+         r.tp.quad_drag.c_psi_nmspr2 = param(e, "c_psi");
+       },
+       [](const EffectSpec& e, GantryTruth& g) {
+         g.gp.quad_drag.on = true;
+         g.gp.quad_drag.c_nspm2 = param(e, g.lateral ? "c_y" : "c_x");
+       }},
+      {{"screw_traction_loss", true, false, {{"screw", 0}, {"loss", 0.6}, {"t_on_s", 0.0}},
+        "one screw loses the fraction loss of its traction, at its contact point"},
+       [](const EffectSpec& e, RobotTruth& r) {
+         r.tp.loss.on = true;
+         r.tp.loss.screw = static_cast<int>(param(e, "screw"));
+         if (r.tp.loss.screw < 0 || r.tp.loss.screw > 3)
+           throw std::invalid_argument("screw_traction_loss: screw must be 0..3");
+         r.tp.loss.factor = 1.0 - param(e, "loss");
+         r.tp.loss.t_on_s = param(e, "t_on_s");
+       }},
+      {{"traction_saturation", true, true, {{"long_max_n", 12.0}, {"lat_max_n", 4.0}, {"sharpness", 0.0}},
+        "per screw and axis f / (1 + |f / f_max|^n)^(1/n) (n = sharpness; 0: f_max tanh(f / f_max))"},
+       [](const EffectSpec& e, RobotTruth& r) {
+         r.tp.saturation.on = true;
+         r.tp.saturation.long_max_n = param(e, "long_max_n");
+         r.tp.saturation.lat_max_n = param(e, "lat_max_n");
+         r.tp.saturation.sharpness = param(e, "sharpness");
+       },
+       [](const EffectSpec& e, GantryTruth& g) {
+         g.gp.saturation.on = true;
+         g.gp.saturation.max_n = param(e, g.lateral ? "lat_max_n" : "long_max_n");
+         g.gp.saturation.sharpness = param(e, "sharpness");
+       }},
+      {{"force_lag", true, true, {{"tau_s", 0.15}, {"damping", 0.8}}, "second-order build-up of traction"},
+       [](const EffectSpec& e, RobotTruth& r) {
+         r.tp.lag.on = true;
+         r.tp.lag.tau_s = param(e, "tau_s");
+         r.tp.lag.damping = param(e, "damping");
+       },
+       [](const EffectSpec& e, GantryTruth& g) {
+         g.gp.lag.on = true;
+         g.gp.lag.tau_s = param(e, "tau_s");
+         g.gp.lag.damping = param(e, "damping");
+       }},
+      {{"screw_dead_band", true, true, {{"omega_rpm", 2.0}, {"corner_frac", 0.1}},
+        "smooth dead band: softplus corner of width corner_frac w0 (0: omega - w0 tanh(omega / w0))"},
+       [](const EffectSpec& e, RobotTruth& r) {
+         r.tp.dead_band.on = true;
+         r.tp.dead_band.omega_dead_rpm = param(e, "omega_rpm");
+         r.tp.dead_band.corner_rpm = param(e, "corner_frac") * param(e, "omega_rpm");
+       },
+       [](const EffectSpec& e, GantryTruth& g) {
+         g.gp.dead_band.on = true;
+         g.gp.dead_band.omega_dead_rpm = param(e, "omega_rpm");
+         g.gp.dead_band.corner_rpm = param(e, "corner_frac") * g.gp.dead_band.omega_dead_rpm;
+       }},
+      {{"terrain_slope", true, false, {{"roll_deg", 0.0}, {"pitch_deg", 2.0}},
+        "3-D incline: ground normal R_y(pitch) R_x(roll) e_z"},
+       [](const EffectSpec& e, RobotTruth& r) {
+         r.tp.incline.on = true;
+         r.tp.incline.roll_rad = deg_to_rad(param(e, "roll_deg"));
+         r.tp.incline.pitch_rad = deg_to_rad(param(e, "pitch_deg"));
+       }},
+      {{"resistance_offset", true, false, {{"asym", 0.2}},
+        "front contacts plough (1 + asym), rear (1 - asym) x their drag"},
+       [](const EffectSpec& e, RobotTruth& r) {
+         r.tp.offset.on = true;
+         r.tp.offset.asym = param(e, "asym");
+       }},
+      {{"pose_time_offset", true, false, {{"dt_s", 0.1}}, "pose at t is the true pose at t - dt_s"}},
+      {{"imu_heading_bias", true, false, {{"bias_rad", 0.05}}, "imu_psi = psi + bias"}},
+      {{"imu_heading_drift", true, false, {{"drift_radps", 3e-4}}, "imu_psi = psi + drift t"}},
+      {{"terrain_change", true, false,
+        {{"t_frac", 0.5}, {"sigma_scale", 0.7}, {"drag_scale", 1.3}, {"width_s", 0.5}},
+        "sigma and drag scaled from t_frac of the run on (tanh blend)"},
+       [](const EffectSpec& e, RobotTruth& r) {
+         r.tp.terrain_change.on = true;
+         r.tp.terrain_change.t_s = param(e, "t_frac") * r.seconds;
+         r.tp.terrain_change.width_s = param(e, "width_s");
+         r.tp.terrain_change.sigma_scale = param(e, "sigma_scale");
+         r.tp.terrain_change.drag_scale = param(e, "drag_scale");
+       }},
+      {{"paper_params", true, true,
+        {{"sigma_long", 1.0}, {"sigma_lat", 1.0}, {"D_x", 1.0}, {"D_y", 1.0}, {"D_psi", 1.0}},
+        "the paper's sigma, D multiplied by these factors"},
+       [](const EffectSpec& e, RobotTruth& r) {
+         TerrainParams t = r.model.terrain;
+         t.sigma_long *= param(e, "sigma_long");
+         t.sigma_lat *= param(e, "sigma_lat");
+         t.D_x *= param(e, "D_x");
+         t.D_y *= param(e, "D_y");
+         t.D_psi *= param(e, "D_psi");
+         r.model = make_model(r.model.robot, t);
+       },
+       [](const EffectSpec& e, GantryTruth& g) {
+         g.gp.sigma *= param(e, g.lateral ? "sigma_lat" : "sigma_long");
+         g.gp.drag *= param(e, g.lateral ? "D_y" : "D_x");
+       }},
+      {{"soft_patch", true, true, {{"extra", 2.0}, {"radius_m", 0.2}, {"at_frac", 0.5}},
+        "OUTSIDE the library: a disc (gantry: a stretch of rail) of soft ground, drag x (1 + extra), "
+        "placed where the base path passes once, near at_frac of the run (gantry: at at_frac of the rail)"},
+       [](const EffectSpec& e, RobotTruth& r) {  // placed on the base path by generate_robot_log
+         r.tp.soft_patch.on = true;
+         r.tp.soft_patch.extra = param(e, "extra");
+         r.tp.soft_patch.radius_m = param(e, "radius_m");
+       },
+       [](const EffectSpec& e, GantryTruth& g) {  // a stretch of 2 radius_m centred at at_frac of the rail
+         g.gp.soft_patch.on = true;
+         g.gp.soft_patch.centre_m = param(e, "at_frac") * g.rail_m;
+         g.gp.soft_patch.half_length_m = param(e, "radius_m");
+         g.gp.soft_patch.extra = param(e, "extra");
+       }},
   };
   return t;
 }
 
-const EffectInfo& info_of(const std::string& id) {
-  for (const auto& e : effect_table())
-    if (e.id == id) return e;
+const EffectRow& row_of(const std::string& id) {
+  for (const auto& r : effect_rows())
+    if (r.info.id == id) return r;
   std::string known;
-  for (const auto& e : effect_table()) known += (known.empty() ? "" : ", ") + e.id;
+  for (const auto& r : effect_rows()) known += (known.empty() ? "" : ", ") + r.info.id;
   throw std::invalid_argument("unknown effect '" + id + "' (known: " + known + ")");
 }
+
+const EffectInfo& info_of(const std::string& id) { return row_of(id).info; }
 
 // Parameter value of the effect, its default if not given.
 double param(const EffectSpec& e, const std::string& name) {
@@ -83,7 +235,7 @@ Vec4 ideal_screw_step(Vec4& omega_rpm, const Vec4& target_rpm, double tau_s, dou
 }
 
 // Encoder: counts of a shaft angle (in revolutions); the speed reported for a 10 ms window is
-// the count difference (MODEL-NOTES: 48 counts per motor revolution, ~369:1), in 0.01 rpm.
+// the count difference (docs/model-notes.md: 48 counts per motor revolution, ~369:1), in 0.01 rpm.
 double encoder_rpm(double rev_prev, double rev_now, double counts_per_rev) {
   const double counts = std::floor(rev_now * counts_per_rev) - std::floor(rev_prev * counts_per_rev);
   const double rpm = counts / counts_per_rev / kTick_s * 60.0;
@@ -167,79 +319,15 @@ class CommandScript {
   std::array<Vec4, 3> pattern_;
 };
 
-// Physics of the effect in the true robot (the sensor effects are applied when writing).
+// The effect's row of effect_rows() applied to the robot's truth, and to the gantry's.
 void apply_robot_effect(const EffectSpec& e, double seconds, TruthParams& tp, Model& truth_model) {
-  const std::string& id = e.id;
-  if (id == "coulomb_friction" || id == "stick_slip_friction") {
-    const bool stick = id == "stick_slip_friction";
-    const double ratio = stick ? param(e, "stiction_ratio") : 1.0;
-    tp.friction.on = true;
-    tp.friction.per_axis = true;
-    tp.friction.coulomb_n = param(e, "force_x_n");
-    tp.friction.y_ratio = param(e, "force_x_n") > 0 ? param(e, "force_y_n") / param(e, "force_x_n") : 1.0;
-    tp.friction.stiction_n = param(e, "force_x_n") * ratio;
-    tp.friction.stribeck_mps = stick ? param(e, "stribeck_mps") : 0.01;
-    // Yaw: the same curve at the contacts' distance from the centre (about 0.33 m), so the
-    // Stribeck speed in yaw is v_s / 0.33 m; smoothing 0.5 mrad/s (RK4 allows far less).
-    tp.friction.stribeck_radps = tp.friction.stribeck_mps / 0.33;
-    tp.friction.eps_radps = 0.0005;
-    tp.friction.coulomb_nm = param(e, "torque_nm");
-    tp.friction.stiction_nm = param(e, "torque_nm") * ratio;
-    // Smoothing width as small as the 0.5 ms RK4 step allows (slope F_s / eps at rest, lambda h
-    // about 2.2 of TrueRobot's limit 2.5): a force below the breakaway level creeps at about
-    // eps atanh(F / F_s), which must stay well below what the camera resolves.
-    const double f_max = std::max(tp.friction.stiction_n, tp.friction.stiction_n * tp.friction.y_ratio);
-    tp.friction.eps_mps = std::max(0.0001, f_max / truth_model.robot.m_kg * 0.0005 / 2.2);
-  } else if (id == "quadratic_drag") {
-    tp.quad_drag.on = true;
-    tp.quad_drag.c_x_nspm2 = param(e, "c_x");
-    tp.quad_drag.c_y_nspm2 = param(e, "c_y");
-    tp.quad_drag.c_psi_nmspr2 = param(e, "c_psi");
-  } else if (id == "screw_traction_loss") {
-    tp.loss.on = true;
-    tp.loss.screw = static_cast<int>(param(e, "screw"));
-    if (tp.loss.screw < 0 || tp.loss.screw > 3) throw std::invalid_argument("screw_traction_loss: screw must be 0..3");
-    tp.loss.factor = 1.0 - param(e, "loss");
-    tp.loss.t_on_s = param(e, "t_on_s");
-  } else if (id == "traction_saturation") {
-    tp.saturation.on = true;
-    tp.saturation.long_max_n = param(e, "long_max_n");
-    tp.saturation.lat_max_n = param(e, "lat_max_n");
-    tp.saturation.sharpness = param(e, "sharpness");
-  } else if (id == "force_lag") {
-    tp.lag.on = true;
-    tp.lag.tau_s = param(e, "tau_s");
-    tp.lag.damping = param(e, "damping");
-  } else if (id == "screw_dead_band") {
-    tp.dead_band.on = true;
-    tp.dead_band.omega_dead_rpm = param(e, "omega_rpm");
-    tp.dead_band.corner_rpm = param(e, "corner_frac") * param(e, "omega_rpm");
-  } else if (id == "terrain_slope") {
-    tp.incline.on = true;
-    tp.incline.roll_rad = deg_to_rad(param(e, "roll_deg"));
-    tp.incline.pitch_rad = deg_to_rad(param(e, "pitch_deg"));
-  } else if (id == "resistance_offset") {
-    tp.offset.on = true;
-    tp.offset.asym = param(e, "asym");
-  } else if (id == "terrain_change") {
-    tp.terrain_change.on = true;
-    tp.terrain_change.t_s = param(e, "t_frac") * seconds;
-    tp.terrain_change.width_s = param(e, "width_s");
-    tp.terrain_change.sigma_scale = param(e, "sigma_scale");
-    tp.terrain_change.drag_scale = param(e, "drag_scale");
-  } else if (id == "paper_params") {
-    TerrainParams t = truth_model.terrain;
-    t.sigma_long *= param(e, "sigma_long");
-    t.sigma_lat *= param(e, "sigma_lat");
-    t.D_x *= param(e, "D_x");
-    t.D_y *= param(e, "D_y");
-    t.D_psi *= param(e, "D_psi");
-    truth_model = make_model(truth_model.robot, t);
-  } else if (id == "soft_patch") {
-    tp.soft_patch.on = true;
-    tp.soft_patch.extra = param(e, "extra");
-    tp.soft_patch.radius_m = param(e, "radius_m");
-  }
+  RobotTruth r{tp, truth_model, seconds};
+  if (const RobotForm form = row_of(e.id).robot) form(e, r);
+}
+
+void apply_gantry_effect(const EffectSpec& e, bool lateral, double rail_m, GantryTruthParams& gp) {
+  GantryTruth g{gp, lateral, rail_m};
+  if (const GantryForm form = row_of(e.id).gantry) form(e, g);
 }
 
 // The effects to apply ("none" entries dropped).
@@ -260,7 +348,14 @@ double wrap(double a) { return wrap_angle(a); }
 
 }  // namespace
 
-const std::vector<EffectInfo>& known_effects() { return effect_table(); }
+const std::vector<EffectInfo>& known_effects() {
+  static const std::vector<EffectInfo> infos = [] {
+    std::vector<EffectInfo> v;
+    for (const EffectRow& r : effect_rows()) v.push_back(r.info);
+    return v;
+  }();
+  return infos;
+}
 
 EffectSpec parse_effect_spec(const std::string& text) {
   EffectSpec e;
@@ -487,95 +582,20 @@ LogGenResult generate_gantry_log(const TerrainParams& terrain, double mass_kg, c
   if (!(mass_kg > 0)) throw std::invalid_argument("gantry mass must be > 0");
   const bool lateral = cfg.gantry == GantryAxis::lateral;
   const std::string& id = e.id;
-  // eqs. (11)-(14): m x'' = -D u + sigma B omega, B_x = [-1, -1], B_y = [-1, 1].
-  double sigma = lateral ? terrain.sigma_lat : terrain.sigma_long;
-  double drag = lateral ? terrain.D_y : terrain.D_x;
-  const std::array<double, 2> b = lateral ? std::array<double, 2>{-1.0, 1.0} : std::array<double, 2>{-1.0, -1.0};
-  if (id == "paper_params") {
-    sigma *= param(e, lateral ? "sigma_lat" : "sigma_long");
-    drag *= param(e, lateral ? "D_y" : "D_x");
-  }
   const auto n_ticks = static_cast<std::size_t>(std::lround(cfg.seconds / kTick_s)) + 1;
   const double rail_m = 0.5;
 
-  // Effect parameters in the module's own forms (see the robot's: same shapes, one DOF).
-  const bool fric = id == "coulomb_friction" || id == "stick_slip_friction";
-  const bool quad = id == "quadratic_drag", sat = id == "traction_saturation";
-  const bool lag = id == "force_lag", dead = id == "screw_dead_band", patch = id == "soft_patch";
-  const double f_c = fric ? param(e, lateral ? "force_y_n" : "force_x_n") : 0;
-  const double f_s = id == "stick_slip_friction" ? f_c * param(e, "stiction_ratio") : f_c;
-  const double v_s = id == "stick_slip_friction" ? param(e, "stribeck_mps") : 1;
-  const double eps_mps = std::max(0.0001, f_s / mass_kg * (kCouple_s / 2) / 2.2);  // as the robot's
-  const double c_quad = quad ? param(e, lateral ? "c_y" : "c_x") : 0;
-  const double f_max = sat ? param(e, lateral ? "lat_max_n" : "long_max_n") : 0;
-  const double sat_n = sat ? param(e, "sharpness") : 0;
-  const double tau = lag ? param(e, "tau_s") : 0, zeta_lag = lag ? param(e, "damping") : 0;
-  const double w0 = dead ? param(e, "omega_rpm") : 0;
-  const double corner = dead ? param(e, "corner_frac") * w0 : 0;
-  // Gantry soft patch: a stretch of rail of length 2 radius_m centred at at_frac of the rail.
-  const double patch_c = patch ? param(e, "at_frac") * rail_m : 0, patch_r = patch ? param(e, "radius_m") : 0;
-  const double patch_extra = patch ? param(e, "extra") : 0;
-
-  struct S {
-    double x = 0, u = 0;
-    std::array<double, 2> y{}, yd{};  // lag filter per screw
-  };
-  auto traction = [&](const S& s, const Vec4& w, std::array<double, 2>& f) {
-    for (int i = 0; i < 2; ++i) {
-      double wi = lag ? s.y[static_cast<std::size_t>(i)] : w[i];
-      if (dead && !lag) wi = dead_band_rpm(wi, w0, corner);
-      double fi = sigma * b[static_cast<std::size_t>(i)] * wi;
-      if (sat) fi = saturate_force(fi, f_max, sat_n);
-      f[static_cast<std::size_t>(i)] = fi;
-    }
-  };
-  auto deriv = [&](const S& s, const Vec4& w, S& d) {
-    std::array<double, 2> f{};
-    traction(s, w, f);
-    double k_drag = 1.0;
-    if (patch) k_drag += patch_extra * 0.5 * (1.0 - std::tanh((std::fabs(s.x - patch_c) - patch_r) / 0.01));
-    double force = f[0] + f[1] - k_drag * drag * s.u;
-    if (fric) {
-      const double level = f_c + (f_s - f_c) * std::exp(-(s.u / v_s) * (s.u / v_s));
-      force -= level * std::tanh(s.u / eps_mps);
-    }
-    // Smooth at rest (u sqrt(u^2 + u0^2), u0 = 5 mm/s), not the workbench's u|u|.
-    if (quad) force -= c_quad * s.u * std::sqrt(s.u * s.u + 2.5e-5);
-    d.x = s.u;
-    d.u = force / mass_kg;
-    for (int i = 0; i < 2; ++i) {
-      const auto ii = static_cast<std::size_t>(i);
-      double wi = w[i];
-      if (dead) wi = dead_band_rpm(wi, w0, corner);
-      d.y[ii] = s.yd[ii];
-      d.yd[ii] = lag ? (wi - s.y[ii] - 2.0 * zeta_lag * tau * s.yd[ii]) / (tau * tau) : 0.0;
-    }
-  };
-  auto add = [](const S& s, const S& d, double h) {
-    S o = s;
-    o.x += h * d.x;
-    o.u += h * d.u;
-    for (std::size_t i = 0; i < 2; ++i) {
-      o.y[i] += h * d.y[i];
-      o.yd[i] += h * d.yd[i];
-    }
-    return o;
-  };
-  auto rk4 = [&](S& s, const Vec4& w, double h) {
-    S k1, k2, k3, k4;
-    deriv(s, w, k1);
-    deriv(add(s, k1, h / 2), w, k2);
-    deriv(add(s, k2, h / 2), w, k3);
-    deriv(add(s, k3, h), w, k4);
-    S o = s;
-    o.x += h / 6 * (k1.x + 2 * k2.x + 2 * k3.x + k4.x);
-    o.u += h / 6 * (k1.u + 2 * k2.u + 2 * k3.u + k4.u);
-    for (std::size_t i = 0; i < 2; ++i) {
-      o.y[i] += h / 6 * (k1.y[i] + 2 * k2.y[i] + 2 * k3.y[i] + k4.y[i]);
-      o.yd[i] += h / 6 * (k1.yd[i] + 2 * k2.yd[i] + 2 * k3.yd[i] + k4.yd[i]);
-    }
-    s = o;
-  };
+  // eqs. (11)-(14): m x'' = -D u + sigma B omega, B_x = [-1, -1], B_y = [-1, 1].
+  GantryTruthParams gp;
+  gp.mass_kg = mass_kg;
+  gp.sigma = lateral ? terrain.sigma_lat : terrain.sigma_long;
+  gp.drag = lateral ? terrain.D_y : terrain.D_x;
+  gp.b = lateral ? std::array<double, 2>{-1.0, 1.0} : std::array<double, 2>{-1.0, -1.0};
+  apply_gantry_effect(e, lateral, rail_m, gp);
+  const std::array<double, 2>& b = gp.b;
+  const bool patch = gp.soft_patch.on;
+  TrueGantry gantry(gp);
+  const double patch_c = gp.soft_patch.centre_m, patch_r = gp.soft_patch.half_length_m;
 
   // Runs along the rail (the paper's 0.5 m), reversing at its ends: single-dof at 5, 10, 20 rpm
   // (jittered), manual at random speeds 3-22 rpm; 1-2 s standing between runs.
@@ -600,21 +620,21 @@ LogGenResult generate_gantry_log(const TerrainParams& terrain, double mass_kg, c
                              }()}});
   LogGenResult res;
   res.truth.reserve(n_ticks);
-  S s;
-  s.x = 0.05;
+  GantryState& s = gantry.state();
+  s.x_m = 0.05;
   double dir = 1.0, speed = run_speed(0), rest_until = 0.0, sq = 0;
   int run_no = 0;
   std::array<double, 2> rev{u01(rng), u01(rng)}, rev_prev = rev;
   Vec4 omega = Vec4::Zero(), target = Vec4::Zero();
   double force_window_n = 0.0;
   // Base alongside for the effect size (same commands, no effect, reset every segment).
-  double base_x = s.x, base_u = 0, next_reset = 0;
-  const double a_base = std::exp(-drag / mass_kg * kCouple_s);
+  double base_x = s.x_m, base_u = 0, next_reset = 0;
+  const double a_base = std::exp(-gp.drag / mass_kg * kCouple_s);
   for (std::size_t k = 0; k < n_ticks; ++k) {
     const double t = static_cast<double>(k) * kTick_s;
     // Command: a run until the end of the rail, then rest and reverse.
     if (t >= rest_until) {
-      const bool at_end = (dir > 0 && s.x >= rail_m - 0.05) || (dir < 0 && s.x <= 0.05);
+      const bool at_end = (dir > 0 && s.x_m >= rail_m - 0.05) || (dir < 0 && s.x_m <= 0.05);
       if (at_end) {
         dir = -dir;
         speed = run_speed(++run_no);
@@ -634,24 +654,22 @@ LogGenResult generate_gantry_log(const TerrainParams& terrain, double mass_kg, c
     // encoder speed (its anti-aliasing filter), so both columns describe the same interval.
     g.force_n = (k == 0 ? 0.0 : force_window_n / 10.0) + cfg.gantry_force_noise_n * n01(noise_rng);
     force_window_n = 0.0;
-    g.position_m = s.x + cfg.gantry_position_noise_m * n01(noise_rng);
+    g.position_m = s.x_m + cfg.gantry_position_noise_m * n01(noise_rng);
     log.write(g);
     bool acting = id != "none";
-    if (patch) acting = std::fabs(s.x - patch_c) < patch_r;
-    res.truth.push_back({t, Vec3(s.x, 0, 0), Vec3(s.u, 0, 0), acting});
+    if (patch) acting = std::fabs(s.x_m - patch_c) < patch_r;
+    res.truth.push_back({t, Vec3(s.x_m, 0, 0), Vec3(s.u_mps, 0, 0), acting});
     if (t >= next_reset - 1e-9) {
-      base_x = s.x;
-      base_u = s.u;
+      base_x = s.x_m;
+      base_u = s.u_mps;
       next_reset += cfg.size_segment_s;
     }
-    sq += (s.x - base_x) * (s.x - base_x);
+    sq += (s.x_m - base_x) * (s.x_m - base_x);
     if (k + 1 == n_ticks) break;
     for (int j = 0; j < 10; ++j) {
       const Vec4 mean_rpm = ideal_screw_step(omega, target, cfg.ideal_tau_s, kCouple_s);
-      for (int h = 0; h < 2; ++h) rk4(s, mean_rpm, kCouple_s / 2);
-      std::array<double, 2> f{};
-      traction(s, mean_rpm, f);
-      force_window_n += f[0] + f[1];
+      for (int h = 0; h < 2; ++h) gantry.step(mean_rpm, kCouple_s / 2);
+      force_window_n += gantry.traction_n(mean_rpm);
       for (int i = 0; i < 2; ++i) rev[static_cast<std::size_t>(i)] += mean_rpm[i] * (kCouple_s / 60.0);
       // Base: exact first-order step of m u' = -D u + sigma_nominal B omega.
       const double sig0 = lateral ? terrain.sigma_lat : terrain.sigma_long;

@@ -1,6 +1,6 @@
 // Batch log generator (docs/robot-sim.md "auger-sim-log"): the true robot (or one screw module on
 // the identification gantry) driven open loop by ideal speed-controlled screws along a scripted
-// trajectory, with hidden effects, written as a robot or gantry log (LOG-FORMAT.md) whose only
+// trajectory, with hidden effects, written as a robot or gantry log (docs/log-format.md) whose only
 // metadata are format and terrain (gantry: also axis and mass_kg, which the format requires).
 // The truth (pose, velocity, where the effect acts) goes to a separate file the tests read and
 // the workbench never sees.
@@ -58,7 +58,7 @@ struct LogGenConfig {
   double imu_psi_noise_rad = 0.005, imu_r_noise_radps = 0.003;
   double gantry_position_noise_m = 0.002;       // VL53L0X-like
   double gantry_force_noise_n = 0.5;            // force-torque sensor
-  // Encoders: counts per screw revolution (48 counts x ~369:1, MODEL-NOTES "Hardware facts");
+  // Encoders: counts per screw revolution (48 counts x ~369:1, docs/model-notes.md "Hardware facts");
   // the measured speed is counts per 10 ms window, reported in 0.01 rpm (telemetry omega_crpm).
   double counts_per_rev = 48.0 * 369.0;
   double ideal_tau_s = 0.05;                    // ideal screws' first-order lag (scheduler's)

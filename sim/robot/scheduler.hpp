@@ -1,7 +1,7 @@
 // Lock-step scheduler (docs/robot-sim.md): advances the four screw modules and the true robot
 // together in simulated time, and every control period (10 ms) collects module telemetry and
-// sensor readings, calls the host controller's step with the simulated clock (DESIGN.md "Time"),
-// sends its setpoints as augerd would, and writes a robot log row (LOG-FORMAT.md).
+// sensor readings, calls the host controller's step with the simulated clock (docs/design.md "Time"),
+// sends its setpoints as augerd would, and writes a robot log row (docs/log-format.md).
 // Modules: firmware in the loop (sim/simmod.h: the real firmware, setpoints and telemetry over
 // the protocol of shared/protocol.h) or ideal speed-controlled screws (first-order lag).
 #pragma once

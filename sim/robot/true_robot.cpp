@@ -34,7 +34,7 @@ TrueRobot::TrueRobot(const Model& nominal, const TruthParams& params) : m_(nomin
   cdx_ = m_.D_diag[0] / 4.0;
   cdy_ = m_.D_diag[1] / 4.0;
   // Yaw: the truth's screw forces act at their real lever arms, about 17x the empirical yaw row
-  // of B (MODEL-NOTES). For the same steady r, D_psi is scaled by the same ratio:
+  // of B (docs/model-notes.md). For the same steady r, D_psi is scaled by the same ratio:
   // r_ss = T_true / D_true = T_nom / D_psi  =>  D_true = D_psi T_true / T_nom, with T per rpm of
   // the pure-yaw pattern omega = [1 1 1 1] (it gives no net force in either model).
   double torque_true = 0.0;
@@ -135,7 +135,7 @@ TrueRobot::Deriv TrueRobot::derivative(const TruthState& s, const Vec4& omega_rp
       f_lat *= p_.loss.factor;
     }
     Eigen::Vector2d f_tr(f_long * s_sign_[i] * h_sign_[i], f_lat * s_sign_[i]);
-    // Contact point velocity (u - r y_i, v + r x_i) (MODEL-NOTES "Frames").
+    // Contact point velocity (u - r y_i, v + r x_i) (docs/model-notes.md "Frames").
     const Eigen::Vector2d c(u - r * p.y(), v + r * p.x());
     Eigen::Vector2d f_block = Eigen::Vector2d::Zero();
     if (p_.blocking.on && std::fabs(omega_rpm[static_cast<int>(i)]) < p_.blocking.omega_block_rpm)

@@ -1,10 +1,10 @@
 // The simulated "true" robot (docs/robot-sim.md): a rigid body in the plane whose screws each
 // push at their own contact point, on one terrain, with switchable physics the paper's linear
-// model lacks. Deliberately NOT the host model (DESIGN.md "Hidden-effect honesty"): per-contact
+// model lacks. Deliberately NOT the host model (docs/design.md "Hidden-effect honesty"): per-contact
 // drag plus a residual yaw drag instead of a lumped D, the real lever arms instead of the
 // empirical yaw row of B, Coriolis terms, smooth (tanh / Stribeck) dry friction, a second-order
 // force lag, a 3-D incline. Calibrated so that without extra effects its steady u, v, r equal
-// the nominal model's (MODEL-NOTES.md "Dynamic model").
+// the nominal model's (docs/model-notes.md "Dynamic model").
 #pragma once
 
 #include <array>
@@ -64,7 +64,7 @@ inline double dead_band_rpm(double omega_rpm, double w0_rpm, double corner_rpm) 
   const double soft = z > 30 ? z : std::log1p(std::exp(z));
   return std::copysign(corner_rpm * soft, omega_rpm) - std::copysign(corner_rpm * std::log1p(std::exp(-w0_rpm / corner_rpm)), omega_rpm);
 }
-struct Blocking {  // MODEL-NOTES: |omega| < omega_block: mu m g / 4 dry resistance at the contact
+struct Blocking {  // docs/model-notes.md: |omega| < omega_block: mu m g / 4 dry resistance at the contact
   bool on = false;
   double omega_block_rpm = 1.5, mu = 0.5, eps_mps = 0.002;
 };

@@ -1,5 +1,5 @@
 // Dynamics eqs. (5)-(7): exact step against the closed form, sub-stepped pose against a fine
-// reference, and the gantry check of MODEL-NOTES.md.
+// reference, and the gantry check of docs/model-notes.md.
 #include <catch2/catch.hpp>
 
 #include "auger/dynamics.hpp"
@@ -41,7 +41,7 @@ TEST_CASE("pure motion along one DOF: the pose is the exact integral") {
   CHECK(eta.x() == Approx(u_inf * (1.0 - T * (1 - std::exp(-1.0 / T)))).epsilon(1e-8));
   CHECK(std::fabs(eta.y()) < 1e-15);
   CHECK(std::fabs(eta.z()) < 1e-15);
-  // MODEL-NOTES red flag: the paper's sand set is faster than no slip at 15 rpm forward.
+  // docs/model-notes.md red flag: the paper's sand set is faster than no slip at 15 rpm forward.
   CHECK(u_inf == Approx(0.087).margin(0.001));
   CHECK(kinematic_body_velocity(m, fwd)[0] == Approx(0.070).margin(0.001));
 }

@@ -1,4 +1,4 @@
-// The CRC-16 catches what the paper's XOR byte misses (DESIGN.md, "Serial link").
+// The CRC-16 catches what the paper's XOR byte misses (docs/design.md, "Serial link").
 #include "corruption.hpp"
 #include "protocol.h"
 

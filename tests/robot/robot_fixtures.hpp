@@ -47,7 +47,7 @@ inline Rms tracking_rms(const std::vector<auger::sim::TickRecord>& h, double t0_
 // which screws 0 and 2 alone drive the nominal robot: atan((sigma_lat / D_y) / (sigma_long / D_x))
 // = 28.0 deg on sand, near the 30 deg helix angle. Moving there at steady speed takes a force
 // that the pseudo-inverse puts on screws 0 and 2 only, so screws 1 and 3 stop and block
-// (MODEL-NOTES "Blocking").
+// (docs/model-notes.md "Blocking").
 struct DiagonalRun {
   double miss_m = 0;         // distance from the goal at the end
   double progress_m = 0;     // distance travelled towards the goal

@@ -47,7 +47,7 @@ TEST_CASE("calibration: steady u, v, r within 10 % of the nominal model at 5, 10
 TEST_CASE("the truth is not the model: real lever arms, per-contact drag, Coriolis", "[robot]") {
   const Model m = nominal("sand");
   TrueRobot robot(m, TruthParams{});
-  // The calibrated yaw drag is about 17x D_psi (MODEL-NOTES: statics gives 17x the yaw row).
+  // The calibrated yaw drag is about 17x D_psi (docs/model-notes.md: statics gives 17x the yaw row).
   const double d_yaw = robot.yaw_drag_residual() + 4 * (robot.contact_drag_x() * 0.09 + robot.contact_drag_y() * 0.0225);
   CHECK(d_yaw / m.D_diag[2] == Approx(16.98).epsilon(0.01));
   // A turning, moving robot: Coriolis couples u and v (the nominal M is diagonal), so a

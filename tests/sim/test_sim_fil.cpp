@@ -18,6 +18,7 @@
 
 #include "sim_avr.h"
 #include "sim_io.h"
+#include "encoder_rate.h"
 #include "simmod.h"
 
 namespace {
@@ -294,12 +295,12 @@ TEST_CASE("forced encoder rate: edges at the imposed rate, then back to the shaf
 	uint16_t errors = 0;
 	// 40 000 edges/s downwards, jittered +-50 %: 4000 counts in 0.1 s (+-1 for the phase)
 	int64_t c0 = simmod_encoder_count(b.sim, 0);
-	simmod_force_encoder_rate(b.sim, 0, -40000.0, 0.5, 42);
+	encoder_rate_force(b.sim, 0, -40000.0, 0.5, 42);
 	b.run(0.1);
 	int64_t c1 = simmod_encoder_count(b.sim, 0);
 	CHECK(std::llabs((c0 - c1) - 4000) <= 40); // the mean of 4000 jittered intervals
 	CHECK(simmod_shaft_speed_rpm(b.sim, 0) == 0.0); // the motor model is not involved
-	simmod_force_encoder_rate(b.sim, 0, 0.0, 0.0, 0); // back to the shaft, which is at rest
+	encoder_rate_force(b.sim, 0, 0.0, 0.0, 0); // back to the shaft, which is at rest
 	b.run(0.01);
 	CHECK(simmod_encoder_count(b.sim, 0) == c1);
 	CHECK(firmware_count(b, &errors) == (int32_t)c1); // the fixture's decoder saw every edge

@@ -4,6 +4,8 @@
 // recovered when the data was made with it.
 #include <catch2/catch.hpp>
 
+#include <limits>
+
 #include <algorithm>
 #include <cmath>
 #include <random>
@@ -236,7 +238,25 @@ TEST_CASE("JSON: one object, escaped strings, null for NaN, only active channels
   j.begin_object().num("a", 1.5).str("s", "say \"hi\"\n").begin_array("w").begin_object().boolean("b", true);
   j.end_object().num(nullptr, kNaN).end_array();
   j.channels("c", {1, 2, 3, 4}, {true, false, true, false}).end_object();
-  CHECK(j.text() == "{\"a\":1.5,\"s\":\"say \\\"hi\\\"\\u000a\",\"w\":[{\"b\":true},null],\"c\":{\"x\":1,\"psi\":3}}");
+  CHECK(j.text() == "{\"a\":1.5,\"s\":\"say \\\"hi\\\"\\n\",\"w\":[{\"b\":true},null],\"c\":{\"x\":1,\"psi\":3}}");
+}
+
+TEST_CASE("JSON: numbers to 10 significant digits, whole ones as integers; bad UTF-8 replaced") {
+  Json j;
+  j.begin_object().num("third", 1.0 / 3).num("big", 1e12).num("neg", -2.5e-7).num("inf", std::numeric_limits<double>::infinity());
+  j.str("path", std::string("log\xff\xfe.csv")).str("ok", "\xc3\xa9").end_object();
+  CHECK(j.text() == "{\"third\":0.3333333333,\"big\":1000000000000,\"neg\":-2.5e-07,\"inf\":null,"
+                    "\"path\":\"log\xef\xbf\xbd\xef\xbf\xbd.csv\",\"ok\":\"\xc3\xa9\"}");
+}
+
+TEST_CASE("JSON for a <script> element: no markup characters, the same value") {
+  const nlohmann::ordered_json j = {{"label", "x </script><b>&amp;"}, {"y", json_number(0.29462699999999997, 6)}};
+  const std::string text = json_for_script(j);
+  CHECK(text.find_first_of("<>&") == std::string::npos);
+  CHECK(nlohmann::ordered_json::parse(text) == j);
+  CHECK(text.rfind("{\"label\":\"x \\u003c/script\\u003e\\u003cb\\u003e\\u0026amp;\",\"y\":", 0) == 0);
+  // 6 significant digits (nlohmann's shortest form is not always the shortest: the same double).
+  CHECK(nlohmann::ordered_json::parse(text)["y"].get<double>() == 0.294627);
 }
 
 TEST_CASE("every library effect: fitted from data made with it, the error falls to the noise floor",

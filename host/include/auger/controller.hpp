@@ -1,4 +1,4 @@
-// The controller as one step function with an injected clock (DESIGN.md "Time"):
+// The controller as one step function with an injected clock (docs/design.md "Time"):
 // step(t_s, telemetry[4], sensors) -> setpoints[4] (rpm). augerd calls it from its 100 Hz loop,
 // the simulator's scheduler in lock-step simulated time. The Model is const and shared; all
 // working memory is allocated at construction, so a step never touches the heap.

@@ -19,7 +19,7 @@ struct DaemonConfig {
   // [serial]
   std::array<std::string, 4> ports;   // any order: modules are mapped by their identity id
   unsigned baud = 250000;
-  double identity_timeout_s = 2.0;    // DESIGN.md: a DTR reset keeps the bootloader ~1 s
+  double identity_timeout_s = 2.0;    // docs/design.md: a DTR reset keeps the bootloader ~1 s
   double telemetry_timeout_s = 0.1;   // no valid telemetry this long: the module is lost
 
   // [model]

@@ -84,6 +84,9 @@ class Effect {
   // eq. (8): the inertia of the linear dynamics, changed in place (M_diag holds m, m, I_z and
   // model.D_diag is set when make_model calls this).
   virtual void inertia(const Model& /*model*/, Vec3& /*M_diag*/) const {}
+  // How much earlier than its t_s a pose row shows the robot (camera latency, two computers'
+  // clocks), in s; it changes nothing in the dynamics. Read through pose_delay_s(model).
+  virtual double pose_delay_s() const { return 0.0; }
 };
 
 // A parameter a factory accepts; required parameters have no default.
@@ -124,6 +127,7 @@ struct EffectConfig {
   std::vector<EffectParamValue> params;
   std::string file;
   int line = 0, column = 0;
+  std::string comment;  // written before the [[effect]] (write_model_file); the reader leaves it empty
 };
 
 class EffectRegistry {

@@ -193,16 +193,29 @@ struct GantrySample {
   double position_m = kNotMeasured;
 };
 
+// The gantry log's metadata, parsed and checked once by the reader, so that every tool reads a
+// file the same way.
+struct GantryMetadata {
+  std::string axis;               // "longitudinal" or "lateral"; "" when the log has no `# axis:`
+  std::string terrain;            // "" when absent
+  std::optional<double> mass_kg;  // module plus load, within input_limits' bounds; absent: none given
+};
+
 class GantryLogReader {
  public:
   explicit GantryLogReader(const std::string& path);
   GantryLogReader(std::istream& in, std::string name);
   bool next(GantrySample& sample);
   const CsvLogReader& csv() const { return csv_; }
+  const GantryMetadata& metadata() const { return meta_; }
+  // The rail's axis; a log without `# axis:` is refused (LogError at the header line): which of
+  // sigma_long or sigma_lat the log measures is not guessed.
+  const std::string& axis() const;
 
  private:
   void bind();
   CsvLogReader csv_;
+  GantryMetadata meta_;
   std::array<int, 5> index_{};
 };
 

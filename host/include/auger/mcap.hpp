@@ -2,7 +2,7 @@
 // of the MCAP specification, version 0): schemas, channels, messages in uncompressed chunks
 // with message indexes, metadata, and a summary (schemas, channels, chunk and metadata indexes,
 // statistics) so readers can seek. CRC-32 over every chunk, the data section and the summary.
-// Written here because no MCAP library for C++ is packaged in Debian 12 (DESIGN.md: no
+// Written here because no MCAP library for C++ is packaged in Debian 12 (docs/design.md: no
 // vendored code); `auger export` and augerd use it, and the tests read its files back with the
 // independent Python reader (PyPI `mcap`). log_mcap.hpp maps robot-log rows onto channels.
 #pragma once

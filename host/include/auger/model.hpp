@@ -1,4 +1,4 @@
-// The robot model of MODEL-NOTES.md: per-screw table, kinematics eqs. (1)-(4), dynamic model
+// The robot model of docs/model-notes.md: per-screw table, kinematics eqs. (1)-(4), dynamic model
 // matrices eqs. (5)-(10). A Model is built once (from a model file or parameters) and then only
 // read (const) by the estimation, control and allocation steps.
 #pragma once
@@ -23,12 +23,12 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kRpmToRadps = 2.0 * kPi / 60.0;
 inline double deg_to_rad(double deg) { return deg * kPi / 180.0; }
 
-// Wraps an angle to (-pi, pi] (MODEL-NOTES decision for heading errors).
+// Wraps an angle to (-pi, pi] (docs/model-notes.md decision for heading errors).
 double wrap_angle(double angle_rad);
 
 class Effect;
 
-// Geometry and mass (MODEL-NOTES "Geometry and mass"; Table 3).
+// Geometry and mass (docs/model-notes.md "Geometry and mass"; Table 3).
 struct RobotParams {
   double r_s_m = 0.0775;
   double phi_rad = kPi / 6.0;          // helix angle
@@ -48,7 +48,7 @@ struct TerrainParams {
   double D_x = 0, D_y = 0, D_psi = std::nan("");
 };
 
-// Row of the per-screw table of MODEL-NOTES.md. mount_sign is the sign of the lateral rolling
+// Row of the per-screw table of docs/model-notes.md. mount_sign is the sign of the lateral rolling
 // (front and rear modules are mounted mirrored), helix_sign the handedness of the helix; together
 // they give the row of K_i and the column of B.
 struct ScrewMount {
@@ -95,6 +95,11 @@ struct Model {
 Model make_model(const RobotParams& robot, const TerrainParams& terrain,
                  std::vector<std::shared_ptr<const Effect>> effects = {});
 
+// How much earlier than their t_s the model's pose rows show the robot, in s: the sum of its
+// effects' pose_delay_s() (effect pose_time_offset). The workbench shifts the screw speeds
+// against the poses by it, the controller's EKF takes each pose as of that much earlier.
+double pose_delay_s(const Model& model);
+
 // eq. (9): body to world.
 Mat3 rotation_J(double psi_rad);
 
@@ -111,7 +116,7 @@ Vec4 kinematic_screw_speeds_rpm(const Model& model, const Vec3& zeta);
 // units with it.
 double yaw_lumping(const Model& model);
 
-// eq. (7), nominal: tau = S B omega with omega in rpm (MODEL-NOTES decision).
+// eq. (7), nominal: tau = S B omega with omega in rpm (docs/model-notes.md decision).
 inline Vec3 nominal_drive_force(const Model& model, const Vec4& omega_rpm) {
   return model.SB * omega_rpm;
 }

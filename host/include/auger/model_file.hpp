@@ -17,6 +17,7 @@ constexpr int kModelSchema = 1;
 struct TerrainEntry {
   TerrainParams params;
   int line = 0;
+  std::string comment;  // written before the table (write_model_file); the reader leaves it empty
 };
 
 // [control]: controller settings; each key optional, absent ones keep the defaults of
@@ -31,6 +32,7 @@ struct ControlSection {
 
 struct ModelFile {
   std::string path;
+  std::string comment;  // written at the top (write_model_file); the reader leaves it empty
   int schema = kModelSchema;
   std::string omega_unit = "rpm";
   std::string frame = "rep103";
@@ -46,6 +48,13 @@ struct ModelFile {
 // Parses TOML text; name is what errors call the source. Throws ConfigError.
 ModelFile parse_model_file(const std::string& text, const std::string& name);
 ModelFile load_model_file(const std::string& path);
+
+// The text of a model file that parse_model_file reads back to the same values, every double to
+// the same bits (toml++ writes them with 17 significant digits): schema, omega_unit, frame,
+// [robot], [gantry], the terrains, the effects, [control]. The comments (one `#` line per line)
+// go before what they belong to. Angles are written in degrees, the value that converts back to
+// the same radians (exact for every angle that came from degrees, as any read from a file).
+std::string write_model_file(const ModelFile& file);
 
 // Builds the robot model on one terrain with the file's effects; throws ConfigError naming the
 // file and line of what is missing or wrong.

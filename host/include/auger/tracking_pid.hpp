@@ -1,4 +1,4 @@
-// Tracking PID, eqs. (19)-(21), in the body frame (MODEL-NOTES decision): the pose error is
+// Tracking PID, eqs. (19)-(21), in the body frame (docs/model-notes.md decision): the pose error is
 // rotated by J(psi)^T before the gains, the heading error wrapped to (-pi, pi], the integral
 // accumulated per control step (as the group's controllers.py does) and clamped.
 #pragma once

@@ -1,4 +1,4 @@
-// Reference generation, eq. (18) in the stable critically damped form of MODEL-NOTES.md:
+// Reference generation, eq. (18) in the stable critically damped form of docs/model-notes.md:
 // eta_d_dd = gamma^2 (eta_p - eta_d) - 2 gamma eta_d_dot, per DOF, from piecewise-constant
 // set-points eta_p (waypoints, or a CSV file). Stepped exactly (closed form for a held set-point).
 #pragma once
@@ -23,7 +23,7 @@ struct ReferenceState {
   Vec3 eta_d_ddot = Vec3::Zero();
 };
 
-// gamma per DOF in 1/s (MODEL-NOTES decision: 0.1 by default).
+// gamma per DOF in 1/s (docs/model-notes.md decision: 0.1 by default).
 inline Vec3 default_gamma_per_s() { return Vec3::Constant(0.1); }
 
 // Starts at rest at eta.

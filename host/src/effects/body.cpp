@@ -1,6 +1,6 @@
 // Rigid-body effects that eqs. (5)-(8) leave out: the Coriolis coupling of a body-frame model,
 // the yaw time constant of the screws' real lever arms, and stopped screws blocking in the soil
-// (MODEL-NOTES "Blocking"). The physical robot has all three; the paper's lumped linear model
+// (docs/model-notes.md "Blocking"). The physical robot has all three; the paper's lumped linear model
 // has none of them.
 #include <algorithm>
 #include <cmath>
@@ -36,7 +36,7 @@ class RigidBodyCoupling final : public Effect {
 };
 
 // The paper's yaw row of B is an empirical lump, -l_x sin(alpha) per screw, about 17 times
-// smaller than the screws' real lever arms (MODEL-NOTES "Dynamic model"); with I_z from Table 3
+// smaller than the screws' real lever arms (docs/model-notes.md "Dynamic model"); with I_z from Table 3
 // the model's yaw time constant I_z / D_psi (0.32 s on sand) then belongs to a robot whose
 // drive and drag torques are both 17 times smaller than the real ones. The steady yaw rate is
 // right, the transient is not: the real robot turns up to speed in I_z / (17 D_psi). This effect
@@ -87,7 +87,7 @@ class ScrewBlocking final : public Effect {
       any = any || limit_n[static_cast<std::size_t>(i)] > 0;
     }
     if (!any) return;
-    // Contact i moves with P_i zeta, P_i = [[1, 0, -y_i], [0, 1, x_i]] (MODEL-NOTES "Frames").
+    // Contact i moves with P_i zeta, P_i = [[1, 0, -y_i], [0, 1, x_i]] (docs/model-notes.md "Frames").
     // Its force acts on the body through P_i^T, with the moment in the model's lumped yaw units.
     std::array<Eigen::Matrix<double, 2, 3>, 4> P, Q;
     const double lump = yaw_lumping(model);

@@ -156,7 +156,7 @@ void register_drive(EffectRegistry& r) {
          }});
   r.add({"screw_traction_loss", "screw `screw` (0 front-right, 1 rear-right, 2 rear-left, 3 front-left) "
                                 "transmits only (1 - loss) of its force",
-         {ParamSpec{"screw", 0, true, "screw index (MODEL-NOTES table)", "", 0, 3, 1, true}.physical(0, 3),
+         {ParamSpec{"screw", 0, true, "screw index (docs/model-notes.md table)", "", 0, 3, 1, true}.physical(0, 3),
           ParamSpec{"loss", 0, true, "lost fraction of its force", "", 0, 1, 0.2}.physical(0.05, 1)},
          [](const std::vector<double>& v) {
            if (!(v[0] == 0 || v[0] == 1 || v[0] == 2 || v[0] == 3))

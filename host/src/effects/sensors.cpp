@@ -28,9 +28,8 @@ class ImuHeadingDrift final : public Effect {
 };
 
 // The pose rows are late: a row at t shows the robot at t - offset_s (camera latency, clocks
-// of two computers). It changes nothing in the dynamics; the workbench shifts the screw speeds
-// against the poses by it (wb::SimOptions::pose_delay_s), and the controller's EKF (augerd)
-// takes each pose as of t - offset_s (Controller, PoseHistory).
+// of two computers). It changes nothing in the dynamics; pose_delay_s(model) reports it to the
+// workbench (wb::SimOptions::pose_delay_s) and the controller's EKF (Controller, PoseHistory).
 class PoseTimeOffset final : public Effect {
  public:
   explicit PoseTimeOffset(double offset_s) : offset_s_(offset_s) {}
@@ -39,6 +38,7 @@ class PoseTimeOffset final : public Effect {
     return s;
   }
   std::vector<std::pair<std::string, double>> params() const override { return {{"offset_s", offset_s_}}; }
+  double pose_delay_s() const override { return offset_s_; }
 
  private:
   double offset_s_;

@@ -7,6 +7,7 @@
 
 #include "gantry_gen.hpp"
 #include "identify.hpp"
+#include "workbench.hpp"
 #include "tools_fixtures.hpp"
 
 using namespace auger::wb;
@@ -163,4 +164,60 @@ TEST_CASE("identify on the simulator's gantry logs (auger-sim-log --gantry): Tab
   }
   INFO("covered " << covered << " of " << total);
   CHECK(covered >= 72);  // 95 % intervals over 80: P(< 72) < 1 % for a true 95 % (measured: 157 of 160 over 20 seeds)
+}
+
+// compare (load_dataset) and identify (read_gantry_data) take a gantry log's metadata from the
+// one reader (GantryLogReader): the same axis, terrain and mass, and the same refusal.
+TEST_CASE("compare and identify read a gantry log's metadata the same way") {
+  const tools_test::TempDir tmp("gmeta");
+  GantryTruth tr;
+  tr.reps = 1;
+  const std::string good = tools_test::gantry_log_text(tools_test::make_gantry(tr, 1));
+  const std::string body = good.substr(good.find("t_s,"));
+  struct Case {
+    std::string metadata;
+    bool ok;
+    std::string axis;
+    double mass_kg;
+  };
+  const std::vector<Case> cases = {
+      {"# axis: lateral\n# terrain: gravel\n# mass_kg: 20.5\n", true, "lateral", 20.5},
+      {"# axis: longitudinal\n", true, "longitudinal", 16.0},  // the paper's 16 kg when absent
+      {"# mass_kg: 1e1\n# axis: lateral\n", true, "lateral", 10.0},
+      {"# terrain: sand\n# mass_kg: 20\n", false, "", 0},    // no axis: refused by both
+      {"# axis: lateral\n# mass_kg: 20kg\n", false, "", 0},  // not a number: refused by both
+      {"# axis: lateral\n# mass_kg: 0\n", false, "", 0},     // outside 0.1..1000 kg
+      {"# axis: sideways\n", false, "", 0},
+  };
+  int k = 0;
+  for (const Case& c : cases) {
+    const std::string path = tmp.path + "/g" + std::to_string(k++) + ".csv";
+    tools_test::write_text(path, "# format: auger-gantry-log v1\n" + c.metadata + body);
+    INFO(c.metadata);
+    if (c.ok) {
+      const Dataset d = load_dataset(path);
+      const GantryData g = read_gantry_data(path);
+      CHECK(d.gantry);
+      CHECK(d.axis == c.axis);
+      CHECK(g.axis == c.axis);
+      CHECK(d.gantry_mass_kg == c.mass_kg);
+      CHECK(g.mass_kg == c.mass_kg);
+      CHECK(g.terrain == (d.terrain.empty() ? "unknown" : d.terrain));
+      CHECK(d.active[c.axis == "lateral" ? kY : kX]);
+    } else {
+      std::string a, b;
+      try {
+        load_dataset(path);
+      } catch (const auger::LogError& e) {
+        a = e.what();
+      }
+      try {
+        read_gantry_data(path);
+      } catch (const auger::LogError& e) {
+        b = e.what();
+      }
+      CHECK_FALSE(a.empty());
+      CHECK(a == b);
+    }
+  }
 }

@@ -1,0 +1,206 @@
+// The workbench engine's datasets (dataset.hpp): a log read into the channels the workbench
+// compares, and the noise floor estimated from the data.
+#include "dataset.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numeric>
+#include <stdexcept>
+
+namespace auger::wb {
+
+const char* channel_name(int c) {
+  static const char* names[kChannels] = {"x", "y", "psi", "imu_psi"};
+  return names[c];
+}
+const char* channel_unit(int c) { return c < 2 ? "m" : "rad"; }
+
+namespace {
+
+bool finite(double v) { return std::isfinite(v); }
+
+}  // namespace
+
+// ------------------------------------------------------------------------------- dataset
+Dataset load_dataset(const std::string& path) {
+  Dataset d;
+  d.path = path;
+  std::string format;
+  {
+    CsvLogReader probe(path);  // throws LogError if it cannot be opened or has no header
+    format = probe.meta("format").value_or("");
+  }
+  auto fill_gap = [&](Vec4& w, const Vec4& last) {
+    for (int i = 0; i < 4; ++i)
+      if (!finite(w[i])) w[i] = finite(last[i]) ? last[i] : 0.0;
+  };
+  Vec4 last = Vec4::Constant(kNaN);
+  if (format == kGantryLogFormat) {
+    GantryLogReader r(path);
+    d.gantry = true;
+    // The reader has checked the metadata (docs/log-format.md "Gantry log").
+    d.axis = r.axis();
+    d.terrain = r.metadata().terrain;
+    d.gantry_mass_kg = r.metadata().mass_kg.value_or(d.gantry_mass_kg);
+    const int ch = d.axis == "longitudinal" ? kX : kY;
+    GantrySample s;
+    while (r.next(s)) {
+      d.t_s.push_back(s.t_s);
+      Vec4 w(s.omega_rpm[0], s.omega_rpm[1], 0.0, 0.0);
+      fill_gap(w, last);
+      last = w;
+      d.omega_rpm.push_back(w);
+      ChannelValues m{kNaN, kNaN, kNaN, kNaN};
+      if (finite(s.position_m)) {
+        m[static_cast<std::size_t>(ch)] = s.position_m;
+        m[ch == kX ? kY : kX] = 0.0;  // the rail holds the other DOF and the heading
+        m[kPsi] = 0.0;
+      }
+      d.meas.push_back(m);
+      d.force_n.push_back(s.force_n);
+    }
+  } else {
+    RobotLogReader r(path);
+    d.terrain = r.csv().meta("terrain").value_or("");
+    RobotSample s;
+    while (r.next(s)) {
+      d.t_s.push_back(s.t_s);
+      Vec4 w(s.omega_rpm[0], s.omega_rpm[1], s.omega_rpm[2], s.omega_rpm[3]);
+      fill_gap(w, last);
+      last = w;
+      d.omega_rpm.push_back(w);
+      d.meas.push_back({s.x_m, s.y_m, s.psi_rad, s.imu_psi_rad});
+      d.imu_r_radps.push_back(s.imu_r_radps);
+    }
+  }
+  if (d.t_s.size() < 3) throw LogError(path, 1, 1, "the log has fewer than 3 samples");
+  std::array<std::size_t, kChannels> count{};
+  for (const auto& m : d.meas)
+    for (int c = 0; c < kChannels; ++c) count[static_cast<std::size_t>(c)] += finite(m[static_cast<std::size_t>(c)]);
+  for (int c = 0; c < kChannels; ++c) d.active[static_cast<std::size_t>(c)] = count[static_cast<std::size_t>(c)] >= 10;
+  if (d.gantry) {
+    d.active = {false, false, false, false};
+    d.active[d.axis == "longitudinal" ? kX : kY] = true;
+  }
+  if (!d.active[kX] && !d.active[kY])
+    throw LogError(path, 1, 1, "the log has (almost) no pose measurements (x_m, y_m, psi_rad)");
+  return d;
+}
+
+// ------------------------------------------------------------------------------- noise floor
+double estimate_noise(const std::vector<double>& t_s, const std::vector<double>& values, bool is_angle) {
+  std::vector<std::size_t> idx;
+  for (std::size_t k = 0; k < values.size(); ++k)
+    if (finite(values[k])) idx.push_back(k);
+  std::vector<double> r;
+  // Each measured sample against the cubic through its two measured neighbours on each side
+  // (Lagrange, exact for any cubic): the motion of a 29 kg robot is smooth at these scales,
+  // so what is left is measurement noise, with variance sigma^2 (1 + sum of weights^2).
+  for (std::size_t j = 2; j + 2 < idx.size(); ++j) {
+    const std::size_t n[4] = {idx[j - 2], idx[j - 1], idx[j + 1], idx[j + 2]};
+    const double t = t_s[idx[j]];
+    if (t_s[n[3]] - t_s[n[0]] > 0.5) continue;  // across a gap the motion is not smooth
+    const double y0 = values[idx[j]];
+    double pred = 0, w2 = 0;
+    for (int a = 0; a < 4; ++a) {
+      double w = 1;
+      for (int b = 0; b < 4; ++b)
+        if (b != a) w *= (t - t_s[n[b]]) / (t_s[n[a]] - t_s[n[b]]);
+      const double ya = values[n[a]];
+      pred += w * (is_angle ? y0 + wrap_angle(ya - y0) : ya);
+      w2 += w * w;
+    }
+    r.push_back(std::fabs(y0 - pred) / std::sqrt(1.0 + w2));
+  }
+  if (r.size() < 5) return kNaN;
+  auto mid = r.begin() + static_cast<std::ptrdiff_t>(r.size() / 2);
+  std::nth_element(r.begin(), mid, r.end());
+  return std::max(1.4826 * *mid, 1e-9);  // MAD of a normal
+}
+
+NoiseColour camera_noise_colour(const Dataset& d, const ChannelValues& white) {
+  // A tracking camera's error is often coloured (it wanders over a fraction of a second), and
+  // the sample-to-sample estimate above sees only its fast part. The IMU heading is a second,
+  // independent heading: while the robot does not turn (so a time offset between the two does
+  // not matter), camera psi minus IMU heading, its mean and trend removed per 25 s stretch (an
+  // IMU bias or drift), has the variance of both sensors' whole errors. Less the IMU's own
+  // (white) noise, that is the camera's whole heading noise; its ratio to the fast part is the
+  // colour factor, taken to hold for x and y too (one pose solver makes all three).
+  NoiseColour nc;
+  if (d.gantry || !d.active[kPsi] || !d.active[kImuPsi] || !finite(white[kPsi]) || !finite(white[kImuPsi])) return nc;
+  const bool have_r = d.imu_r_radps.size() == d.size();
+  std::vector<double> t, diff;
+  double sum = 0;
+  std::size_t n = 0;
+  auto flush = [&]() {
+    if (diff.size() >= 40) {
+      // Least-squares line through the stretch, removed.
+      double mt = 0, md = 0;
+      for (std::size_t i = 0; i < diff.size(); ++i) {
+        mt += t[i];
+        md += diff[i];
+      }
+      mt /= static_cast<double>(diff.size());
+      md /= static_cast<double>(diff.size());
+      double stt = 0, std_ = 0;
+      for (std::size_t i = 0; i < diff.size(); ++i) {
+        stt += (t[i] - mt) * (t[i] - mt);
+        std_ += (t[i] - mt) * (diff[i] - md);
+      }
+      const double slope = stt > 0 ? std_ / stt : 0.0;
+      for (std::size_t i = 0; i < diff.size(); ++i) {
+        const double e = diff[i] - md - slope * (t[i] - mt);
+        sum += e * e;
+        ++n;
+      }
+    }
+    t.clear();
+    diff.clear();
+  };
+  // Samples grouped by 60 s of log time (not by contiguous stretch: the mean of a short stretch
+  // would take away much of a slow noise's variance).
+  long group = -1;
+  for (std::size_t k = 0; k < d.size(); ++k) {
+    const auto& m = d.meas[k];
+    if (!finite(m[kPsi]) || !finite(m[kImuPsi])) continue;
+    // Not turning: the IMU's rate below 0.01 rad/s (or, without it, the screws' yaw pattern, their
+    // mean speed, below 0.5 rpm: eq. (10)'s yaw row is the same for every screw).
+    const bool still = have_r && finite(d.imu_r_radps[k]) ? std::fabs(d.imu_r_radps[k]) < 0.01
+                                                          : std::fabs(d.omega_rpm[k].mean()) < 0.5;
+    if (!still) continue;
+    const long g = static_cast<long>(std::floor((d.t_s[k] - d.t_s.front()) / 60.0));
+    if (g != group) {
+      flush();
+      group = g;
+    }
+    t.push_back(d.t_s[k]);
+    diff.push_back(wrap_angle(m[kPsi] - m[kImuPsi]));
+  }
+  flush();
+  nc.samples = n;
+  if (n < 200) return nc;
+  const double whole2 = sum / static_cast<double>(n) - white[kImuPsi] * white[kImuPsi];
+  if (!(whole2 > 0)) return nc;
+  nc.factor = std::sqrt(whole2) / white[kPsi];
+  // Within what white noise gives (the estimate's own spread is a few %): not coloured.
+  nc.applied = nc.factor > 1.25;
+  return nc;
+}
+
+ChannelValues estimate_noise_floor(const Dataset& data, NoiseColour* colour) {
+  ChannelValues out{kNaN, kNaN, kNaN, kNaN};
+  std::vector<double> v(data.size());
+  for (int c = 0; c < kChannels; ++c) {
+    if (!data.active[static_cast<std::size_t>(c)]) continue;
+    for (std::size_t k = 0; k < data.size(); ++k) v[k] = data.meas[k][static_cast<std::size_t>(c)];
+    out[static_cast<std::size_t>(c)] = estimate_noise(data.t_s, v, c >= kPsi);
+  }
+  const NoiseColour nc = camera_noise_colour(data, out);
+  if (nc.applied)
+    for (int c : {kX, kY, kPsi}) out[static_cast<std::size_t>(c)] *= nc.factor;
+  if (colour) *colour = nc;
+  return out;
+}
+
+}  // namespace auger::wb

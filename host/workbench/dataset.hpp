@@ -1,0 +1,65 @@
+// The workbench engine's datasets (docs/workbench.md): a robot or gantry log in memory, in the
+// channels the workbench compares, and the measurement noise floor estimated from the data.
+//
+// Channels ("DOF" in the JSON): x, y, psi of the external pose, and imu_psi (the IMU heading,
+// which the model predicts as psi plus the sensor effects). A gantry log (docs/log-format.md) is
+// the robot model with yaw locked, screws 0 and 1 driven, and one active channel: x for the
+// longitudinal axis, y for the lateral one (docs/model-notes.md eqs. (11)-(17)).
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "auger/log.hpp"
+#include "auger/model.hpp"
+
+namespace auger::wb {
+
+constexpr int kChannels = 4;  // x, y, psi, imu_psi
+enum Channel { kX = 0, kY = 1, kPsi = 2, kImuPsi = 3 };
+const char* channel_name(int channel);  // "x", "y", "psi", "imu_psi"
+const char* channel_unit(int channel);  // "m" or "rad"
+using ChannelValues = std::array<double, kChannels>;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// A log in memory, in the columns the workbench uses.
+struct Dataset {
+  std::string path;
+  bool gantry = false;
+  std::string axis;      // gantry: "longitudinal" or "lateral"
+  std::string terrain;   // metadata `terrain`, "" if absent
+  double gantry_mass_kg = 16.0;
+  std::vector<double> t_s;
+  std::vector<Vec4> omega_rpm;        // a gap is filled with the last measured value
+  std::vector<ChannelValues> meas;    // x_m, y_m, psi_rad, imu_psi_rad; NaN = not measured
+  std::array<bool, kChannels> active{};  // channels with at least a few measurements
+  std::vector<double> force_n;        // gantry: the measured traction force along the rail (else empty)
+  std::vector<double> imu_r_radps;    // robot: the IMU's yaw rate (NaN = not measured)
+  std::size_t size() const { return t_s.size(); }
+  double duration_s() const { return t_s.empty() ? 0 : t_s.back() - t_s.front(); }
+};
+
+// Reads a robot or gantry log (by its `# format:`; a log without one is read as a robot log).
+// Throws auger::LogError naming file, line and column.
+Dataset load_dataset(const std::string& path);
+
+// Coloured camera noise (docs/workbench.md "Noise floor"): the camera heading against the IMU
+// heading while the robot does not turn gives the camera's whole heading noise; factor is its
+// ratio to the sample-to-sample estimate, applied to x, y and psi when above 1.25.
+struct NoiseColour {
+  double factor = 1.0;
+  std::size_t samples = 0;  // camera/IMU pairs compared (fewer than 200: not estimated)
+  bool applied = false;
+};
+NoiseColour camera_noise_colour(const Dataset& data, const ChannelValues& white);
+// Measurement noise per channel, from the data itself: the robust spread (MAD) of each
+// measured sample's deviation from the cubic through its measured neighbours, scaled for the
+// neighbours' weights, times the camera's colour factor. NaN for a channel without data.
+ChannelValues estimate_noise_floor(const Dataset& data, NoiseColour* colour = nullptr);
+// The same estimator on one series (NaN = not measured); angles wrapped when is_angle.
+double estimate_noise(const std::vector<double>& t_s, const std::vector<double>& values, bool is_angle = false);
+
+}  // namespace auger::wb
