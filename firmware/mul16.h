@@ -9,7 +9,7 @@
 
 #include <stdint.h>
 
-static inline uint32_t mul_u16(uint16_t a, uint16_t b)
+static inline __attribute__((always_inline)) uint32_t mul_u16(uint16_t a, uint16_t b)
 {
 #ifdef __AVR__
     uint32_t r;
