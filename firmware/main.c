@@ -296,6 +296,11 @@ int main(void)
     uint8_t last_tick = board_tick;
     uint8_t phase_ms = 0;
     uint8_t wake_ms = 1; /* ticks from last_tick to the next tick with work (below) */
+    /* ms to the command timeout as of the last safety_tick, counted down between calls:
+     * the timeout moves only with a frame (a setpoint, a CONFIG), so safety_tick runs on
+     * the passes that handled one and when the count runs out (the tick it would detect
+     * the timeout at), not on every tick pass. UINT16_MAX: no fresh setpoint. */
+    uint16_t timeout_left_ms = 0;
     bool control_due = false;
     for (;;) {
         board_wdt_reset();
@@ -308,6 +313,7 @@ int main(void)
             /* A header, then a body, each in one copy out of the ring (byte by byte through
              * a read and proto_parser_push a setpoint cost ~45 cycles a byte). The RX ISR
              * sets uart_rx_new with every byte it stores: without it the ring is empty. */
+            bool framed = false;
             if (uart_rx_new) {
                 uart_rx_new = 0;
                 uint8_t got;
@@ -315,7 +321,10 @@ int main(void)
                     proto_parser_added(&parser, got);
                     if (parser.need) continue; /* inside a frame's body: nothing to check yet */
                     proto_frame_t frame;
-                    while (proto_parser_pop(&parser, &frame)) handle_frame(&frame);
+                    while (proto_parser_pop(&parser, &frame)) {
+                        handle_frame(&frame);
+                        framed = true;
+                    }
                 }
             }
 
@@ -325,8 +334,17 @@ int main(void)
             uint8_t elapsed = (uint8_t)(now - last_tick);
             last_tick = now;
             live.time_ms += elapsed;
-            uint32_t timeout_ms = safety_tick(&safety, live.time_ms);
-            if (timeout_ms == UINT32_MAX) after_safety(); /* the only case it can have changed anything */
+            if (framed || elapsed >= timeout_left_ms) {
+                uint32_t timeout_ms = safety_tick(&safety, live.time_ms);
+                if (timeout_ms == UINT32_MAX) {
+                    timeout_left_ms = UINT16_MAX;
+                    after_safety(); /* the only case it can have changed anything */
+                } else {
+                    timeout_left_ms = (uint16_t)timeout_ms; /* <= cmd_timeout_ms */
+                }
+            } else {
+                timeout_left_ms = (uint16_t)(timeout_left_ms - elapsed);
+            }
             uint8_t before = phase_ms;
             phase_ms = (uint8_t)(phase_ms + elapsed);
             if (before < INA_PHASE_MS && phase_ms >= INA_PHASE_MS) ina_start_cycle(live.time_ms, live.duty_x10000 != 0);
@@ -351,7 +369,7 @@ int main(void)
              * and the setpoint's age, so the passes between ticks (the ends of TWI
              * transactions) keep the figure. */
             wake_ms = (uint8_t)(phase_ms < INA_PHASE_MS ? INA_PHASE_MS - phase_ms : CONTROL_PERIOD_MS - phase_ms);
-            if (timeout_ms < wake_ms) wake_ms = (uint8_t)timeout_ms;
+            if (timeout_left_ms < wake_ms) wake_ms = (uint8_t)timeout_left_ms;
             if (wake_ms == 0) wake_ms = 1;
         }
 
