@@ -1,9 +1,9 @@
 /*
- * Motor module main loop: one 1 kHz tick drives everything. Per tick: the command timeout
- * and the INA219 cycle start; every 10 ticks the control step (velocity, PID with current
- * foldback, stall detection, PWM, telemetry every telemetry_period_ms). Between ticks:
- * received bytes, INA219 progress, EEPROM writes, then sleep. Interrupt handlers only
- * capture; all decisions are taken here.
+ * Motor module main loop: one 1 kHz tick drives everything. Per tick: the command timeout;
+ * every 10 ticks the encoder sample and the INA219 cycle start, then with its reading the
+ * control step (velocity, PID with current foldback, stall detection, PWM, telemetry every
+ * telemetry_period_ms). Between ticks: received bytes, INA219 progress, EEPROM writes, then
+ * sleep. Interrupt handlers only capture; all decisions are taken here.
  */
 #include <avr/interrupt.h>
 #include <string.h>
@@ -59,6 +59,10 @@ static bool config_report_pending;
 static uint8_t telemetry_steps;  /* control steps per telemetry frame */
 static uint8_t telemetry_count;
 static uint16_t stack_check_steps;
+/* The encoder as sampled at the period's tick: the control step runs when the period's
+ * INA219 reading is in (a fraction of a millisecond later), the speed still over exactly
+ * CONTROL_PERIOD_MS. */
+static uint16_t enc_count_at_tick, enc_illegal_at_tick;
 
 /* Why this run started: MCUSR (with the watchdog marker, encoder_isr.S); when a bootloader
  * cleared it, RAM tells a power-on (no marker of a previous run) from a warm reset. */
@@ -234,10 +238,8 @@ __attribute__((noinline)) static void send_telemetry(void)
  * from call to return; one call every 10 ms costs nothing. */
 __attribute__((noinline)) static void control_step(void)
 {
-    uint16_t count, illegal;
-    board_encoder_read(&count, &illegal);
-    live.position_counts = with_dir_sign(enc_extend(&enc_ext, count));
-    live.encoder_errors = illegal;
+    live.position_counts = with_dir_sign(enc_extend(&enc_ext, enc_count_at_tick));
+    live.encoder_errors = enc_illegal_at_tick;
     live.omega_crpm = vel_update_crpm(&vel, live.position_counts);
 
     bool enabled = safety_motor_enabled(&safety);
@@ -345,13 +347,22 @@ int main(void)
             } else {
                 timeout_left_ms = (uint16_t)(timeout_left_ms - elapsed);
             }
-            uint8_t before = phase_ms;
+            if (control_due) {
+                /* A tick and the period's INA219 cycle has not ended (a sensor that does not
+                 * answer: its transaction times out after TWI_TIMEOUT_MS): step without it. */
+                control_due = false;
+                control_step();
+            }
             phase_ms = (uint8_t)(phase_ms + elapsed);
-            if (before < INA_PHASE_MS && phase_ms >= INA_PHASE_MS) ina_start_cycle(live.time_ms, live.duty_x10000 != 0);
             if (phase_ms >= CONTROL_PERIOD_MS) {
                 /* (more than a period late only if the loop was held up that long) */
                 while (phase_ms >= CONTROL_PERIOD_MS) phase_ms = (uint8_t)(phase_ms - CONTROL_PERIOD_MS);
-                if (phase_ms >= INA_PHASE_MS) ina_start_cycle(live.time_ms, live.duty_x10000 != 0);
+                /* The period starts: sample the encoder, start the INA219 cycle; the control
+                 * step follows on the pass that takes the reading (0.1-0.75 ms later), so it
+                 * acts on a current a fraction of a millisecond old, and the cycle's start
+                 * needs no tick pass of its own. */
+                board_encoder_read(&enc_count_at_tick, &enc_illegal_at_tick);
+                ina_start_cycle(live.time_ms, live.duty_x10000 != 0);
                 control_due = true;
             }
 
@@ -364,11 +375,10 @@ int main(void)
                 eeprom_busy = busy;
             }
 
-            /* The next tick with work: the INA219 cycle start (phase INA_PHASE_MS), the
-             * control step (phase 0), the command timeout. Only this block moves the phase
-             * and the setpoint's age, so the passes between ticks (the ends of TWI
-             * transactions) keep the figure. */
-            wake_ms = (uint8_t)(phase_ms < INA_PHASE_MS ? INA_PHASE_MS - phase_ms : CONTROL_PERIOD_MS - phase_ms);
+            /* The next tick with work: the period's start (phase 0), the command timeout.
+             * Only this block moves the phase and the setpoint's age, so the passes between
+             * ticks (the ends of TWI transactions) keep the figure. */
+            wake_ms = (uint8_t)(CONTROL_PERIOD_MS - phase_ms);
             if (timeout_left_ms < wake_ms) wake_ms = (uint8_t)timeout_left_ms;
             if (wake_ms == 0) wake_ms = 1;
         }
@@ -389,7 +399,7 @@ int main(void)
             }
         }
 
-        if (control_due) {
+        if (control_due && !ina_busy()) {
             control_due = false;
             control_step();
         }
