@@ -74,7 +74,7 @@ void pid_reset(pid_state_t *p)
 /* (m x) scaled by 2^shift; m x is exact in 32 bits (|m|, |x| < 2^15); right shifts floor
  * (gcc shifts signed values arithmetically), a bias of half a unit of 2^-27 per step. Sets
  * *big instead when the result would exceed +-TERM_FAST_MAX. */
-static int32_t term(pid_gain_t g, int16_t x, bool *big)
+static inline __attribute__((always_inline)) int32_t term(pid_gain_t g, int16_t x, bool *big)
 {
     if (g.m == 0 || x == 0) return 0;
     int32_t v = (int32_t)g.m * x;
