@@ -7,6 +7,7 @@
 //          where the busy cycles go (per symbol of the ELF), motor still and at top speed;
 //          --lines adds the hottest instructions with their source lines (avr-addr2line)
 //   rate   highest encoder edge rate with no lost count, regular and jittered spacing
+//          (env RATE_SEED=n: another jitter sequence)
 //   load   CPU load (share of cycles not asleep): motor still, top speed, 3x top speed
 //   speed  four modules in batch mode as a multiple of real time, 1 and 2 threads
 //
@@ -441,7 +442,10 @@ RateResult try_rate(double edges_per_s, double jitter, double seconds)
     b.command(0, 10.0, PROTO_SP_ENABLE);
     b.run_for(0.3);
     int64_t start = simmod_encoder_count(b.sim(), 0);
-    encoder_rate_force(b.sim(), 0, edges_per_s, jitter, 0x5eed + uint64_t(edges_per_s));
+    // env RATE_SEED (an integer, default 0): another jitter sequence for the same rates
+    const char* seed_env = std::getenv("RATE_SEED");
+    uint64_t seed = 0x5eed + uint64_t(edges_per_s) + (seed_env ? std::strtoull(seed_env, nullptr, 10) << 32 : 0);
+    encoder_rate_force(b.sim(), 0, edges_per_s, jitter, seed);
     b.run_for(seconds);
     // Hold the pins (a rate of one edge in 30 years), let a telemetry frame report the count.
     encoder_rate_force(b.sim(), 0, 1e-9, 0, 1);

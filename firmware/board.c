@@ -8,6 +8,7 @@
 #include <util/atomic.h>
 
 #include "enc.h"
+#include "mul16.h"
 
 /* Read by the simulator (docs/firmware.md): `used` and `externally_visible` keep the
  * name through -flto even though the firmware itself never reads it. */
@@ -80,7 +81,7 @@ void board_motor_set(int16_t duty_x10000)
      * exact for x <= 16383 (checked exhaustively; mag + 5 <= 10005): a 16x16 multiply whose
      * high word is the quotient, instead of libgcc's 16-bit division (~200 cycles) or a
      * 19-bit shift (~140). */
-    uint16_t ocr = (uint16_t)(((uint32_t)(uint16_t)(mag + 5u) * 6554u) >> 16);
+    uint16_t ocr = (uint16_t)(mul_u16((uint16_t)(mag + 5u), 6554u) >> 16);
     if (ocr > PWM_TOP) ocr = PWM_TOP;
     if (duty_x10000 > 0) {
         MOTOR_DIR_PORT |= (1 << MOTOR_DIR_BIT);

@@ -107,11 +107,9 @@
 /* ---- control loop ------------------------------------------------------------------------- */
 #define TICK_HZ 1000u          /* Timer2 tick: 16 MHz / 128 / 125 */
 #define CONTROL_PERIOD_MS 10u  /* 100 Hz: control step, INA219 cycle, telemetry */
-/* The INA219 cycle starts this many ticks into the period, so its readings are at most
- * (CONTROL_PERIOD_MS - INA_PHASE_MS) ms old when the control step uses them: fresh for the
- * current foldback, with a millisecond to spare for the longest cycle (five transactions,
- * 0.75 ms). */
-#define INA_PHASE_MS 8u
+/* The INA219 cycle starts at the period's tick and the control step runs when its reading
+ * is in (the longest cycle, five transactions, takes 0.75 ms; a cycle still running at the
+ * next tick is stepped without), so the current foldback acts on a fresh reading. */
 
 /* PID sample time T of eq. (24), in the unit the gains assume (seconds by default). */
 #ifndef PID_T
@@ -232,9 +230,6 @@
 #endif
 #if CMD_TIMEOUT_MS < 2 * CONTROL_PERIOD_MS || CMD_TIMEOUT_MS > 10000
 #error "CMD_TIMEOUT_MS must be 20..10000"
-#endif
-#if INA_PHASE_MS >= CONTROL_PERIOD_MS
-#error "INA_PHASE_MS must be inside the control period"
 #endif
 #if INA_FAIL_CYCLES < 1 || INA_FAIL_CYCLES > 255
 #error "INA_FAIL_CYCLES must be 1..255"

@@ -1,9 +1,9 @@
 /*
- * Motor module main loop: one 1 kHz tick drives everything. Per tick: the command timeout
- * and the INA219 cycle start; every 10 ticks the control step (velocity, PID with current
- * foldback, stall detection, PWM, telemetry every telemetry_period_ms). Between ticks:
- * received bytes, INA219 progress, EEPROM writes, then sleep. Interrupt handlers only
- * capture; all decisions are taken here.
+ * Motor module main loop: one 1 kHz tick drives everything. Per tick: the command timeout;
+ * every 10 ticks the encoder sample and the INA219 cycle start, then with its reading the
+ * control step (velocity, PID with current foldback, stall detection, PWM, telemetry every
+ * telemetry_period_ms). Between ticks: received bytes, INA219 progress, EEPROM writes, then
+ * sleep. Interrupt handlers only capture; all decisions are taken here.
  */
 #include <avr/interrupt.h>
 #include <string.h>
@@ -59,6 +59,10 @@ static bool config_report_pending;
 static uint8_t telemetry_steps;  /* control steps per telemetry frame */
 static uint8_t telemetry_count;
 static uint16_t stack_check_steps;
+/* The encoder as sampled at the period's tick: the control step runs when the period's
+ * INA219 reading is in (a fraction of a millisecond later), the speed still over exactly
+ * CONTROL_PERIOD_MS. */
+static uint16_t enc_count_at_tick, enc_illegal_at_tick;
 
 /* Why this run started: MCUSR (with the watchdog marker, encoder_isr.S); when a bootloader
  * cleared it, RAM tells a power-on (no marker of a previous run) from a warm reset. */
@@ -234,10 +238,8 @@ __attribute__((noinline)) static void send_telemetry(void)
  * from call to return; one call every 10 ms costs nothing. */
 __attribute__((noinline)) static void control_step(void)
 {
-    uint16_t count, illegal;
-    board_encoder_read(&count, &illegal);
-    live.position_counts = with_dir_sign(enc_extend(&enc_ext, count));
-    live.encoder_errors = illegal;
+    live.position_counts = with_dir_sign(enc_extend(&enc_ext, enc_count_at_tick));
+    live.encoder_errors = enc_illegal_at_tick;
     live.omega_crpm = vel_update_crpm(&vel, live.position_counts);
 
     bool enabled = safety_motor_enabled(&safety);
@@ -296,6 +298,11 @@ int main(void)
     uint8_t last_tick = board_tick;
     uint8_t phase_ms = 0;
     uint8_t wake_ms = 1; /* ticks from last_tick to the next tick with work (below) */
+    /* ms to the command timeout as of the last safety_tick, counted down between calls:
+     * the timeout moves only with a frame (a setpoint, a CONFIG), so safety_tick runs on
+     * the passes that handled one and when the count runs out (the tick it would detect
+     * the timeout at), not on every tick pass. UINT16_MAX: no fresh setpoint. */
+    uint16_t timeout_left_ms = 0;
     bool control_due = false;
     for (;;) {
         board_wdt_reset();
@@ -308,6 +315,7 @@ int main(void)
             /* A header, then a body, each in one copy out of the ring (byte by byte through
              * a read and proto_parser_push a setpoint cost ~45 cycles a byte). The RX ISR
              * sets uart_rx_new with every byte it stores: without it the ring is empty. */
+            bool framed = false;
             if (uart_rx_new) {
                 uart_rx_new = 0;
                 uint8_t got;
@@ -315,7 +323,10 @@ int main(void)
                     proto_parser_added(&parser, got);
                     if (parser.need) continue; /* inside a frame's body: nothing to check yet */
                     proto_frame_t frame;
-                    while (proto_parser_pop(&parser, &frame)) handle_frame(&frame);
+                    while (proto_parser_pop(&parser, &frame)) {
+                        handle_frame(&frame);
+                        framed = true;
+                    }
                 }
             }
 
@@ -325,15 +336,33 @@ int main(void)
             uint8_t elapsed = (uint8_t)(now - last_tick);
             last_tick = now;
             live.time_ms += elapsed;
-            uint32_t timeout_ms = safety_tick(&safety, live.time_ms);
-            if (timeout_ms == UINT32_MAX) after_safety(); /* the only case it can have changed anything */
-            uint8_t before = phase_ms;
+            if (framed || elapsed >= timeout_left_ms) {
+                uint32_t timeout_ms = safety_tick(&safety, live.time_ms);
+                if (timeout_ms == UINT32_MAX) {
+                    timeout_left_ms = UINT16_MAX;
+                    after_safety(); /* the only case it can have changed anything */
+                } else {
+                    timeout_left_ms = (uint16_t)timeout_ms; /* <= cmd_timeout_ms */
+                }
+            } else {
+                timeout_left_ms = (uint16_t)(timeout_left_ms - elapsed);
+            }
+            if (control_due) {
+                /* A tick and the period's INA219 cycle has not ended (a sensor that does not
+                 * answer: its transaction times out after TWI_TIMEOUT_MS): step without it. */
+                control_due = false;
+                control_step();
+            }
             phase_ms = (uint8_t)(phase_ms + elapsed);
-            if (before < INA_PHASE_MS && phase_ms >= INA_PHASE_MS) ina_start_cycle(live.time_ms, live.duty_x10000 != 0);
             if (phase_ms >= CONTROL_PERIOD_MS) {
                 /* (more than a period late only if the loop was held up that long) */
                 while (phase_ms >= CONTROL_PERIOD_MS) phase_ms = (uint8_t)(phase_ms - CONTROL_PERIOD_MS);
-                if (phase_ms >= INA_PHASE_MS) ina_start_cycle(live.time_ms, live.duty_x10000 != 0);
+                /* The period starts: sample the encoder, start the INA219 cycle; the control
+                 * step follows on the pass that takes the reading (0.1-0.75 ms later), so it
+                 * acts on a current a fraction of a millisecond old, and the cycle's start
+                 * needs no tick pass of its own. */
+                board_encoder_read(&enc_count_at_tick, &enc_illegal_at_tick);
+                ina_start_cycle(live.time_ms, live.duty_x10000 != 0);
                 control_due = true;
             }
 
@@ -346,12 +375,11 @@ int main(void)
                 eeprom_busy = busy;
             }
 
-            /* The next tick with work: the INA219 cycle start (phase INA_PHASE_MS), the
-             * control step (phase 0), the command timeout. Only this block moves the phase
-             * and the setpoint's age, so the passes between ticks (the ends of TWI
-             * transactions) keep the figure. */
-            wake_ms = (uint8_t)(phase_ms < INA_PHASE_MS ? INA_PHASE_MS - phase_ms : CONTROL_PERIOD_MS - phase_ms);
-            if (timeout_ms < wake_ms) wake_ms = (uint8_t)timeout_ms;
+            /* The next tick with work: the period's start (phase 0), the command timeout.
+             * Only this block moves the phase and the setpoint's age, so the passes between
+             * ticks (the ends of TWI transactions) keep the figure. */
+            wake_ms = (uint8_t)(CONTROL_PERIOD_MS - phase_ms);
+            if (timeout_left_ms < wake_ms) wake_ms = (uint8_t)timeout_left_ms;
             if (wake_ms == 0) wake_ms = 1;
         }
 
@@ -371,7 +399,7 @@ int main(void)
             }
         }
 
-        if (control_due) {
+        if (control_due && !ina_busy()) {
             control_due = false;
             control_step();
         }

@@ -2,6 +2,7 @@
 #include "pid.h"
 
 #include "config.h"
+#include "mul16.h"
 
 /* Terms within +-4 (times the rated voltage) sum in 32 bits; a larger one (large gains and
  * errors) sends the step down an exact 64-bit path. */
@@ -73,7 +74,7 @@ void pid_reset(pid_state_t *p)
 /* (m x) scaled by 2^shift; m x is exact in 32 bits (|m|, |x| < 2^15); right shifts floor
  * (gcc shifts signed values arithmetically), a bias of half a unit of 2^-27 per step. Sets
  * *big instead when the result would exceed +-TERM_FAST_MAX. */
-static int32_t term(pid_gain_t g, int16_t x, bool *big)
+static inline __attribute__((always_inline)) int32_t term(pid_gain_t g, int16_t x, bool *big)
 {
     if (g.m == 0 || x == 0) return 0;
     int32_t v = (int32_t)g.m * x;
@@ -168,8 +169,12 @@ int16_t pid_duty_x10000(int32_t u_q27, int16_t cap_x10000)
     u15 >>= PID_U_SHIFT - 15 - 8;
     if (u15 > 32767) u15 = 32767;
     if (u15 < -32767) u15 = -32767;
-    int32_t twice = (int32_t)(int16_t)u15 * cap_x10000 * 2 + 0x8000L;
-    int16_t duty = (int16_t)(twice >> 16);
+    /* By magnitude (an inline unsigned multiply, not libgcc's signed x unsigned one): for
+     * u < 0 the floor of (-2m + 0x8000) / 2^16 is -((2m + 0x7FFF) >> 16), the same value. */
+    bool neg = u15 < 0;
+    uint16_t mag = (uint16_t)(neg ? -u15 : u15);
+    uint32_t twice = mul_u16(mag, (uint16_t)cap_x10000) * 2u;
+    int16_t duty = neg ? (int16_t)-(int16_t)((twice + 0x7FFFu) >> 16) : (int16_t)((twice + 0x8000u) >> 16);
     if (duty > 10000) duty = 10000;
     if (duty < -10000) duty = -10000;
     return duty;

@@ -3,6 +3,7 @@
 
 #include "config.h"
 #include "pid.h"
+#include "mul16.h"
 
 #define STALL_U_MIN_Q27 ((int32_t)((int64_t)PID_U_ONE * STALL_U_MIN_PCT / 100))
 
@@ -115,7 +116,7 @@ void safety_on_step(safety_t *s, int32_t u_q27, int16_t duty_x10000, int16_t ome
     /* The INA219 sits on the battery side: the pack supplies the motor current only while
      * the PWM is high, so motor current = battery current / duty; compared as products. */
     bool stalled = u_mag >= (uint32_t)STALL_U_MIN_Q27 && w_mag <= STALL_SPEED_CRPM &&
-                   (uint32_t)i_mag * 10000u >= (uint32_t)s->stall_current_ma * d_mag;
+                   mul_u16(i_mag, 10000u) >= mul_u16(s->stall_current_ma, d_mag);
     if (!stalled) {
         s->stall_count = 0;
         return;

@@ -1,6 +1,8 @@
 /* Velocity by position differencing; see vel.h. */
 #include "vel.h"
 
+#include "mul16.h"
+
 
 void vel_init(vel_t *v, uint32_t counts_per_rev_x100, uint16_t period_ms)
 {
@@ -43,9 +45,9 @@ int16_t vel_crpm_from_counts(const vel_t *v, int32_t counts)
     uint16_t c = (uint16_t)mag;
     uint16_t whole = (uint16_t)(v->crpm_per_count_q16 >> 16);
     uint16_t frac = (uint16_t)(v->crpm_per_count_q16 & 0xFFFFu);
-    uint32_t crpm = (uint32_t)c * whole;
+    uint32_t crpm = mul_u16(c, whole);
     if (crpm > 32767u) return neg ? -32767 : 32767;
-    crpm += ((uint32_t)c * frac + 0x8000u) >> 16;
+    crpm += (mul_u16(c, frac) + 0x8000u) >> 16;
     if (crpm > 32767u) crpm = 32767u;
     return neg ? (int16_t)-(int16_t)crpm : (int16_t)crpm;
 }

@@ -19,6 +19,7 @@ Rig::Rig(const RigOptions& opt) : count_(opt.count), mods_(size_t(opt.count))
     cfg.elf_path = elf.c_str();
     cfg.count = opt.count;
     cfg.threads = opt.threads;
+    cfg.ina219_addr7 = opt.ina219_addr7;
     sim_ = simmod_create(&cfg);
     if (!sim_) throw std::runtime_error("simmod_create failed for " + elf);
     for (auto& m : mods_) proto_parser_init(&m.parser);

@@ -25,6 +25,7 @@ struct RigOptions {
     double battery_v;      // > 0: force every module's battery terminal voltage
     int threads;
     std::string elf_path;  // empty: the firmware under test (firmware_elf())
+    uint8_t ina219_addr7 = 0x40;  // another address: the firmware's INA219 never answers
 };
 
 class Rig {

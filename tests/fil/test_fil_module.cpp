@@ -61,6 +61,27 @@ TEST_CASE("module boots disabled, says who it is, and sends telemetry every 10 m
     CHECK(rig.host_dropped(0) == 0);
 }
 
+TEST_CASE("with no INA219 answering, the control step still runs every 10 ms and SENSOR latches", "[fil]")
+{
+    // The control step waits for the period's INA219 reading (docs/firmware.md "Timing"):
+    // an INA219 that refuses its address ends every cycle at once with an error, and the
+    // step must still come every period, telemetry with it.
+    RigOptions opt;
+    opt.ina219_addr7 = 0x41;  // the firmware talks to 0x40
+    Rig rig(opt);
+    rig.command(0, 10.0, kEnable);
+    rig.run_for(1.0);
+    const auto& tel = rig.telemetry(0);
+    REQUIRE(tel.size() >= 95);
+    int module_clock_gaps = 0;
+    for (size_t i = 1; i < tel.size(); ++i)
+        if (tel[i].tm.time_ms - tel[i - 1].tm.time_ms != 10) ++module_clock_gaps;
+    CHECK(module_clock_gaps == 0);
+    CHECK((rig.last(0).tm.status & PROTO_F_SENSOR) != 0);
+    CHECK((rig.last(0).tm.status & PROTO_ST_ENABLED) == 0);
+    CHECK(rig.last(0).tm.duty_x10000 == 0);
+}
+
 TEST_CASE("telemetry every 10 ms with no gap over 60 s simulated", "[fil]")
 {
     Rig rig;

@@ -222,6 +222,14 @@ TEST_CASE("pid: unit scaling and rounding of pid_step_duty")
             REQUIRE(std::abs(pid_duty_x10000(uq, cap) - u_of(uq) * cap) <= 0.5 + cap / 32768.0);
     CHECK(pid_duty_x10000(PID_U_ONE, 10000) == 10000);
     CHECK(pid_duty_x10000(-PID_U_ONE, 10000) == -10000);
+    // Exactly u15 x cap / 2^15 rounded half up (towards +inf), also for u < 0 (the firmware
+    // multiplies the magnitude): every Q15 output, caps at both ends and between.
+    for (int32_t u15 = -32767; u15 <= 32767; ++u15)
+        for (int32_t cap : {1, 2, 5714, 8000, 9999, 10000}) {
+            int64_t twice = int64_t(u15) * cap * 2 + 0x8000;
+            int64_t want = twice >= 0 ? twice / 65536 : -((-twice + 65535) / 65536);  // floor
+            REQUIRE(pid_duty_x10000(u15 * 4096, int16_t(cap)) == want);
+        }
 }
 
 TEST_CASE("pid: duty cap = motor rating / battery voltage")

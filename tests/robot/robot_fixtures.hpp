@@ -10,6 +10,7 @@
 
 #include "auger/log.hpp"
 #include "auger/model_file.hpp"
+#include "protocol.h"
 #include "scheduler.hpp"
 
 namespace robot_test {
@@ -53,6 +54,7 @@ struct DiagonalRun {
   double progress_m = 0;     // distance travelled towards the goal
   double max_abs_psi_rad = 0;
   int module_status_or = 0;  // the modules' status words ORed over the run (fault bits: none expected)
+  double current_limited_frac = 0;  // share of module samples with the current foldback active
 };
 
 // The modules' status words (robot log status_N) ORed over a log written by the scheduler.
@@ -65,6 +67,17 @@ inline int status_or(const std::string& log_text) {
     for (const auto& v : s.status)
       if (v) st |= int(*v);
   return st;
+}
+// The share of module samples (robot log status_N) that carry the given status bit.
+inline double status_bit_frac(const std::string& log_text, int bit) {
+  std::istringstream in(log_text);
+  auger::RobotLogReader reader(in, "scheduler log");
+  auger::RobotSample s;
+  long with = 0, all = 0;
+  while (reader.next(s))
+    for (const auto& v : s.status)
+      if (v) ++all, with += (int(*v) & bit) != 0;
+  return all ? double(with) / double(all) : 0.0;
 }
 inline double diagonal_angle_rad(const auger::Model& m) {
   return std::atan2(m.terrain.sigma_lat / m.terrain.D_y, m.terrain.sigma_long / m.terrain.D_x);
@@ -108,7 +121,10 @@ inline DiagonalRun run_diagonal(auger::sim::ScrewMode mode, auger::AllocatorKind
   r.progress_m = eta.head<2>().dot(goal.head<2>().normalized());
   for (const auto& h : s.history()) r.max_abs_psi_rad = std::max(r.max_abs_psi_rad, std::fabs(h.eta_true[2]));
   s.set_log(nullptr);
-  if (mode == sim::ScrewMode::fil) r.module_status_or = status_or(log.str());
+  if (mode == sim::ScrewMode::fil) {
+    r.module_status_or = status_or(log.str());
+    r.current_limited_frac = status_bit_frac(log.str(), PROTO_ST_CURRENT_LIMITED);
+  }
   return r;
 }
 
