@@ -29,7 +29,7 @@ static void usage(FILE *f)
 		"usage: auger-sim-modules --elf PATH [--count 1|4] [--batch|--realtime]\n"
 		"         [--seconds S] [--pty-dir DIR] [--threads N] [--reset-on-open]\n"
 		"         [--clock-offset-ppm PPM] [--bootloader HEX] [--battery-v V]\n"
-		"         [--load-nm NM] [--verbose]\n"
+		"         [--load-nm NM] [--no-pty] [--verbose] [--help] [--version]\n"
 		"Without --seconds it runs until SIGINT or SIGTERM. --clock-offset-ppm gives\n"
 		"module i an offset of +PPM, -PPM, +PPM/2, -PPM/2, ... (i = 0, 1, 2, 3...).\n");
 }
@@ -69,6 +69,7 @@ int main(int argc, char **argv)
 		else if (!strcmp(a, "--load-nm")) { NEED_ARG(); load_nm = atof(next); }
 		else if (!strcmp(a, "--verbose")) cfg.verbose = 1;
 		else if (!strcmp(a, "--help") || !strcmp(a, "-h")) { usage(stdout); return 0; }
+		else if (!strcmp(a, "--version")) { printf("auger-sim-modules %s\n", AUGER_VERSION); return 0; }
 		else { fprintf(stderr, "auger-sim-modules: unknown option %s\n", a); usage(stderr); return 2; }
 #undef NEED_ARG
 	}

@@ -26,7 +26,7 @@ const auger::CommandLine kCli{
     "The robot daemon: the four modules, the 100 Hz loop, the sockets and the log (docs/daemon.md).\n",
     {{"--config", "PATH", "configuration file (default /etc/auger/augerd.toml)"},
      {"--check", "", "check the configuration, the model and what start-up needs (ports, log\n"
-                     "                 directory, socket paths, groups), then exit: 0 ready, 1 not now, 2 an error"}},
+                     "directory, socket paths, groups), then exit: 0 ready, 1 not now, 2 an error"}},
     "Exit 0: stopped by a signal; 1: a start-up failure that may pass (a port missing; the service\n"
     "restarts it); 2: a configuration or usage error (the service does not restart it).\n"};
 

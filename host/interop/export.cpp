@@ -21,28 +21,26 @@ namespace auger::interop {
 
 namespace {
 
-const char* kUsage =
-    "usage: auger export LOG --mcap OUT.mcap [--model FILE]\n"
-    "  the robot log as MCAP for Foxglove and PlotJuggler (docs/formats.md): the pose as\n"
-    "  foxglove.PoseInFrame on /pose and a frame on /tf, the columns in flat JSON messages on\n"
-    "  /screws, /pose_2d, /imu, /reference, /status, /other. With --model (a model file, or\n"
-    "  \"default\" for the shipped one) also the model's prediction from the measured screw speeds\n"
-    "  (as `auger compare` runs it: re-started from the measured pose every 25 s) on\n"
-    "  /model/pose_2d, /model/pose and the frame base_link_model.\n";
+const CommandLine kCli{
+    "auger export",
+    "LOG --mcap OUT.mcap [--model FILE]",
+    "The robot log as MCAP for Foxglove and PlotJuggler (docs/formats.md): the pose as\n"
+    "foxglove.PoseInFrame on /pose and a frame on /tf, the columns in flat JSON messages on\n"
+    "/screws, /pose_2d, /imu, /reference, /status, /other.\n",
+    {{"--mcap", "OUT.mcap", "the MCAP file to write"},
+     {"--model", "FILE", "a model file, or \"default\" for the shipped one: also the model's prediction\n"
+      "from the measured screw speeds (as `auger compare` runs it: re-started from\n"
+      "the measured pose every 25 s) on /model/pose_2d, /model/pose and the frame\n"
+      "base_link_model"}},
+    ""};
 
 }  // namespace
 
 int run_export(int argc, char** argv) {
   Args a;
-  if (!parse_args(argc, argv, {"--help"}, {"--mcap", "--model"}, a)) return 2;
-  if (a.has("--help")) {
-    std::fputs(kUsage, stdout);
-    return 0;
-  }
-  if (a.positional.size() != 1 || !a.has("--mcap")) {
-    std::fputs(kUsage, stderr);
-    return 2;
-  }
+  if (!kCli.parse(argc, argv, a)) return 2;
+  if (a.has("--help")) return kCli.print_usage(stdout), 0;
+  if (a.positional.size() != 1 || !a.has("--mcap")) return kCli.print_usage(stderr), 2;
   const std::string log_path = a.positional[0];
   const std::string out_path = a.get("--mcap");
   std::string tmp_path = out_path + ".part-XXXXXX";

@@ -8,9 +8,13 @@
 #include <string>
 #include <vector>
 
+#include "auger/args.hpp"
 #include "workbench.hpp"
 
 namespace auger::wb {
+
+// The --model option of every subcommand that runs the model against a log (choose_model).
+inline const OptionDoc kModelOption{"--model", "FILE", "the model file (default: the shipped model for the log's kind)"};
 
 // "0.0976 m" (4 significant digits by default), "-" for NaN.
 std::string with_unit(double value, const std::string& unit, int digits = 4);

@@ -54,20 +54,23 @@ bool beyond_noise(const ErrorStats& e) {
   return false;
 }
 
+const CommandLine kCli{
+    "auger compare",
+    "LOG [--model FILE] [--json]",
+    "The model run from the log's screw speeds: open loop (Table 4), re-initialised every 25 s\n"
+    "(the headline), IMU heading (Fig. 9), one step ahead; errors per DOF and as multiples of the\n"
+    "noise floor estimated from the log; worst 5 s windows; error by regime; the next command to run.\n",
+    {kModelOption,
+     {"--json", "", "one JSON object on stdout"}},
+    ""};
+
 }  // namespace
 
 int run_compare(int argc, char** argv) {
   Args a;
-  if (!parse_args(argc, argv, {"--json", "--help"}, {"--model"}, a)) return 2;
-  if (a.has("--help") || a.positional.size() != 1) {
-    std::fprintf(a.has("--help") ? stdout : stderr,
-                 "usage: auger compare LOG [--model FILE] [--json]\n"
-                 "  the model run from the log's screw speeds: open loop (Table 4), re-initialised every\n"
-                 "  25 s (the headline), IMU heading (Fig. 9), one step ahead; errors per DOF and as\n"
-                 "  multiples of the noise floor estimated from the log; worst 5 s windows; error by regime;\n"
-                 "  the next command to run.\n");
-    return a.has("--help") ? 0 : 2;
-  }
+  if (!kCli.parse(argc, argv, a)) return 2;
+  if (a.has("--help")) return kCli.print_usage(stdout), 0;
+  if (a.positional.size() != 1) return kCli.print_usage(stderr), 2;
   try {
     const Dataset d = load_dataset(a.positional[0]);
     const CompareResult r = compare(d, choose_model(d, a.get("--model")));

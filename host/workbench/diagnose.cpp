@@ -30,20 +30,27 @@ std::string next_command(const Dataset& d, const DiagnoseResult& r, const std::s
   return s + "; or auger explain " + log + model_arg + " to add effects until only noise is left";
 }
 
+const CommandLine kCli{
+    "auger diagnose",
+    "LOG [--model FILE] [--only ID,...] [--threads N] [--json]",
+    "Fits every library effect (auger effects) by simulation error over training segments, judges\n"
+    "it on held-out segments, ranks by BIC with an effective sample size; says whether anything is\n"
+    "missing, what, and where the model fails. Progress on stderr for long logs.\n",
+    {kModelOption,
+     {"--only", "ID,...", "fit only these effects"},
+     {"--threads", "N", "threads for the fits (default 2; 1 .. 256)"},
+     {"--json", "", "one JSON object on stdout"},
+     {"--progress", "", "a line per candidate on stderr (default: for logs over 300 s)"},
+     {"--quiet", "", "no progress lines"}},
+    ""};
+
 }  // namespace
 
 int run_diagnose(int argc, char** argv) {
   Args a;
-  if (!parse_args(argc, argv, {"--json", "--help", "--progress", "--quiet"}, {"--model", "--only", "--threads"}, a))
-    return 2;
-  if (a.has("--help") || a.positional.size() != 1) {
-    std::fprintf(a.has("--help") ? stdout : stderr,
-                 "usage: auger diagnose LOG [--model FILE] [--only ID,...] [--threads N] [--json]\n"
-                 "  fits every library effect (auger effects) by simulation error over training segments,\n"
-                 "  judges it on held-out segments, ranks by BIC with an effective sample size; says whether\n"
-                 "  anything is missing, what, and where the model fails. Progress on stderr for long logs.\n");
-    return a.has("--help") ? 0 : 2;
-  }
+  if (!kCli.parse(argc, argv, a)) return 2;
+  if (a.has("--help")) return kCli.print_usage(stdout), 0;
+  if (a.positional.size() != 1) return kCli.print_usage(stderr), 2;
   try {
     const Dataset d = load_dataset(a.positional[0]);
     require_fit_data(d, "diagnose");

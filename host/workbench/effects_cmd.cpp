@@ -10,14 +10,20 @@
 
 namespace auger::wb {
 
+namespace {
+
+const CommandLine kCli{"auger effects", "[--json]", "The effect library: identifiers, parameters, units.\n",
+                       {{"--json", "", "one JSON object on stdout"}}, ""};
+
+}  // namespace
+
 int run_effects(int argc, char** argv) {
   Args a;
-  if (!parse_args(argc, argv, {"--json", "--help"}, {}, a)) return 2;
-  if (!a.has("--help") && !a.positional.empty())
+  if (!kCli.parse(argc, argv, a)) return 2;
+  if (a.has("--help")) return kCli.print_usage(stdout), 0;
+  if (!a.positional.empty()) {
     std::fprintf(stderr, "auger effects: takes no file or argument, got %s\n", quote_input(a.positional[0]).c_str());
-  if (a.has("--help") || !a.positional.empty()) {
-    std::fprintf(a.has("--help") ? stdout : stderr, "usage: auger effects [--json]\n  the effect library: identifiers, parameters, units\n");
-    return a.has("--help") ? 0 : 2;
+    return kCli.print_usage(stderr), 2;
   }
   const auto lib = effect_library();
   if (a.has("--json")) {

@@ -17,17 +17,27 @@ namespace auger::wb {
 
 namespace {
 
-constexpr const char* kUsage =
-    "usage: auger explain LOG... [--model FILE] [--out MODEL] [--max-effects N] [--beam N]\n"
-    "                     [--only ID,...] [--threads N] [--json] [--progress | --quiet]\n"
-    "  the loop compare -> diagnose -> fit --add -> diagnose ... in one command: at every step each\n"
-    "  library effect is fitted jointly with the effects chosen so far and the paper's parameters;\n"
-    "  an effect that no longer pays for itself is dropped; near ties are carried along; it stops\n"
-    "  when what remains is noise (held-out error at the noise floor, residuals white and\n"
-    "  independent of the inputs) or no candidate is significant, and says what is left.\n"
-    "  Several logs of one robot are explained together (effects shared, the paper's parameters\n"
-    "  per terrain). --out writes the final model file. A line per step on stderr (--progress: also\n"
-    "  one per candidate fitted; --quiet: none).\n";
+const CommandLine kCli{
+    "auger explain",
+    "LOG... [--model FILE] [--out MODEL] [--max-effects N] [--beam N]\n"
+    "                     [--only ID,...] [--threads N] [--json] [--progress | --quiet]",
+    "The loop compare -> diagnose -> fit --add -> diagnose ... in one command: at every step each\n"
+    "library effect is fitted jointly with the effects chosen so far and the paper's parameters;\n"
+    "an effect that no longer pays for itself is dropped; near ties are carried along; it stops\n"
+    "when what remains is noise (held-out error at the noise floor, residuals white and\n"
+    "independent of the inputs) or no candidate is significant, and says what is left.\n"
+    "Several logs of one robot are explained together (effects shared, the paper's parameters\n"
+    "per terrain).\n",
+    {kModelOption,
+     {"--out", "MODEL", "write the final model file there"},
+     {"--max-effects", "N", "at most N effects added (default 4; 1 .. 10)"},
+     {"--beam", "N", "near ties carried along (default 2; 1 .. 6)"},
+     {"--only", "ID,...", "consider only these effects"},
+     {"--threads", "N", "threads for the fits (default 2; 1 .. 64)"},
+     {"--json", "", "one JSON object on stdout"},
+     {"--progress", "", "also a line per candidate fitted on stderr (default: a line per step, none with --json)"},
+     {"--quiet", "", "no progress lines"}},
+    ""};
 
 // "1.23" for a channel the log has, "-" otherwise.
 std::string cell(double v) {
@@ -41,13 +51,9 @@ std::string cell(double v) {
 
 int run_explain(int argc, char** argv) {
   Args a;
-  if (!parse_args(argc, argv, {"--json", "--help", "--progress", "--quiet"},
-                  {"--model", "--out", "--max-effects", "--beam", "--only", "--threads"}, a))
-    return 2;
-  if (a.has("--help") || a.positional.empty()) {
-    std::fprintf(a.has("--help") ? stdout : stderr, "%s", kUsage);
-    return a.has("--help") ? 0 : 2;
-  }
+  if (!kCli.parse(argc, argv, a)) return 2;
+  if (a.has("--help")) return kCli.print_usage(stdout), 0;
+  if (a.positional.empty()) return kCli.print_usage(stderr), 2;
   auto count = [&](const char* opt, int dflt, int lo, int hi, int& out) {
     if (!a.has(opt)) {
       out = dflt;

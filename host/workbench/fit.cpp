@@ -14,17 +14,28 @@
 
 namespace auger::wb {
 
+namespace {
+
+const CommandLine kCli{
+    "auger fit",
+    "LOG --add EFFECT[,EFFECT...] [--out MODEL] [--model FILE] [--json]",
+    "Re-identifies sigma and D (eqs. (15)-(17)) together with the effects added, prints the error\n"
+    "per channel before and after (also as multiples of the noise floor), writes a model file.\n",
+    {{"--add", "EFFECT[,EFFECT...]", "the effects to add (auger effects lists them); paper_params: the\n"
+      "paper's parameters alone"},
+     {"--out", "MODEL", "write the fitted model file there"},
+     kModelOption,
+     {"--json", "", "one JSON object on stdout"},
+     {"--progress", "", "progress lines on stderr"}},
+    ""};
+
+}  // namespace
+
 int run_fit(int argc, char** argv) {
   Args a;
-  if (!parse_args(argc, argv, {"--json", "--help", "--progress"}, {"--model", "--add", "--out"}, a)) return 2;
-  if (a.has("--help") || a.positional.size() != 1) {
-    std::fprintf(a.has("--help") ? stdout : stderr,
-                 "usage: auger fit LOG --add EFFECT[,EFFECT...] [--out MODEL] [--model FILE] [--json]\n"
-                 "  re-identifies sigma and D (eqs. (15)-(17)) together with the effects added, prints the\n"
-                 "  error per channel before and after (also as multiples of the noise floor), writes a model file.\n"
-                 "  --add paper_params re-identifies the paper's parameters alone.\n");
-    return a.has("--help") ? 0 : 2;
-  }
+  if (!kCli.parse(argc, argv, a)) return 2;
+  if (a.has("--help")) return kCli.print_usage(stdout), 0;
+  if (a.positional.size() != 1) return kCli.print_usage(stderr), 2;
   const std::vector<std::string> ids = split_ids(a.get("--add"));
   if (ids.empty()) {
     std::fprintf(stderr, "auger fit: --add EFFECT[,EFFECT...] is required (auger effects lists them)\n");

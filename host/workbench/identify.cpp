@@ -17,12 +17,17 @@
 namespace auger::wb {
 namespace {
 
+const CommandLine kCli{
+    "auger identify",
+    "GANTRY_LOG... [--confidence P] [--json]",
+    "sigma (eqs. (15)-(16), least squares on force_n) and D (eq. (17), steady-state velocity) per\n"
+    "terrain and axis (metadata `terrain`, `axis`), with confidence intervals.\n",
+    {{"--confidence", "P", "the intervals' confidence (default 0.95; in (0, 1))"},
+     {"--json", "", "one JSON object on stdout"}},
+    ""};
+
 int identify_usage(std::FILE* f, int code) {
-  std::fprintf(f,
-               "usage: auger identify GANTRY_LOG... [--confidence P] [--json]\n"
-               "  sigma (eqs. (15)-(16), least squares on force_n) and D (eq. (17), steady-state\n"
-               "  velocity) per terrain and axis (metadata `terrain`, `axis`), with P confidence\n"
-               "  intervals (default 0.95). --json prints one JSON object on stdout.\n");
+  kCli.print_usage(f);
   return code;
 }
 
@@ -44,7 +49,7 @@ int run_identify(int argc, char** argv) {
   IdentifyOptions options;
   std::vector<std::string> files;
   Args args;
-  if (!parse_args(argc, argv, {"--help", "--json"}, {"--confidence"}, args)) return identify_usage(stderr, 2);
+  if (!kCli.parse(argc, argv, args)) return 2;
   if (args.has("--help")) return identify_usage(stdout, 0);
   json = args.has("--json");
   if (args.has("--confidence")) {

@@ -19,15 +19,20 @@
 namespace auger::wb {
 namespace {
 
+const CommandLine kCli{
+    "auger merge",
+    "ROBOT_LOG CAMERA_LOG [--out LOG] [--max-shift S] [--json]",
+    "Aligns CAMERA_LOG (t_s, x_m, y_m, psi_rad and its own t0_unix_s) with ROBOT_LOG: offset from\n"
+    "the logs' t0_unix_s, refined by cross-correlating the robot's imu_r_radps with the camera's\n"
+    "heading rate. Prints the offset (t_robot = t_camera + offset) and its quality.\n",
+    {{"--out", "LOG", "write the robot log with x_m, y_m, psi_rad from the camera, interpolated to\n"
+      "the robot's samples"},
+     {"--max-shift", "S", "refine the offset within +-S s (default 30 s)"},
+     {"--json", "", "one JSON object on stdout"}},
+    "Exit 1 if the correlation is poor (nothing written); 2: bad usage.\n"};
+
 int merge_usage(std::FILE* f, int code) {
-  std::fprintf(f,
-               "usage: auger merge ROBOT_LOG CAMERA_LOG [--out LOG] [--max-shift S] [--json]\n"
-               "  Aligns CAMERA_LOG (t_s, x_m, y_m, psi_rad and its own t0_unix_s) with ROBOT_LOG:\n"
-               "  offset from the logs' t0_unix_s, refined within +-S s (default 30) by cross-\n"
-               "  correlating the robot's imu_r_radps with the camera's heading rate. Prints the\n"
-               "  offset (t_robot = t_camera + offset) and its quality; with --out writes the robot\n"
-               "  log with x_m, y_m, psi_rad from the camera, interpolated to the robot's samples.\n"
-               "  Exit 1 if the correlation is poor (nothing written).\n");
+  kCli.print_usage(f);
   return code;
 }
 
@@ -48,7 +53,7 @@ int run_merge(int argc, char** argv) {
   std::vector<std::string> files;
   try {
     Args args;
-    if (!parse_args(argc, argv, {"--help", "--json"}, {"--out", "--max-shift"}, args)) return merge_usage(stderr, 2);
+    if (!kCli.parse(argc, argv, args)) return 2;
     if (args.has("--help")) return merge_usage(stdout, 0);
     json = args.has("--json");
     out_path = args.get("--out");

@@ -31,15 +31,23 @@ const char* kStyle =
     ".warn{color:#a40}.flag{color:#b00;font-weight:bold}.verdict{font-size:105%}"
     ".next code{background:#f3f3f3;padding:1px 4px}";
 
+const CommandLine kCli{
+    "auger report",
+    "LOG --out DIR [--model FILE] [--effect ID] [--no-diagnose] [--explain] [--json]",
+    "Writes DIR/index.html, one self-contained page (opens offline): measured vs model for x, y,\n"
+    "psi and the path; the error over time with the worst windows; diagnose's candidates; the\n"
+    "model before and after the best effect is fitted, with the effect's own curves.\n",
+    {{"--out", "DIR", "the report's directory (created if missing)"},
+     kModelOption,
+     {"--effect", "ID", "fit this effect rather than diagnose's best"},
+     {"--no-diagnose", "", "leave out diagnose's candidates"},
+     {"--explain", "", "the steps of auger explain, and its model as the one after"},
+     {"--json", "", "one JSON object on stdout"}},
+    "Time plots zoom and pan together (dygraphs, Debian libjs-dygraphs); the path and the\n"
+    "candidates are drawn by gnuplot ($AUGER_GNUPLOT or gnuplot on PATH; Debian gnuplot-nox).\n"};
+
 int report_usage(std::FILE* f, int code) {
-  std::fprintf(f,
-               "usage: auger report LOG --out DIR [--model FILE] [--effect ID] [--no-diagnose] [--explain] [--json]\n"
-               "  writes DIR/index.html, one self-contained page (opens offline): measured vs model for x, y,\n"
-               "  psi and the path; the error over time with the worst windows; diagnose's candidates;\n"
-               "  the model before and after the best effect (or --effect ID) is fitted, with the effect's\n"
-               "  own curves; with --explain, the steps of auger explain and its model as the one after.\n"
-               "  Time plots zoom and pan together (dygraphs, Debian libjs-dygraphs); the path and the\n"
-               "  candidates are drawn by gnuplot ($AUGER_GNUPLOT or gnuplot on PATH; Debian gnuplot-nox).\n");
+  kCli.print_usage(f);
   return code;
 }
 
@@ -85,8 +93,7 @@ struct OutputDir {
 
 int run_report(int argc, char** argv) {
   Args a;
-  if (!parse_args(argc, argv, {"--json", "--help", "--no-diagnose", "--explain"}, {"--out", "--model", "--effect"}, a))
-    return 2;
+  if (!kCli.parse(argc, argv, a)) return 2;
   if (a.has("--help")) return report_usage(stdout, 0);
   if (a.positional.size() != 1 || !a.has("--out")) return report_usage(stderr, 2);
   const std::string out_dir = a.get("--out");

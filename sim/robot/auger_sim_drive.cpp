@@ -11,22 +11,36 @@
 #include <random>
 #include <string>
 
+#include "auger/args.hpp"
 #include "auger/model_file.hpp"
+#include "auger/version.hpp"
 #include "scheduler.hpp"
 
 namespace {
 
-void usage(std::FILE* f) {
-  std::fprintf(f,
-               "usage: auger-sim-drive --out LOG [--drive square|diagonal|manual] [--terrain sand|frozen_grass]\n"
-               "       [--seconds S] [--seed N] [--screws fil|ideal] [--blocking-rpm X] [--model PATH]\n"
-               "       [--elf PATH] [--threads N] [--truth-out FILE] [--camera-corr-s S] [--camera-latency-s S]\n"
-               "A robot log in augerd's format from the lock-step scheduler: the firmware image in four\n"
-               "simulated modules (--screws ideal: first-order screws), the physical robot on the terrain\n"
-               "(blocking below --blocking-rpm, default 1.5 on sand, 0 = off), camera and IMU; driven by\n"
-               "the host controller around 0.5 m squares or back and forth along the helix diagonal, or by\n"
-               "a simulated joystick (manual: body velocities through eq. (4), as augerd's vel).\n");
-}
+const auger::CommandLine kCli{
+    "auger-sim-drive",
+    "--out LOG [OPTIONS]",
+    "A robot log in augerd's format from the lock-step scheduler: the firmware image in four\n"
+    "simulated modules, the physical robot on the terrain, camera and IMU; driven by the host\n"
+    "controller around 0.5 m squares or back and forth along the helix diagonal, or by a\n"
+    "simulated joystick (manual: body velocities through eq. (4), as augerd's vel).\n",
+    {{"--out", "LOG", "the log to write"},
+     {"--drive", "square|diagonal|manual", "what drives the robot (default square)"},
+     {"--terrain", "sand|frozen_grass", "the terrain (default sand)"},
+     {"--seconds", "S", "the log's length (default 240 s)"},
+     {"--seed", "N", "the random seed (default 1)"},
+     {"--screws", "fil|ideal", "firmware in the loop, or first-order screws (default fil)"},
+     {"--blocking-rpm", "X", "screws slower than X block (default 1.5 rpm on sand, 0 = off)"},
+     {"--model", "PATH", "the model file (default " AUGER_DEFAULT_MODEL ")"},
+     {"--elf", "PATH", "the firmware image (default " AUGER_DEFAULT_ELF ")"},
+     {"--threads", "N", "simulation threads (default 1)"},
+     {"--truth-out", "FILE", "write the true trajectory there"},
+     {"--camera-corr-s", "S", "correlation time of the camera's noise (default 0.3 s)"},
+     {"--camera-latency-s", "S", "the camera's capture-to-delivery latency (default 0.03 s)"}},
+    "Exit 2: bad usage.\n"};
+
+void usage(std::FILE* f) { kCli.print_usage(f); }
 
 double number(const char* opt, const char* text) {
   char* end = nullptr;
@@ -78,15 +92,17 @@ int main(int argc, char** argv) {
   std::uint64_t seed = 1;
   int threads = 1;  // one thread is faster here: the modules and the robot exchange every 1 ms
   sim::CameraParams camera;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto val = [&]() -> const char* {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "auger-sim-drive: %s needs a value\n", a.c_str());
-        std::exit(2);
-      }
-      return argv[++i];
-    };
+  Args args;
+  if (!kCli.parse(argc, argv, args)) return 2;
+  if (args.has("--help")) return usage(stdout), 0;
+  if (args.has("--version")) return print_version("auger-sim-drive"), 0;
+  if (!args.positional.empty()) {
+    std::fprintf(stderr, "auger-sim-drive: unknown option '%s'\n", args.positional[0].c_str());
+    usage(stderr);
+    return 2;
+  }
+  for (const auto& [a, value] : args.options) {  // in order: the last of a repeated option wins
+    auto val = [&value = value] { return value.c_str(); };
     if (a == "--out") out_path = val();
     else if (a == "--truth-out") truth_path = val();
     else if (a == "--drive") drive = val();
@@ -100,14 +116,6 @@ int main(int argc, char** argv) {
     else if (a == "--threads") threads = static_cast<int>(number("--threads", val()));
     else if (a == "--camera-corr-s") camera.noise_corr_s = number("--camera-corr-s", val());
     else if (a == "--camera-latency-s") camera.latency_s = number("--camera-latency-s", val());
-    else if (a == "-h" || a == "--help") {
-      usage(stdout);
-      return 0;
-    } else {
-      std::fprintf(stderr, "auger-sim-drive: unknown option '%s'\n", a.c_str());
-      usage(stderr);
-      return 2;
-    }
   }
   if (out_path.empty() || !(seconds > 0) || (drive != "square" && drive != "diagonal" && drive != "manual") ||
       (screws != "fil" && screws != "ideal") || threads < 1) {

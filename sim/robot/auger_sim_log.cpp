@@ -8,29 +8,45 @@
 #include <iostream>
 #include <string>
 
+#include "auger/args.hpp"
 #include "auger/model_file.hpp"
+#include "auger/version.hpp"
 #include "log_gen.hpp"
 
 namespace {
 
-void usage(std::FILE* f) {
-  std::fprintf(f,
-               "usage: auger-sim-log --out FILE [--effect ID[:name=value,...]]... [--seed N]\n"
-               "       [--trajectory single-dof|manual] [--seconds S] [--terrain NAME]\n"
-               "       [--gantry longitudinal|lateral] [--model FILE]\n"
-               "       [--pose-noise-m S] [--psi-noise-rad S] [--pose-rate-hz F]\n"
-               "       [--imu-psi-noise-rad S] [--imu-r-noise-radps S]\n"
-               "       [--gantry-position-noise-m S] [--gantry-force-noise-n S]\n"
-               "       [--physical-base [--blocking-rpm X]] [--truth-out FILE] [--list-effects]\n"
-               "A robot log (gantry log with --gantry) of the simulated truth with hidden effects\n"
-               "(--effect again for each; default none; a gantry log takes one), driven open loop by\n"
-               "ideal screws; metadata only format and terrain\n"
-               "(gantry: also axis, mass_kg). --truth-out writes the true pose and where the effect\n"
-               "acts; a summary (effect size, resolved parameters) goes to stderr as one JSON line.\n"
-               "--physical-base: the robot's base physics is the physical robot's (Coriolis terms,\n"
-               "the real lever arms' yaw time constant, blocking of screws slower than --blocking-rpm\n"
-               "on sand, default 1.5), not the paper's linear model.\n");
-}
+const auger::CommandLine kCli{
+    "auger-sim-log",
+    "--out FILE [--effect ID[:name=value,...]]... [OPTIONS]",
+    "A robot log (gantry log with --gantry) of the simulated truth with hidden effects, driven\n"
+    "open loop by ideal screws; metadata only format and terrain (gantry: also axis, mass_kg).\n"
+    "A summary (effect size, resolved parameters) goes to stderr as one JSON line.\n",
+    {{"--out", "FILE", "the log to write"},
+     {"--effect", "ID[:name=value,...]", "a hidden effect (again for each; default none; a gantry log\n"
+      "takes one)"},
+     {"--seed", "N", "the random seed (default 1)"},
+     {"--trajectory", "single-dof|manual", "the screw speeds driven (default manual)"},
+     {"--seconds", "S", "the log's length (default 150 s)"},
+     {"--terrain", "NAME", "the terrain (default sand)"},
+     {"--gantry", "longitudinal|lateral", "a gantry log along that axis"},
+     {"--model", "FILE", "the true model file (default " AUGER_DEFAULT_MODEL ",\n"
+      "gantry: " AUGER_DEFAULT_GANTRY_MODEL ")"},
+     {"--pose-noise-m", "S", "camera position noise (default 0.003 m)"},
+     {"--psi-noise-rad", "S", "camera heading noise (default 0.005 rad)"},
+     {"--pose-rate-hz", "F", "camera rate (default 20 Hz)"},
+     {"--imu-psi-noise-rad", "S", "IMU heading noise (default 0.005 rad)"},
+     {"--imu-r-noise-radps", "S", "IMU yaw rate noise (default 0.003 rad/s)"},
+     {"--gantry-position-noise-m", "S", "gantry position noise (default 0.002 m)"},
+     {"--gantry-force-noise-n", "S", "gantry force noise (default 0.5 N)"},
+     {"--physical-base", "", "the robot's base physics is the physical robot's (Coriolis\n"
+      "terms, the real lever arms' yaw time constant, blocking of screws\n"
+      "slower than --blocking-rpm on sand), not the paper's linear model"},
+     {"--blocking-rpm", "X", "with --physical-base: screw blocking speed (default 1.5 rpm)"},
+     {"--truth-out", "FILE", "write the true pose and where the effect acts there"},
+     {"--list-effects", "", "list the effects and their parameters, then exit"}},
+    "Exit 2: bad usage.\n"};
+
+void usage(std::FILE* f) { kCli.print_usage(f); }
 
 double number(const char* opt, const char* text) {
   char* end = nullptr;
@@ -48,15 +64,17 @@ int main(int argc, char** argv) {
   auger::sim::LogGenConfig cfg;
   std::string out_path, truth_path, model_path;
   bool terrain_given = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto val = [&]() -> const char* {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "auger-sim-log: %s needs a value\n", a.c_str());
-        std::exit(2);
-      }
-      return argv[++i];
-    };
+  auger::Args args;
+  if (!kCli.parse(argc, argv, args)) return 2;
+  if (args.has("--help")) return usage(stdout), 0;
+  if (args.has("--version")) return auger::print_version("auger-sim-log"), 0;
+  if (!args.positional.empty()) {
+    std::fprintf(stderr, "auger-sim-log: unknown option '%s'\n", args.positional[0].c_str());
+    usage(stderr);
+    return 2;
+  }
+  for (const auto& [a, value] : args.options) {  // in order: --effect repeats, the last of others wins
+    auto val = [&value = value] { return value.c_str(); };
     try {
       if (a == "--out") out_path = val();
       else if (a == "--truth-out") truth_path = val();
@@ -91,8 +109,7 @@ int main(int argc, char** argv) {
           std::printf(" # %s\n", e.doc.c_str());
         }
         return 0;
-      } else if (a == "-h" || a == "--help") { usage(stdout); return 0; }
-      else { std::fprintf(stderr, "auger-sim-log: unknown option '%s'\n", a.c_str()); usage(stderr); return 2; }
+      }
     } catch (const std::exception& ex) {
       std::fprintf(stderr, "auger-sim-log: %s: %s\n", a.c_str(), ex.what());
       return 2;

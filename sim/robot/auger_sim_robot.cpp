@@ -17,7 +17,9 @@
 #include <iostream>
 #include <string>
 
+#include "auger/args.hpp"
 #include "auger/model_file.hpp"
+#include "auger/version.hpp"
 #include "scheduler.hpp"
 #include "simmod.h"
 
@@ -26,16 +28,24 @@ namespace {
 volatile sig_atomic_t g_stop = 0;
 void on_signal(int) { g_stop = 1; }
 
-void usage() {
-  std::fprintf(stderr,
-               "usage: auger-sim-robot --pty-dir DIR [--terrain sand|frozen_grass] [--model PATH]\n"
-               "       [--elf PATH] [--sensor-socket PATH] [--log PATH] [--seconds S] [--seed N]\n"
-               "       [--blocking-rpm X]   (default 1.5 on sand, 0 = off elsewhere)\n"
-               "Four simulated modules running the firmware on ptys DIR/module0..3 (reset when a\n"
-               "host opens one), the true robot paced to real time, camera and IMU lines sent to\n"
-               "augerd's sensors socket (reconnecting until it exists), the true trajectory logged.\n"
-               "Runs until SIGINT/SIGTERM or --seconds of simulated time.\n");
-}
+const auger::CommandLine kCli{
+    "auger-sim-robot",
+    "--pty-dir DIR [OPTIONS]",
+    "Four simulated modules running the firmware on ptys DIR/module0..3 (reset when a\n"
+    "host opens one), the true robot paced to real time, camera and IMU lines sent to\n"
+    "augerd's sensors socket (reconnecting until it exists), the true trajectory logged.\n",
+    {{"--pty-dir", "DIR", "where the modules' ptys module0..3 are made"},
+     {"--terrain", "sand|frozen_grass", "the terrain (default sand)"},
+     {"--model", "PATH", "the true robot's model file (default " AUGER_DEFAULT_MODEL ")"},
+     {"--elf", "PATH", "the firmware image (default " AUGER_DEFAULT_ELF ")"},
+     {"--sensor-socket", "PATH", "augerd's sensors socket (default: none)"},
+     {"--log", "PATH", "log the true trajectory there"},
+     {"--seconds", "S", "stop after S s of simulated time (default: run until a signal)"},
+     {"--seed", "N", "the simulation's random seed (default 1)"},
+     {"--blocking-rpm", "X", "screw blocking speed (default 1.5 rpm on sand, 0 = off elsewhere)"}},
+    "Runs until SIGINT/SIGTERM or --seconds of simulated time. Exit 2: bad usage.\n"};
+
+void usage() { kCli.print_usage(stderr); }
 
 double unix_now_s() {
   timespec ts;
@@ -102,32 +112,25 @@ int main(int argc, char** argv) {
   std::string socket_path, log_path;
   double seconds = -1, blocking_rpm = -1;
   unsigned long long seed = 1;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "auger-sim-robot: %s needs a value\n", a.c_str());
-        std::exit(2);
-      }
-      return argv[++i];
-    };
-    if (a == "--pty-dir") pty_dir = value();
-    else if (a == "--terrain") terrain = value();
-    else if (a == "--model") model_path = value();
-    else if (a == "--elf") elf = value();
-    else if (a == "--sensor-socket") socket_path = value();
-    else if (a == "--log") log_path = value();
-    else if (a == "--seconds") seconds = std::atof(value().c_str());
-    else if (a == "--seed") seed = std::strtoull(value().c_str(), nullptr, 10);
-    else if (a == "--blocking-rpm") blocking_rpm = std::atof(value().c_str());
-    else if (a == "-h" || a == "--help") {
-      usage();
-      return 0;
-    } else {
-      std::fprintf(stderr, "auger-sim-robot: unknown argument '%s'\n", a.c_str());
-      usage();
-      return 2;
-    }
+  auger::Args args;
+  if (!kCli.parse(argc, argv, args)) return 2;
+  if (args.has("--help")) return kCli.print_usage(stdout), 0;
+  if (args.has("--version")) return auger::print_version("auger-sim-robot"), 0;
+  if (!args.positional.empty()) {
+    std::fprintf(stderr, "auger-sim-robot: unknown argument '%s'\n", args.positional[0].c_str());
+    usage();
+    return 2;
+  }
+  for (const auto& [a, value] : args.options) {  // in order: the last of a repeated option wins
+    if (a == "--pty-dir") pty_dir = value;
+    else if (a == "--terrain") terrain = value;
+    else if (a == "--model") model_path = value;
+    else if (a == "--elf") elf = value;
+    else if (a == "--sensor-socket") socket_path = value;
+    else if (a == "--log") log_path = value;
+    else if (a == "--seconds") seconds = std::atof(value.c_str());
+    else if (a == "--seed") seed = std::strtoull(value.c_str(), nullptr, 10);
+    else if (a == "--blocking-rpm") blocking_rpm = std::atof(value.c_str());
   }
   if (pty_dir.empty()) {
     usage();

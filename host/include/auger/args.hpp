@@ -86,7 +86,8 @@ inline bool parse_args(int argc, char** argv, const std::set<std::string>& flags
   return true;
 }
 
-// One option of a program's table: its name, its value's name ("": a flag), one line of help.
+// One option of a program's table: its name, its value's name ("": a flag), its help ('\n' between
+// lines; the usage aligns them).
 struct OptionDoc {
   std::string name, value, help;
 };
@@ -112,8 +113,12 @@ struct CommandLine {
       width = std::max(width, heads.back().size());
     }
     std::fprintf(f, "options:\n");
-    for (std::size_t i = 0; i < all.size(); ++i)
-      std::fprintf(f, "  %-*s  %s\n", int(width), heads[i].c_str(), all[i].help.c_str());
+    for (std::size_t i = 0; i < all.size(); ++i) {
+      // A help text of several lines: each further line starts under the first one's text.
+      std::string help;
+      for (const char c : all[i].help) help += c == '\n' ? "\n" + std::string(width + 4, ' ') : std::string(1, c);
+      std::fprintf(f, "  %-*s  %s\n", int(width), heads[i].c_str(), help.c_str());
+    }
     std::fprintf(f, "%s", more.c_str());
   }
   // False on a usage error: the message ("PROGRAM: ...") and the usage go to stderr.
