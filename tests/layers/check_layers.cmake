@@ -48,6 +48,7 @@ set(floor_host/ros2 2)        # auger_ros2, on io
 set(floor_host/tools 2)       # auger-module
 set(floor_host/track 2)       # auger-track
 set(floor_host/augerd 3)
+set(floor_host/wb_engine 2)     # auger_wb_engine, on the core
 set(floor_host/workbench 3)
 set(floor_host/operator 3)
 set(floor_host/interop 3)

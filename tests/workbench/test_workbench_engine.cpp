@@ -1,4 +1,4 @@
-// Unit tests of the workbench engine (host/workbench/workbench.hpp) on synthetic logs made here
+// Unit tests of the workbench engine (host/wb_engine/workbench.hpp) on synthetic logs made here
 // with the host model itself (not the simulator): noise floor, segment simulation, regimes,
 // JSON, and for every effect of the library (present and future) that its parameters are
 // recovered when the data was made with it.
