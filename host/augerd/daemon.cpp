@@ -173,12 +173,7 @@ void Daemon::write_log(const std::array<double, 4>& cmd_rpm) {
   }
   if (sensors_in_.has_imu_psi) s.imu_psi_rad = sensors_in_.imu_psi_rad;
   if (sensors_in_.has_imu_r) s.imu_r_radps = sensors_in_.imu_r_radps;
-  if (controller_->enabled()) {
-    const auto& eta_d = controller_->reference().eta_d;
-    s.xd_m = eta_d[0];
-    s.yd_m = eta_d[1];
-    s.psid_rad = eta_d[2];
-  }
+  if (controller_->enabled()) auger::io::log_reference(controller_->reference().eta_d, s);
   s.loop_dt_s = loop_dt_s_;
   static thread_local std::vector<double> extra(replay_columns().size());
   const auto& eta = controller_->eta_estimate();

@@ -37,4 +37,10 @@ void log_telemetry(const ModuleTelemetry& tm, std::size_t i, RobotSample& row) {
   row.seq_ack[i] = tm.frame.seq_ack;
 }
 
+void log_reference(const Vec3& eta_d, RobotSample& row) {
+  row.xd_m = eta_d[0];
+  row.yd_m = eta_d[1];
+  row.psid_rad = wrap_angle(eta_d[2]);
+}
+
 }  // namespace auger::io

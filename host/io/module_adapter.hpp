@@ -57,4 +57,9 @@ struct ModuleTelemetry {
 // seq_ack_i, from its latest telemetry (left as they are when none has been received).
 void log_telemetry(const ModuleTelemetry& tm, std::size_t i, RobotSample& row);
 
+// The reference pose of a robot-log row (xd_m, yd_m, psid_rad) from the controller's reference:
+// the heading wrapped to (-pi, pi] like the pose's, whatever turns the reference has made. One
+// convention for augerd's logs and the simulator's.
+void log_reference(const Vec3& eta_d, RobotSample& row);
+
 }  // namespace auger::io

@@ -172,12 +172,7 @@ void Scheduler::tick() {
     }
     r.imu_psi_rad = imu.psi_rad;
     r.imu_r_radps = imu.r_radps;
-    if (controller_ && enabled) {
-      const Vec3& ref = controller_->reference().eta_d;
-      r.xd_m = ref[0];
-      r.yd_m = ref[1];
-      r.psid_rad = wrap_angle(ref[2]);
-    }
+    if (controller_ && enabled) auger::io::log_reference(controller_->reference().eta_d, r);
     log_->write(r);
   }
   if (keep_history_) {
