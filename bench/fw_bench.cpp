@@ -32,6 +32,7 @@
 #include <string>
 #include <vector>
 
+#include "auger/args.hpp"
 #include "protocol.h"
 #include "sim_avr.h"
 #include "fil_rig.hpp"
@@ -573,20 +574,27 @@ void section_speed()
 
 int main(int argc, char** argv)
 {
+    const auger::CommandLine cli{
+        "fw_bench", "[OPTIONS] [isr] [rate] [load] [speed]",
+        "The firmware's cycle-exact figures from the simulator (docs/benchmarks.md): interrupt and\n"
+        "control-step cycles (isr), encoder edge-rate limits (rate), CPU load (load), four modules in\n"
+        "batch as a multiple of real time (speed); all four without a section named.\n",
+        {{"--elf", "PATH", "another firmware image (default: the one built)"},
+         {"--lines", "", "isr: cycles per source line too (an image built with -g)"}},
+        "Environment: LMIN (cycles/s) sets the --lines tables' threshold, RATE_SEED another jitter\n"
+        "sequence for rate.\n"};
+    auger::Args args;
+    if (const int rc = cli.parse_or_answer(argc, argv, args); rc >= 0) return rc;
+    if (args.has("--elf")) g_elf = args.get("--elf");
+    const bool lines = args.has("--lines");
     std::vector<std::string> sections;
-    bool lines = false;
-    for (int i = 1; i < argc; ++i) {
-        std::string a = argv[i];
-        if (a == "--elf" && i + 1 < argc) {
-            g_elf = argv[++i];
-        } else if (a == "--lines") {
-            lines = true;
-        } else if (a == "isr" || a == "rate" || a == "load" || a == "speed") {
-            sections.push_back(a);
-        } else {
-            std::fprintf(stderr, "usage: fw_bench [--elf PATH] [--lines] [isr] [rate] [load] [speed]\n");
+    for (const std::string& a : args.positional) {
+        if (a != "isr" && a != "rate" && a != "load" && a != "speed") {
+            std::fprintf(stderr, "fw_bench: unknown section '%s'\n", a.c_str());
+            cli.print_usage(stderr);
             return 2;
         }
+        sections.push_back(a);
     }
     if (sections.empty()) sections = {"isr", "load", "rate", "speed"};
     auto t0 = std::chrono::steady_clock::now();

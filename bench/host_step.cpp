@@ -4,6 +4,7 @@
 // count per step comes from callgrind: scripts/bench-host-step.sh (make bench-host) runs this
 // program twice with different step counts and divides the difference.
 //   host_step [STEPS] [ekf|dr] [nullspace|pinv]
+#include "auger/args.hpp"
 #include "auger/controller.hpp"
 #include "auger/model_file.hpp"
 
@@ -49,11 +50,22 @@ double run(const Model& model, ControllerConfig cfg, long steps)
 
 int main(int argc, char** argv)
 {
-    long steps = argc > 1 ? std::atol(argv[1]) : 20000;
-    if (steps <= 0) {
+    const auger::CommandLine cli{
+        "host_step", "[STEPS (20000)] [ESTIMATOR (ekf|dr)] [ALLOCATOR (nullspace|pinv)]",
+        "The host controller's step (estimation, control, allocation) timed per call, for each\n"
+        "estimator and allocator or the ones named (docs/benchmarks.md).\n",
+        {},
+        ""};
+    auger::Args args;
+    if (const int rc = cli.parse_or_answer(argc, argv, args); rc >= 0) return rc;
+    const auto& pos = args.positional;
+    double steps_d = 20000;
+    if (pos.size() > 3 || (!pos.empty() && !auger::Args::to_number("host_step", "STEPS", pos[0], steps_d)) ||
+        steps_d < 1 || steps_d != double(long(steps_d))) {
         std::fprintf(stderr, "host_step: STEPS must be a positive integer\n");
         return 2;
     }
+    const long steps = long(steps_d);
     ModelFile file = load_model_file(AUGER_MODELS_DIR "/robot.toml");
     Model model = build_model(file, "sand");
     struct Case {
@@ -66,7 +78,7 @@ int main(int argc, char** argv)
                           {"ekf", EstimatorKind::ekf, "pinv", AllocatorKind::pseudo_inverse},
                           {"dr", EstimatorKind::dead_reckoning, "nullspace", AllocatorKind::null_space},
                           {"dr", EstimatorKind::dead_reckoning, "pinv", AllocatorKind::pseudo_inverse}};
-    const std::string want_est = argc > 2 ? argv[2] : "", want_alloc = argc > 3 ? argv[3] : "";
+    const std::string want_est = pos.size() > 1 ? pos[1] : "", want_alloc = pos.size() > 2 ? pos[2] : "";
     for (const Case& k : cases) {
         if (!want_est.empty() && want_est != k.est) continue;
         if (!want_alloc.empty() && want_alloc != k.alloc) continue;

@@ -2,6 +2,7 @@
 // four modules (firmware in the loop, or ideal screws), the true robot on frozen grass, the
 // sensors and the host controller at 100 Hz tracking a 0.5 m square (docs/benchmarks.md,
 // make bench-robot).   robot_speed [--elf PATH] [SECONDS] [THREADS]
+#include "auger/args.hpp"
 #include "auger/controller.hpp"
 #include "auger/model_file.hpp"
 #include "scheduler.hpp"
@@ -44,17 +45,25 @@ double run(sim::ScrewMode mode, double seconds, int threads, const ModelFile& fi
 
 int main(int argc, char** argv)
 {
-    if (argc > 2 && std::string(argv[1]) == "--elf") {  // another image, e.g. to compare
-        g_elf = argv[2];
-        argc -= 2;
-        argv += 2;
-    }
-    const double seconds = argc > 1 ? std::atof(argv[1]) : 20.0;
-    const int threads = argc > 2 ? std::atoi(argv[2]) : 2;
-    if (seconds <= 0 || threads < 1) {
-        std::fprintf(stderr, "usage: robot_speed [SECONDS > 0] [THREADS >= 1]\n");
+    const auger::CommandLine cli{
+        "robot_speed", "[OPTIONS] [SECONDS (20)] [THREADS (2)]",
+        "The whole robot with four firmware modules, and with ideal screws, as a multiple of real\n"
+        "time (docs/benchmarks.md).\n",
+        {{"--elf", "PATH", "another firmware image, e.g. to compare (default: the one built)"}},
+        ""};
+    auger::Args args;
+    if (const int rc = cli.parse_or_answer(argc, argv, args); rc >= 0) return rc;
+    if (args.has("--elf")) g_elf = args.get("--elf");
+    double seconds = 20.0, threads_d = 2;
+    const auto& pos = args.positional;
+    if (pos.size() > 2 || (pos.size() > 0 && !auger::Args::to_number("robot_speed", "SECONDS", pos[0], seconds)) ||
+        (pos.size() > 1 && !auger::Args::to_number("robot_speed", "THREADS", pos[1], threads_d)) || seconds <= 0 ||
+        threads_d < 1 || threads_d != double(int(threads_d))) {
+        std::fprintf(stderr, "robot_speed: SECONDS > 0 and a whole THREADS >= 1\n");
+        cli.print_usage(stderr);
         return 2;
     }
+    const int threads = int(threads_d);
     const ModelFile file = load_model_file(AUGER_MODELS_DIR "/robot.toml");
     std::printf("| screws | threads | simulated s | x real time |\n|---|---|---|---|\n");
     std::printf("| firmware in the loop | %d | %.0f | %.1fx |\n", threads, seconds,

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <string>
 
+#include "auger/args.hpp"
 #include "workbench.hpp"
 
 namespace {
@@ -17,18 +18,21 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 
 int main(int argc, char** argv) {
   using namespace auger::wb;
-  if (argc < 2) {
-    std::fprintf(stderr, "usage: workbench_speed [--diagnose] LOG...\n");
+  const auger::CommandLine cli{
+      "workbench_speed", "[--diagnose] LOG...",
+      "`compare` against just parsing each log, and with --diagnose `diagnose` too; a markdown\n"
+      "table row per log (docs/benchmarks.md).\n",
+      {{"--diagnose", "", "time diagnose on each log too"}},
+      ""};
+  auger::Args args;
+  if (const int rc = cli.parse_or_answer(argc, argv, args); rc >= 0) return rc;
+  if (args.positional.empty()) {
+    cli.print_usage(stderr);
     return 2;
   }
-  bool diag = false;
+  const bool diag = args.has("--diagnose");
   std::printf("| log | rows | parse (load_dataset) | compare incl. parse | ratio | diagnose incl. parse |\n|---|---|---|---|---|---|\n");
-  for (int i = 1; i < argc; ++i) {
-    const std::string path = argv[i];
-    if (path == "--diagnose") {
-      diag = true;
-      continue;
-    }
+  for (const std::string& path : args.positional) {
     // Best of three for the parse and compare times (the machine is shared).
     double parse_s = 1e9, compare_s = 1e9;
     std::size_t rows = 0;

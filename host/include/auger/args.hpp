@@ -14,6 +14,8 @@
 #include <string>
 #include <vector>
 
+#include "auger/version.hpp"
+
 namespace auger {
 
 struct Args {
@@ -128,6 +130,20 @@ struct CommandLine {
     if (parse_args(argc, argv, flags, valued, out, program)) return true;
     print_usage(stderr);
     return false;
+  }
+  // parse, then --help and --version answered here: -1 to go on, else the exit code (2 on a
+  // usage error, 0 after the answer).
+  int parse_or_answer(int argc, char** argv, Args& out) const {
+    if (!parse(argc, argv, out)) return 2;
+    if (out.has("--help")) {
+      print_usage(stdout);
+      return 0;
+    }
+    if (out.has("--version")) {
+      print_version(program.c_str());
+      return 0;
+    }
+    return -1;
   }
 };
 
