@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "auger/args.hpp"
+#include "augerd_client.hpp"
 #include "status_text.hpp"
 
 namespace auger::op {
@@ -21,6 +23,11 @@ double parse_number(const std::string& option, const std::string& text);
 // Names of the status word's bits (docs/protocol.md): "EN SP" or faults "F_OVERCURRENT+F_SENSOR".
 using io::fault_bits_text;  // "none" if no fault bit
 using io::state_bits_text;
+
+// The --socket option of the tools that talk to augerd, one entry for their tables.
+inline OptionDoc socket_option() {
+  return {"--socket", "PATH", std::string("augerd's commands socket (default ") + io::kDefaultCommandsSocket + ")"};
+}
 
 // Seconds on CLOCK_MONOTONIC.
 double now_s();

@@ -97,7 +97,7 @@ int run_monitor(int argc, char** argv) {
   try {
     const CommandLine cli{
         "auger monitor", "[OPTIONS]", "Live view of augerd's modules, pose and loop (ncurses); q quits.\n",
-        {{"--socket", "PATH", std::string("augerd's commands socket (default ") + io::kDefaultCommandsSocket + ")"},
+        {socket_option(),
          {"--period", "S", "refresh period (default 0.1 s; 0.02 .. 10 s)"}},
         "Exit 0: quit; 2: bad usage; 3: augerd not reached.\n"};
     Args a;

@@ -36,7 +36,7 @@ const CommandLine& step_cli() {
        {"--duration", "S", "how long the new speed is held (default 1.5 s; 0.6 .. 60 s)"},
        {"--port", "DEV", "directly on the module's serial port (augerd must not run)"},
        {"--baud", "N", "with --port (default 250000)"},
-       {"--socket", "PATH", std::string("augerd's commands socket (default ") + io::kDefaultCommandsSocket + ")"},
+       socket_option(),
        {"--enable", "", "through augerd: send enable first and stop after"},
        {"--out", "CSV", "write the samples: t_s, omega_rpm, omega_cmd_rpm"},
        {"--plot", "SVG|-", "plot speed and setpoint with gnuplot; - draws in the terminal"}},

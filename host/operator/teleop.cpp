@@ -42,7 +42,7 @@ int run_teleop(int argc, char** argv) {
         "Holding a key repeats the command (terminal auto-repeat); releasing it stops the\n"
         "robot through augerd's dead-man within 0.5 s. Joystick: axes 0/1 v/u, axis 3 r while\n"
         "button 0 is held; button 1 enable, button 2 stop.\n",
-        {{"--socket", "PATH", std::string("augerd's commands socket (default ") + io::kDefaultCommandsSocket + ")"},
+        {socket_option(),
          {"--joystick", "DEV", "joystick device, used when present (default /dev/input/js0)"}},
         "Exit 0: quit; 2: bad usage; 3: augerd not reached.\n"};
     Args a;
