@@ -322,6 +322,7 @@ class Explainer {
     FitOutcome first;   // the candidate fitted on top of the state held
     FitOutcome out;     // then everything refitted jointly
     bool joint = false;
+    std::string replaces;  // stick-slip in place of the state's Coulomb friction
   };
 
   std::vector<Task> tasks_for(const State& s) const {
@@ -345,8 +346,15 @@ class Explainer {
         if (!in) t.push_back(task(id, log));
       }
     }
-    // Stick-slip last, after the Coulomb fit it starts from.
+    // Stick-slip last, after the Coulomb fit it starts from. With a Coulomb friction chosen
+    // already, stick-slip comes in its place (it contains it): on top of it, the two would share
+    // the sliding level and the fit settles in a tiny stiction add-on that the backward check
+    // then strands without its sliding part.
     std::stable_partition(t.begin(), t.end(), [](const Task& x) { return x.id != kStickSlip; });
+    for (const Part& p : s.parts)
+      if (p.entry && p.id == kCoulomb)
+        for (Task& x : t)
+          if (x.id == kStickSlip) x.replaces = kCoulomb;
     for (std::size_t i = 0; i < t.size(); ++i)
       if (t[i].id == kStickSlip)
         for (std::size_t j = 0; j < t.size(); ++j)
@@ -368,11 +376,24 @@ class Explainer {
     for (std::size_t i = 0; i < tasks.size(); ++i) all[i] = i;
     std::atomic<std::size_t> finished{0};
     const std::vector<Part> state = with_paper(s.parts);
+    // The state without the part a task replaces, and that part as the task's start.
+    auto base_of = [&](const Task& t) {
+      std::vector<Part> b;
+      for (const Part& p : state)
+        if (t.replaces.empty() || !p.entry || p.id != t.replaces) b.push_back(p);
+      return b;
+    };
     run_parallel(tasks, all, [&](std::size_t i) {
       Task& t = tasks[i];
       if (t.id == kPaperParams) {
         t.out = refit(train_, state, 12, 1);
         t.joint = true;
+      } else if (!t.replaces.empty()) {
+        FitOutcome hint;
+        for (const Part& p : state)
+          if (p.entry && p.id == t.replaces) hint.parts = {p};
+        hint.cost = s.cost;
+        t.first = fit_candidate(train_, base_of(t), candidate_part(t), 12, &hint);
       } else {
         const FitOutcome* hint = t.wait_for >= 0 ? &tasks[static_cast<std::size_t>(t.wait_for)].first : nullptr;
         t.first = fit_candidate(train_, state, candidate_part(t), 12, hint);
@@ -400,7 +421,8 @@ class Explainer {
     for (std::size_t k = 0; k < gains.size(); ++k) {
       const Task& t = tasks[gains[k].second];
       if (t.id == kStickSlip && t.first.cost >= coulomb_cost * (1.0 - 1e-3)) continue;
-      if (k < (s.parts.empty() ? 5u : 3u) || (gains[k].first > 0 && gains[k].first >= 0.1 * best_gain))
+      if (k < (s.parts.empty() ? 5u : 3u) || (gains[k].first > 0 && gains[k].first >= 0.1 * best_gain) ||
+          !t.replaces.empty())
         joint.push_back(gains[k].second);
     }
     for (Task& t : tasks) t.wait_for = -1;
@@ -414,7 +436,7 @@ class Explainer {
         }
     run_parallel(tasks, joint, [&](std::size_t i) {
       Task& t = tasks[i];
-      t.out = refit_joint(train_, state, candidate_part(t), t.first, 10);
+      t.out = refit_joint(train_, t.replaces.empty() ? state : base_of(t), candidate_part(t), t.first, 10);
       t.out = from_scratch(std::move(t.out));
       if (t.id == kTerrainChange) t.out = change_from_alone(std::move(t.out), t.log);
       t.joint = true;
@@ -495,7 +517,51 @@ class Explainer {
     return effective_n(static_cast<double>(o.r.size()), lag1_autocorrelation(train_, o.r));
   }
 
+  // A change of terrain that falls in a held-out segment: the training segments say only that it
+  // lies somewhere in that gap (the training cost is the same anywhere in it), and a place chosen
+  // at random in the gap would charge the held-out segment with up to 25 s of the wrong terrain.
+  // So its place inside the gap, and only that, is read from the held-out segment.
+  void place_changes_in_gaps(std::vector<Part>& parts) const {
+    for (std::size_t pi = 0; pi < parts.size(); ++pi) {
+      Part& p = parts[pi];
+      if (p.id != kTerrainChange || !p.entry || p.values.empty()) continue;
+      const std::size_t li = static_cast<std::size_t>(std::max(p.log, 0));
+      if (li >= ctx_.size()) continue;
+      const LogCtx& c = ctx_[li];
+      const std::vector<double>& t = c.data.t_s;
+      for (const auto& seg : c.held) {
+        const auto [b, e] = seg;
+        if (e <= b + 1 || std::find(c.train.begin(), c.train.end(), seg) != c.train.end()) continue;
+        const double lo = b > 0 ? t[b - 1] : -std::numeric_limits<double>::infinity();
+        const double hi = e < t.size() ? t[e] : std::numeric_limits<double>::infinity();
+        if (!(p.values[0] > lo && p.values[0] <= hi)) continue;
+        const Segments one{seg};
+        double best_t = p.values[0], best = std::numeric_limits<double>::infinity();
+        constexpr int kGrid = 101;
+        for (int g = 0; g <= kGrid; ++g) {
+          // (g == kGrid: the place the fit chose, kept on a tie.)
+          const double tc = g < kGrid ? t[b] + (t[e - 1] - t[b]) * g / (kGrid - 1) : p.values[0];
+          std::vector<Part> trial = parts;
+          trial[pi].values[0] = tc;
+          const ErrorStats es = segments_error(build(c.base, trial, static_cast<int>(li)), c.data, one, c.noise);
+          double sum = 0;
+          for (int ch = 0; ch < kChannels; ++ch) {
+            const auto cc = static_cast<std::size_t>(ch);
+            if (es.n[cc] && std::isfinite(es.ratio_to_noise[cc])) sum += es.ratio_to_noise[cc] * es.ratio_to_noise[cc];
+          }
+          if (sum < best * (1 - 1e-9)) {
+            best = sum;
+            best_t = tc;
+          }
+        }
+        p.values[0] = best_t;
+        break;
+      }
+    }
+  }
+
   State make_state(const State& parent, FitOutcome o) const {
+    place_changes_in_gaps(o.parts);
     State s;
     s.parts = o.parts;
     s.cost = o.cost;
@@ -523,7 +589,7 @@ class Explainer {
     std::vector<Task> tasks = tasks_for(s);
     run_tasks(tasks, s, step);
     std::vector<State> cands;
-    std::vector<std::string> added;
+    std::vector<std::string> added, replaced;
     double n_eff = 0;
     {
       const FitOutcome* best = nullptr;
@@ -547,9 +613,14 @@ class Explainer {
       c.heldout_ratio = e.h;
       c.flagged = e.flagged;
       c.implausible = e.implausible;
+      detail("explain: step %d: candidate %s: held-out %.3f (x %.2f y %.2f psi %.2f imu_psi %.2f), delta BIC %.1f%s", step,
+             c.fitted.effect.c_str(), e.h, e.held[0], e.held[1], e.held[2], e.held[3], c.delta_bic,
+             e.implausible ? ", implausible" : "");
+      for (const FittedEffect& fe : f) detail("explain:   %s: %s", fe.effect.c_str(), fe.description.c_str());
       ranked.push_back(c);
       cands.push_back(std::move(e));
       added.push_back(c.fitted.effect);
+      replaced.push_back(t.replaces);
     }
     // Significant: a strong BIC gain and a clear drop of the held-out error.
     std::vector<std::size_t> order;
@@ -586,6 +657,7 @@ class Explainer {
       st.index = static_cast<int>(s.history.size());
       st.added = added[i];
       st.dropped = dropped_;
+      if (!replaced[i].empty()) st.dropped.insert(st.dropped.begin(), replaced[i]);
       st.effects = effect_labels(e.parts, ctx_.size());
       st.heldout_ratio = e.held;
       st.heldout_combined = e.h;
@@ -601,7 +673,8 @@ class Explainer {
         }
       e.history.push_back(st);
       progress("explain: step %d: + %s: held-out error %.2f times the noise floor (was %.2f), delta BIC %.1f%s",
-               step, added[i].c_str(), e.h, s.h, ranked[i].delta_bic, dropped_.empty() ? "" : " (dropped some)");
+               step, added[i].c_str(), e.h, s.h, ranked[i].delta_bic,
+               !replaced[i].empty() ? " (in place of the Coulomb friction)" : dropped_.empty() ? "" : " (dropped some)");
       out.push_back(std::move(e));
     }
     return out;

@@ -110,6 +110,8 @@ FitOutcome fit_joint(const Problem& pr, const std::vector<Part>& state, const Pa
 // Change times (terrain_change) searched over the whole log again with the other parts held at
 // o's values, then everything refitted; the better fit is returned.
 FitOutcome research_change_times(const Problem& pr, FitOutcome o, int max_iter);
+// Each change time profiled: every other parameter refitted at times over the whole log.
+FitOutcome profile_change_time(const Problem& pr, FitOutcome o, int max_iter);
 // fit_joint's second half: everything refitted from `first`, fit_candidate's result.
 FitOutcome refit_joint(const Problem& pr, const std::vector<Part>& state, const Part& candidate, FitOutcome first,
                        int max_iter);

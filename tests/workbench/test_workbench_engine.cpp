@@ -527,6 +527,82 @@ TEST_CASE("every effect parameter states a physical range, inside its bounds") {
     }
 }
 
+namespace {
+
+double param_of(const ExplainResult& r, const std::string& effect, const std::string& name) {
+  for (const FittedEffect& fe : r.final_fitted)
+    if (fe.effect == effect)
+      for (const FitParam& p : fe.params)
+        if (p.name == name) return p.value;
+  return kNaN;
+}
+
+bool has(const std::vector<std::string>& v, const std::string& x) { return std::find(v.begin(), v.end(), x) != v.end(); }
+
+}  // namespace
+
+TEST_CASE("explain: a change of terrain inside a held-out segment is placed there, not anywhere in the gap") {
+  // 90 s: segments of 12.9 s, every third held out; 71 s lies in the held-out 64.3-77.1 s, where
+  // no training segment can say when the terrain changed.
+  SynthOptions o;
+  o.seconds = 90;
+  o.seed = 4;
+  const Model truth = make_model(RobotParams{}, kSand, {entry("terrain_change").make({71.0, 0.65, 1.3})});
+  ExplainOptions eo;
+  eo.only = {"terrain_change", "coulomb_friction", "quadratic_drag"};
+  const ExplainResult r = explain({synth(truth, o)}, {nominal()}, eo);
+  INFO(r.verdict);
+  REQUIRE(r.effects == std::vector<std::string>{"terrain_change"});
+  REQUIRE(r.steps.size() >= 2);
+  // The step that added the change reads its held-out segment at the noise: placed anywhere else
+  // in the gap, that segment carries seconds of the wrong terrain.
+  CHECK(r.steps[1].heldout_combined < 1.15);
+  CHECK(param_of(r, "terrain_change", "t_change_s") == Approx(71.0).margin(0.5));
+  for (int c = 0; c < kChannels; ++c) CHECK(r.final_ratio[static_cast<std::size_t>(c)] < 1.2);
+}
+
+TEST_CASE("explain: stick-slip comes in place of a Coulomb friction chosen before, starting from its level") {
+  SynthOptions o;
+  o.seconds = 120;
+  o.seed = 6;
+  // Sliding 8 / 2 N, 0.06 N m, breaking away at 2.5 times that, on a slope: the model given has
+  // the slope and a Coulomb friction.
+  const Model truth = make_model(RobotParams{}, kSand, {entry("stick_slip_friction").make({8.0, 2.0, 0.06, 2.5, 0.003}),
+                                                        entry("terrain_slope").make({-0.0018, 0.0028})});
+  ExplainOptions eo;
+  eo.only = {"coulomb_friction", "stick_slip_friction", "quadratic_drag"};
+  const ModelChoice given = with_effects({entry("terrain_slope").make({-0.0018, 0.0028}),
+                                          std::make_shared<CoulombFriction>(Vec3(9, 2.5, 0.07))});
+  const ExplainResult r = explain({synth(truth, o)}, {given}, eo);
+  INFO(r.verdict);
+  CHECK(has(r.effects, "stick_slip_friction"));
+  CHECK_FALSE(has(r.effects, "coulomb_friction"));
+  bool replaced = false;
+  for (const ExplainStep& st : r.steps) replaced = replaced || (st.added == "stick_slip_friction" && has(st.dropped, "coulomb_friction"));
+  CHECK(replaced);
+  CHECK(param_of(r, "stick_slip_friction", "force_x_n") == Approx(8.0).epsilon(0.15));
+  CHECK(param_of(r, "stick_slip_friction", "breakaway_ratio") == Approx(2.5).epsilon(0.15));
+  for (int c = 0; c < kChannels; ++c) CHECK(r.final_ratio[static_cast<std::size_t>(c)] < 1.15);
+}
+
+TEST_CASE("explain: a change of terrain after a saturation that imitated it is found by profiling its time") {
+  // The saturation fits first and takes up part of the change (the weaker traction after it);
+  // with the saturation held, the change settles where it fits around that.
+  SynthOptions o;
+  o.seconds = 120;
+  o.seed = 7;
+  const Model truth = make_model(RobotParams{}, kSand,
+                                 {entry("terrain_change").make({50.0, 0.65, 1.2}), entry("traction_saturation").make({12.0, 3.5, 4})});
+  ExplainOptions eo;
+  eo.only = {"terrain_change", "traction_saturation", "quadratic_drag"};
+  const ExplainResult r = explain({synth(truth, o)}, {nominal()}, eo);
+  INFO(r.verdict);
+  CHECK(has(r.effects, "terrain_change"));
+  CHECK(has(r.effects, "traction_saturation"));
+  CHECK(param_of(r, "terrain_change", "t_change_s") == Approx(50.0).margin(1.0));
+  for (int c = 0; c < kChannels; ++c) CHECK(r.final_ratio[static_cast<std::size_t>(c)] < 1.2);
+}
+
 TEST_CASE("explain: several logs of one robot are explained together with shared parameters") {
   SynthOptions o;
   o.seconds = 60;
