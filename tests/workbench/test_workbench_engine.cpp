@@ -561,7 +561,9 @@ TEST_CASE("explain: a change of terrain inside a held-out segment is placed ther
   for (int c = 0; c < kChannels; ++c) CHECK(r.final_ratio[static_cast<std::size_t>(c)] < 1.2);
 }
 
-TEST_CASE("explain: stick-slip comes in place of a Coulomb friction chosen before, starting from its level") {
+// (On the library's own forms the search found these two pairs before as well; the logs of
+// another generator where it did not are in the explain suite's make-test sample.)
+TEST_CASE("explain: stick-slip replaces the Coulomb friction of the model given, at its own levels") {
   SynthOptions o;
   o.seconds = 120;
   o.seed = 6;
@@ -585,9 +587,7 @@ TEST_CASE("explain: stick-slip comes in place of a Coulomb friction chosen befor
   for (int c = 0; c < kChannels; ++c) CHECK(r.final_ratio[static_cast<std::size_t>(c)] < 1.15);
 }
 
-TEST_CASE("explain: a change of terrain after a saturation that imitated it is found by profiling its time") {
-  // The saturation fits first and takes up part of the change (the weaker traction after it);
-  // with the saturation held, the change settles where it fits around that.
+TEST_CASE("explain: a change of terrain and a saturation are both found, the change at its time") {
   SynthOptions o;
   o.seconds = 120;
   o.seed = 7;

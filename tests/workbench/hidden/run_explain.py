@@ -51,11 +51,12 @@ PAIR_CLASSES = [
     ("screw_traction_loss", "imu_heading_drift"),
     ("stick_slip_friction", "terrain_slope"),
 ]
-# (class, seed): two plain ones, and two the search once got wrong: stick-slip must come in place
-# of the Coulomb friction chosen before it (seed 2), and a change of terrain that falls inside a
-# held-out segment after a saturation that imitated it (seed 3).
-SAMPLE_PAIRS = [(("screw_dead_band", "resistance_offset"), 0), (("terrain_slope", "force_lag"), 0),
-                (("stick_slip_friction", "terrain_slope"), 2), (("terrain_change", "traction_saturation"), 3)]
+# (class, seed): the example, and three cases the search once got wrong: stick-slip must
+# come in place of the Coulomb friction chosen before it (seed 2); a change of terrain after a
+# saturation that imitated it, found only when its time is profiled with everything refitted
+# (seed 0); and one that falls inside a held-out segment (seed 3).
+SAMPLE_PAIRS = [(("screw_dead_band", "resistance_offset"), 0), (("stick_slip_friction", "terrain_slope"), 2),
+                (("terrain_change", "traction_saturation"), 0), (("terrain_change", "traction_saturation"), 3)]
 
 FIL_CASES = [(terrain, drive) for terrain in ("sand", "frozen_grass") for drive in ("square", "diagonal", "manual")]
 SAMPLE_FIL = [("sand", "square")]
