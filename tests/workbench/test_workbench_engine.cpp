@@ -561,8 +561,8 @@ TEST_CASE("explain: a change of terrain inside a held-out segment is placed ther
   for (int c = 0; c < kChannels; ++c) CHECK(r.final_ratio[static_cast<std::size_t>(c)] < 1.2);
 }
 
-// (On the library's own forms the search found these two pairs before as well; the logs of
-// another generator where it did not are in the explain suite's make-test sample.)
+// (On a log of the library's own forms the search ended here before this move as well; the log
+// of another generator where it did not is in the explain suite's make-test sample.)
 TEST_CASE("explain: stick-slip replaces the Coulomb friction of the model given, at its own levels") {
   SynthOptions o;
   o.seconds = 120;
@@ -585,22 +585,6 @@ TEST_CASE("explain: stick-slip replaces the Coulomb friction of the model given,
   CHECK(param_of(r, "stick_slip_friction", "force_x_n") == Approx(8.0).epsilon(0.15));
   CHECK(param_of(r, "stick_slip_friction", "breakaway_ratio") == Approx(2.5).epsilon(0.15));
   for (int c = 0; c < kChannels; ++c) CHECK(r.final_ratio[static_cast<std::size_t>(c)] < 1.15);
-}
-
-TEST_CASE("explain: a change of terrain and a saturation are both found, the change at its time") {
-  SynthOptions o;
-  o.seconds = 120;
-  o.seed = 7;
-  const Model truth = make_model(RobotParams{}, kSand,
-                                 {entry("terrain_change").make({50.0, 0.65, 1.2}), entry("traction_saturation").make({12.0, 3.5, 4})});
-  ExplainOptions eo;
-  eo.only = {"terrain_change", "traction_saturation", "quadratic_drag"};
-  const ExplainResult r = explain({synth(truth, o)}, {nominal()}, eo);
-  INFO(r.verdict);
-  CHECK(has(r.effects, "terrain_change"));
-  CHECK(has(r.effects, "traction_saturation"));
-  CHECK(param_of(r, "terrain_change", "t_change_s") == Approx(50.0).margin(1.0));
-  for (int c = 0; c < kChannels; ++c) CHECK(r.final_ratio[static_cast<std::size_t>(c)] < 1.2);
 }
 
 TEST_CASE("explain: several logs of one robot are explained together with shared parameters") {
