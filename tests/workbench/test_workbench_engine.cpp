@@ -537,8 +537,6 @@ double param_of(const ExplainResult& r, const std::string& effect, const std::st
   return kNaN;
 }
 
-bool has(const std::vector<std::string>& v, const std::string& x) { return std::find(v.begin(), v.end(), x) != v.end(); }
-
 }  // namespace
 
 TEST_CASE("explain: a change of terrain inside a held-out segment is placed there, not anywhere in the gap") {
@@ -559,32 +557,6 @@ TEST_CASE("explain: a change of terrain inside a held-out segment is placed ther
   CHECK(r.steps[1].heldout_combined < 1.15);
   CHECK(param_of(r, "terrain_change", "t_change_s") == Approx(71.0).margin(0.5));
   for (int c = 0; c < kChannels; ++c) CHECK(r.final_ratio[static_cast<std::size_t>(c)] < 1.2);
-}
-
-// (On a log of the library's own forms the search ended here before this move as well; the log
-// of another generator where it did not is in the explain suite's make-test sample.)
-TEST_CASE("explain: stick-slip replaces the Coulomb friction of the model given, at its own levels") {
-  SynthOptions o;
-  o.seconds = 120;
-  o.seed = 6;
-  // Sliding 8 / 2 N, 0.06 N m, breaking away at 2.5 times that, on a slope: the model given has
-  // the slope and a Coulomb friction.
-  const Model truth = make_model(RobotParams{}, kSand, {entry("stick_slip_friction").make({8.0, 2.0, 0.06, 2.5, 0.003}),
-                                                        entry("terrain_slope").make({-0.0018, 0.0028})});
-  ExplainOptions eo;
-  eo.only = {"coulomb_friction", "stick_slip_friction", "quadratic_drag"};
-  const ModelChoice given = with_effects({entry("terrain_slope").make({-0.0018, 0.0028}),
-                                          std::make_shared<CoulombFriction>(Vec3(9, 2.5, 0.07))});
-  const ExplainResult r = explain({synth(truth, o)}, {given}, eo);
-  INFO(r.verdict);
-  CHECK(has(r.effects, "stick_slip_friction"));
-  CHECK_FALSE(has(r.effects, "coulomb_friction"));
-  bool replaced = false;
-  for (const ExplainStep& st : r.steps) replaced = replaced || (st.added == "stick_slip_friction" && has(st.dropped, "coulomb_friction"));
-  CHECK(replaced);
-  CHECK(param_of(r, "stick_slip_friction", "force_x_n") == Approx(8.0).epsilon(0.15));
-  CHECK(param_of(r, "stick_slip_friction", "breakaway_ratio") == Approx(2.5).epsilon(0.15));
-  for (int c = 0; c < kChannels; ++c) CHECK(r.final_ratio[static_cast<std::size_t>(c)] < 1.15);
 }
 
 TEST_CASE("explain: several logs of one robot are explained together with shared parameters") {
