@@ -33,8 +33,7 @@ int run_client(int argc, char** argv) {
   std::vector<std::string> lines;
   const auger::CommandLine cli = client_cli(mode);
   auger::Args a;
-  if (!cli.parse(argc, argv, a)) return 2;
-  if (a.has("--help")) return cli.print_usage(stdout), 0;
+  if (const int rc = cli.parse_or_answer(argc, argv, a); rc >= 0) return rc;
   path = a.get("--socket", path);
   lines = a.positional;
   if (lines.empty()) return cli.print_usage(stderr), 2;

@@ -10,7 +10,6 @@
 #include "auger/args.hpp"
 #include "auger/effect.hpp"
 #include "auger/model_file.hpp"
-#include "auger/version.hpp"
 #include "config.hpp"
 #include "daemon.hpp"
 
@@ -39,15 +38,7 @@ int main(int argc, char** argv) {
   std::string config_path = "/etc/auger/augerd.toml";
   bool check_only = false;
   auger::Args args;
-  if (!kCli.parse(argc, argv, args)) return kExitConfig;
-  if (args.has("--help")) {
-    usage(stdout);
-    return kExitOk;
-  }
-  if (args.has("--version")) {
-    auger::print_version("augerd");
-    return kExitOk;
-  }
+  if (const int rc = kCli.parse_or_answer(argc, argv, args); rc >= 0) return rc;
   if (!args.positional.empty()) {
     std::fprintf(stderr, "augerd: unknown argument '%s'\n", args.positional[0].c_str());
     usage(stderr);

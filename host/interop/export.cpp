@@ -38,8 +38,7 @@ const CommandLine kCli{
 
 int run_export(int argc, char** argv) {
   Args a;
-  if (!kCli.parse(argc, argv, a)) return 2;
-  if (a.has("--help")) return kCli.print_usage(stdout), 0;
+  if (const int rc = kCli.parse_or_answer(argc, argv, a); rc >= 0) return rc;
   if (a.positional.size() != 1 || !a.has("--mcap")) return kCli.print_usage(stderr), 2;
   const std::string log_path = a.positional[0];
   const std::string out_path = a.get("--mcap");

@@ -250,8 +250,7 @@ int run_calib(int argc, char** argv) {
   bool dry = false, motion = false, seconds_given = false;
   try {
     Args a;
-    if (!calib_cli().parse(argc, argv, a)) return 2;
-    if (a.has("--help")) return calib_usage(stdout), 0;
+    if (const int rc = calib_cli().parse_or_answer(argc, argv, a); rc >= 0) return rc;
     if (!a.positional.empty()) throw UsageError("unknown argument " + a.positional[0]);
     const char* me = "auger calib";
     if (!a.number(me, "--rpm", rpm, rpm) || !a.number(me, "--seconds", seconds, seconds) ||

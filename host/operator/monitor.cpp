@@ -101,8 +101,7 @@ int run_monitor(int argc, char** argv) {
          {"--period", "S", "refresh period (default 0.1 s; 0.02 .. 10 s)"}},
         "Exit 0: quit; 2: bad usage; 3: augerd not reached.\n"};
     Args a;
-    if (!cli.parse(argc, argv, a)) return 2;
-    if (a.has("--help")) return cli.print_usage(stdout), 0;
+    if (const int rc = cli.parse_or_answer(argc, argv, a); rc >= 0) return rc;
     if (!a.positional.empty()) throw UsageError("unknown argument " + a.positional[0]);
     socket = a.get("--socket", socket);
     if (!a.number("auger monitor", "--period", period_s, period_s)) return 2;

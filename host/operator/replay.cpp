@@ -85,8 +85,7 @@ int run_replay(int argc, char** argv) {
   double tol_rpm = 1e-6, tol_m = 1e-6, tol_rad = 1e-6;
   try {
     Args a;
-    if (!replay_cli().parse(argc, argv, a)) return 2;
-    if (a.has("--help")) return replay_usage(stdout), 0;
+    if (const int rc = replay_cli().parse_or_answer(argc, argv, a); rc >= 0) return rc;
     if (!a.number("auger replay", "--tol-rpm", tol_rpm, tol_rpm) || !a.number("auger replay", "--tol-m", tol_m, tol_m) ||
         !a.number("auger replay", "--tol-rad", tol_rad, tol_rad))
       return replay_usage(stderr), 2;

@@ -184,8 +184,7 @@ int run_step(int argc, char** argv) {
     double from_rpm = 0, hold_s = 1.5;
     bool enable = false;
     Args a;
-    if (!step_cli().parse(argc, argv, a)) return 2;
-    if (a.has("--help")) return step_usage(stdout), 0;
+    if (const int rc = step_cli().parse_or_answer(argc, argv, a); rc >= 0) return rc;
     double baud_d = baud;
     if (!a.number("auger step", "--baud", baud_d, baud_d) || !a.number("auger step", "--from", from_rpm, from_rpm) ||
         !a.number("auger step", "--duration", hold_s, hold_s))

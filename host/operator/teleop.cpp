@@ -46,8 +46,7 @@ int run_teleop(int argc, char** argv) {
          {"--joystick", "DEV", "joystick device, used when present (default /dev/input/js0)"}},
         "Exit 0: quit; 2: bad usage; 3: augerd not reached.\n"};
     Args a;
-    if (!cli.parse(argc, argv, a)) return 2;
-    if (a.has("--help")) return cli.print_usage(stdout), 0;
+    if (const int rc = cli.parse_or_answer(argc, argv, a); rc >= 0) return rc;
     if (!a.positional.empty()) throw UsageError("unknown argument " + a.positional[0]);
     socket = a.get("--socket", socket);
     joystick = a.get("--joystick", joystick);

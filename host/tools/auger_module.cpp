@@ -7,7 +7,6 @@
 //   auger-module PORT set KEY=VALUE...     keys: see usage()
 //   options: --baud N (default 250000), --timeout S (identity wait, default 4)
 #include "auger/args.hpp"
-#include "auger/version.hpp"
 #include "module_adapter.hpp"
 #include "module_link.hpp"
 #include "status_text.hpp"
@@ -133,15 +132,7 @@ int main(int argc, char** argv)
     double timeout_s = 4.0;
     try {
         auger::Args opts;
-        if (!kCli.parse(argc, argv, opts)) return 2;
-        if (opts.has("--help")) {
-            usage(stdout);
-            return 0;
-        }
-        if (opts.has("--version")) {
-            auger::print_version("auger-module");
-            return 0;
-        }
+        if (const int rc = kCli.parse_or_answer(argc, argv, opts); rc >= 0) return rc;
         if (opts.has("--baud"))
             baud = in_range<unsigned>("--baud", number("--baud", opts.get("--baud")), 300, 4000000);
         if (opts.has("--timeout")) timeout_s = number("--timeout", opts.get("--timeout"));

@@ -4,7 +4,6 @@
 //   auger-track LOG...
 #include "auger/args.hpp"
 #include "auger/log.hpp"
-#include "auger/version.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -24,9 +23,7 @@ int main(int argc, char** argv)
                                  {},
                                  "Exit 0: every log read; 1: a log unreadable or without both poses; 2: bad usage.\n"};
     auger::Args args;
-    if (!cli.parse(argc, argv, args)) return 2;
-    if (args.has("--help")) return cli.print_usage(stdout), 0;
-    if (args.has("--version")) return auger::print_version("auger-track"), 0;
+    if (const int rc = cli.parse_or_answer(argc, argv, args); rc >= 0) return rc;
     if (args.positional.empty()) {
         cli.print_usage(stderr);
         return 2;

@@ -68,8 +68,7 @@ const CommandLine kCli{
 
 int run_compare(int argc, char** argv) {
   Args a;
-  if (!kCli.parse(argc, argv, a)) return 2;
-  if (a.has("--help")) return kCli.print_usage(stdout), 0;
+  if (const int rc = kCli.parse_or_answer(argc, argv, a); rc >= 0) return rc;
   if (a.positional.size() != 1) return kCli.print_usage(stderr), 2;
   try {
     const Dataset d = load_dataset(a.positional[0]);

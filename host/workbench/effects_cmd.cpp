@@ -19,8 +19,7 @@ const CommandLine kCli{"auger effects", "[--json]", "The effect library: identif
 
 int run_effects(int argc, char** argv) {
   Args a;
-  if (!kCli.parse(argc, argv, a)) return 2;
-  if (a.has("--help")) return kCli.print_usage(stdout), 0;
+  if (const int rc = kCli.parse_or_answer(argc, argv, a); rc >= 0) return rc;
   if (!a.positional.empty()) {
     std::fprintf(stderr, "auger effects: takes no file or argument, got %s\n", quote_input(a.positional[0]).c_str());
     return kCli.print_usage(stderr), 2;

@@ -51,8 +51,7 @@ std::string cell(double v) {
 
 int run_explain(int argc, char** argv) {
   Args a;
-  if (!kCli.parse(argc, argv, a)) return 2;
-  if (a.has("--help")) return kCli.print_usage(stdout), 0;
+  if (const int rc = kCli.parse_or_answer(argc, argv, a); rc >= 0) return rc;
   if (a.positional.empty()) return kCli.print_usage(stderr), 2;
   auto count = [&](const char* opt, int dflt, int lo, int hi, int& out) {
     if (!a.has(opt)) {

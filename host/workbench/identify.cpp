@@ -49,8 +49,7 @@ int run_identify(int argc, char** argv) {
   IdentifyOptions options;
   std::vector<std::string> files;
   Args args;
-  if (!kCli.parse(argc, argv, args)) return 2;
-  if (args.has("--help")) return identify_usage(stdout, 0);
+  if (const int rc = kCli.parse_or_answer(argc, argv, args); rc >= 0) return rc;
   json = args.has("--json");
   if (args.has("--confidence")) {
     const std::string text = args.get("--confidence");

@@ -53,8 +53,7 @@ int run_merge(int argc, char** argv) {
   std::vector<std::string> files;
   try {
     Args args;
-    if (!kCli.parse(argc, argv, args)) return 2;
-    if (args.has("--help")) return merge_usage(stdout, 0);
+    if (const int rc = kCli.parse_or_answer(argc, argv, args); rc >= 0) return rc;
     json = args.has("--json");
     out_path = args.get("--out");
     if (args.has("--max-shift")) {

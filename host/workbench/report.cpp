@@ -93,8 +93,7 @@ struct OutputDir {
 
 int run_report(int argc, char** argv) {
   Args a;
-  if (!kCli.parse(argc, argv, a)) return 2;
-  if (a.has("--help")) return report_usage(stdout, 0);
+  if (const int rc = kCli.parse_or_answer(argc, argv, a); rc >= 0) return rc;
   if (a.positional.size() != 1 || !a.has("--out")) return report_usage(stderr, 2);
   const std::string out_dir = a.get("--out");
   const bool json = a.has("--json");

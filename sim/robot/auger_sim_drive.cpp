@@ -13,7 +13,6 @@
 
 #include "auger/args.hpp"
 #include "auger/model_file.hpp"
-#include "auger/version.hpp"
 #include "scheduler.hpp"
 
 namespace {
@@ -93,9 +92,7 @@ int main(int argc, char** argv) {
   int threads = 1;  // one thread is faster here: the modules and the robot exchange every 1 ms
   sim::CameraParams camera;
   Args args;
-  if (!kCli.parse(argc, argv, args)) return 2;
-  if (args.has("--help")) return usage(stdout), 0;
-  if (args.has("--version")) return print_version("auger-sim-drive"), 0;
+  if (const int rc = kCli.parse_or_answer(argc, argv, args); rc >= 0) return rc;
   if (!args.positional.empty()) {
     std::fprintf(stderr, "auger-sim-drive: unknown option '%s'\n", args.positional[0].c_str());
     usage(stderr);

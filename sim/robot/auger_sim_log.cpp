@@ -10,7 +10,6 @@
 
 #include "auger/args.hpp"
 #include "auger/model_file.hpp"
-#include "auger/version.hpp"
 #include "log_gen.hpp"
 
 namespace {
@@ -65,9 +64,7 @@ int main(int argc, char** argv) {
   std::string out_path, truth_path, model_path;
   bool terrain_given = false;
   auger::Args args;
-  if (!kCli.parse(argc, argv, args)) return 2;
-  if (args.has("--help")) return usage(stdout), 0;
-  if (args.has("--version")) return auger::print_version("auger-sim-log"), 0;
+  if (const int rc = kCli.parse_or_answer(argc, argv, args); rc >= 0) return rc;
   if (!args.positional.empty()) {
     std::fprintf(stderr, "auger-sim-log: unknown option '%s'\n", args.positional[0].c_str());
     usage(stderr);

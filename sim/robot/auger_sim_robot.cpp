@@ -19,7 +19,6 @@
 
 #include "auger/args.hpp"
 #include "auger/model_file.hpp"
-#include "auger/version.hpp"
 #include "scheduler.hpp"
 #include "simmod.h"
 
@@ -113,9 +112,7 @@ int main(int argc, char** argv) {
   double seconds = -1, blocking_rpm = -1;
   unsigned long long seed = 1;
   auger::Args args;
-  if (!kCli.parse(argc, argv, args)) return 2;
-  if (args.has("--help")) return kCli.print_usage(stdout), 0;
-  if (args.has("--version")) return auger::print_version("auger-sim-robot"), 0;
+  if (const int rc = kCli.parse_or_answer(argc, argv, args); rc >= 0) return rc;
   if (!args.positional.empty()) {
     std::fprintf(stderr, "auger-sim-robot: unknown argument '%s'\n", args.positional[0].c_str());
     usage();
