@@ -833,6 +833,14 @@ void flag_params(std::vector<FitParam>& params, const Part& part) {
       std::snprintf(buf, sizeof buf, "outside the physical range %g..%g %s", s.physical_lower, s.physical_upper,
                     s.unit.c_str());
       p.flag = buf;
+    } else if ((at_lo || at_hi) && part.entry && std::isfinite(p.sigma) && p.sigma > 0.5 * std::fabs(p.value)) {
+      // An effect's value that the log bounds from one side only (a blocked screw that never
+      // slides says its force is at least what the others push with): a plausible value lies
+      // within its uncertainty. (The paper's parameters at the end of their range are the sign
+      // of an effect they have taken up, however uncertain.)
+      std::snprintf(buf, sizeof buf, "not identified by this log: at the end of its physical range, %g %s, +- %.2g",
+                    at_lo ? s.physical_lower : s.physical_upper, s.unit.c_str(), p.sigma);
+      p.flag = buf;
     } else if (at_lo || at_hi) {
       std::snprintf(buf, sizeof buf, "at the end of its physical range, %g %s", at_lo ? s.physical_lower : s.physical_upper,
                     s.unit.c_str());
@@ -857,6 +865,14 @@ bool any_flag(const std::vector<FitParam>& params) {
 }
 
 std::string describe(const Part& p, const Model& base) {
+  if (!p.entry && p.free.empty()) {
+    char buf[300];
+    std::snprintf(buf, sizeof buf,
+                  "the paper's own parameters, held at its values: sigma_long %.3g N/rpm, sigma_lat %.3g N/rpm, D_x %.4g "
+                  "N/(m/s), D_y %.4g N/(m/s), D_psi %.3g N m/(rad/s)",
+                  p.values[0], p.values[1], p.values[2], p.values[3], p.values[4]);
+    return buf;
+  }
   if (!p.entry) {
     char buf[300];
     std::snprintf(buf, sizeof buf,

@@ -136,6 +136,7 @@ struct ExplainStep {
   double delta_bic = 0;               // against the step before
   bool flagged = false;               // an implausible or unidentified parameter
   bool implausible = false;           // a value outside or at the end of its physical range
+  bool paper_held = false;            // the paper's parameters held at its values, not refitted
   std::vector<Candidate> alternatives;  // candidates this step nearly chose instead (near ties)
 };
 struct ExplainResult {

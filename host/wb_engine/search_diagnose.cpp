@@ -296,7 +296,10 @@ ModelFile fitted_model_file(const Model& m, const Dataset& d, const std::vector<
   t.params = m.terrain;
   if (t.params.name.empty()) t.params.name = "sand";
   if (d.gantry) t.params.D_psi = kNaN;
-  t.comment = "paper_params (eqs. (15)-(17)), re-identified";
+  bool refitted = false;
+  for (const auto& fe : effects)
+    refitted = refitted || (fe.effect == kPaperParams && fe.description.find("re-identified") != std::string::npos);
+  t.comment = refitted ? "paper_params (eqs. (15)-(17)), re-identified" : "paper_params (eqs. (15)-(17)), not refitted here";
   f.terrains.push_back(t);
   for (const auto& e : m.effects) {
     EffectConfig c;

@@ -161,7 +161,7 @@ int run_explain(int argc, char** argv) {
         for (const auto& e : s.effects) j.str(nullptr, e);
         j.end_array();
         j.channels("heldout_ratio", s.heldout_ratio, r.active).num("heldout_combined", s.heldout_combined);
-        j.num("delta_bic", s.delta_bic).boolean("flagged", s.flagged);
+        j.num("delta_bic", s.delta_bic).boolean("flagged", s.flagged).boolean("paper_params_held", s.paper_held);
         json_fitted(j, "fitted", s.fitted);
         j.begin_array("alternatives");
         for (const auto& c : s.alternatives) {
@@ -214,13 +214,17 @@ int run_explain(int argc, char** argv) {
       if (s.index > 0) std::printf("  %9.1f%s", s.delta_bic, s.flagged ? "  FLAGGED" : "");
       std::printf("\n");
       for (const auto& d : s.dropped) std::printf("      - %s dropped: it no longer pays for itself\n", d.c_str());
+      if (s.paper_held && s.index > 0 && !r.steps[static_cast<std::size_t>(s.index - 1)].paper_held)
+        std::printf("      (the paper's parameters held at its values: refitted, they ran to the end of their range)\n");
       for (const auto& c : s.alternatives)
         std::printf("      near tie: %s (held-out %s, delta BIC %.1f); the experiment that tells them apart: %s\n",
                     c.fitted.effect.c_str(), times_noise(c.heldout_ratio).c_str(), c.delta_bic, c.tell_apart.c_str());
     }
     std::printf("Each step refits every effect chosen so far and the paper's parameters jointly with the candidate;\n"
                 "a candidate is taken when it gains more than 10 in BIC and lowers the held-out error by 2 %%, the\n"
-                "lowest held-out error first (a fit with a value at or beyond its physical range counted 15 %% worse).\n");
+                "lowest held-out error first (a fit with a value at or beyond its physical range counted 15 %% worse).\n"
+                "Where the paper's parameters run to the end of their range, the structure is fitted with them held\n"
+                "at the paper's values too, and the one with the lower held-out error is taken.\n");
     std::printf("\nfinal model, refitted on every segment; error as `auger compare --model` computes it (segments of\n"
                 "25 s, multiples of the noise floor):");
     for (int c = 0; c < kChannels; ++c)

@@ -11,6 +11,7 @@
 #include <random>
 #include <sstream>
 
+#include "fitting.hpp"  // flag_params: the plausibility rule itself
 #include "workbench.hpp"
 
 using namespace auger;
@@ -525,6 +526,35 @@ TEST_CASE("every effect parameter states a physical range, inside its bounds") {
       CHECK(p.physical_lower >= p.lower);
       CHECK(p.physical_upper <= p.upper);
     }
+}
+
+TEST_CASE("plausibility: an effect's value at the end of its range that the log bounds from one side is not implausible") {
+  // screw_blocking's force at 150 N (its physical upper end): known to +- 10 N it is implausible;
+  // +- 130 N is a bound (a blocked screw that never slides), flagged as not identified only. The
+  // paper's parameters at the end of their range stay implausible however uncertain: that is
+  // the sign of an effect they have taken up.
+  SynthOptions o;
+  o.seconds = 10;
+  const Dataset d = synth(make_model(RobotParams{}, kSand), o);
+  const Model base = nominal().model;
+  search::Part blocking = search::make_part("screw_blocking", base, d);
+  blocking.values[0] = blocking.specs[0].physical_upper;
+  auto flags_of = [](const search::Part& p, std::size_t i, double sigma) {
+    std::vector<FitParam> f(p.specs.size());
+    for (std::size_t k = 0; k < f.size(); ++k) f[k].value = p.values[k];
+    f[i].sigma = sigma;
+    search::flag_params(f, p);
+    return f;
+  };
+  const std::vector<FitParam> tight = flags_of(blocking, 0, 10.0), loose = flags_of(blocking, 0, 130.0);
+  CHECK(search::any_implausible(tight));
+  CHECK_FALSE(search::any_implausible(loose));
+  CHECK(loose[0].flag.rfind("not identified", 0) == 0);
+  CHECK(search::any_flag(loose));
+
+  search::Part paper = search::make_part(search::kPaperParams, base, d);
+  paper.values[3] = paper.specs[3].physical_lower;  // D_y a third of the paper's
+  CHECK(search::any_implausible(flags_of(paper, 3, 0.9 * paper.values[3])));
 }
 
 namespace {
