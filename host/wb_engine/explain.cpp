@@ -520,6 +520,30 @@ class Explainer {
     return o;
   }
 
+  // A structure that held the paper's parameters because the training segments alone could not
+  // place them: on every segment they may be identified. Freed there, they are kept when they
+  // stay inside their range and gain strongly (10 in BIC, as an effect must).
+  FitOutcome free_paper_on_all(FitOutcome o) {
+    std::vector<Part> freed = o.parts;
+    for (Part& p : freed)
+      if (!p.entry && p.free.empty())
+        for (const LogCtx& c : ctx_)
+          if (c.base.terrain.name == p.terrain) p.free = make_part(kPaperParams, c.base, c.data).free;
+    FitOutcome f = refit(all_, freed, 15, 1);
+    ++structures_;
+    if (!std::isfinite(f.cost) || paper_at_end(f)) return o;
+    const double n_eff = n_eff_of_all(f);
+    const double gain = n_eff * std::log(std::max(f.cost, 1e-300) / std::max(o.cost, 1e-300)) +
+                        (f.n_params - o.n_params) * std::log(n_eff);
+    detail("explain: final: the paper's parameters freed on every segment: delta BIC %.1f%s", gain,
+           gain < kAddBic ? ", kept" : "");
+    return gain < kAddBic ? f : o;
+  }
+
+  double n_eff_of_all(const FitOutcome& o) const {
+    return effective_n(static_cast<double>(o.r.size()), lag1_autocorrelation(all_, o.r));
+  }
+
   // A change of terrain placed on top of other effects may settle where it imitates them; the
   // time its own fit on the paper's model found (the first step's) is tried as a start too.
   FitOutcome change_from_alone(FitOutcome o, int log) {
@@ -772,6 +796,7 @@ class Explainer {
     if (!s.parts.empty()) {
       FitOutcome o = research_change_times(all_, refit(all_, s.parts, 15, 1), 15);
       ++structures_;
+      if (paper_held(s.parts) && std::isfinite(o.cost)) o = free_paper_on_all(std::move(o));
       if (std::isfinite(o.cost)) {
         // Polish on the full logs (10 ms rows, 25 s segments), as fit does.
         Problem pf;
