@@ -532,16 +532,10 @@ class Explainer {
     FitOutcome f = refit(all_, freed, 15, 1);
     ++structures_;
     if (!std::isfinite(f.cost) || paper_at_end(f)) return o;
-    const double n_eff = n_eff_of_all(f);
-    const double gain = n_eff * std::log(std::max(f.cost, 1e-300) / std::max(o.cost, 1e-300)) +
-                        (f.n_params - o.n_params) * std::log(n_eff);
+    const double gain = bic_change(o.cost, o.n_params, f.cost, f.n_params, n_eff_of(f, all_));
     detail("explain: final: the paper's parameters freed on every segment: delta BIC %.1f%s", gain,
            gain < kAddBic ? ", kept" : "");
     return gain < kAddBic ? f : o;
-  }
-
-  double n_eff_of_all(const FitOutcome& o) const {
-    return effective_n(static_cast<double>(o.r.size()), lag1_autocorrelation(all_, o.r));
   }
 
   // A change of terrain placed on top of other effects may settle where it imitates them; the
@@ -577,8 +571,10 @@ class Explainer {
     return cand;
   }
 
-  double n_eff_of(const FitOutcome& o) const {
-    return effective_n(static_cast<double>(o.r.size()), lag1_autocorrelation(train_, o.r));
+  // The effective sample size of o's residuals over pr (the training segments unless said).
+  double n_eff_of(const FitOutcome& o) const { return n_eff_of(o, train_); }
+  static double n_eff_of(const FitOutcome& o, const Problem& pr) {
+    return effective_n(static_cast<double>(o.r.size()), lag1_autocorrelation(pr, o.r));
   }
 
   // A change of terrain that falls in a held-out segment: the training segments say only that it
@@ -642,9 +638,11 @@ class Explainer {
     return s;
   }
 
-  double delta_bic(const State& from, const State& to, double n_eff) const {
-    return n_eff * std::log(std::max(to.cost, 1e-300) / std::max(from.cost, 1e-300)) +
-           (to.n_params - from.n_params) * std::log(n_eff);
+  static double bic_change(double cost_from, int k_from, double cost_to, int k_to, double n_eff) {
+    return n_eff * std::log(std::max(cost_to, 1e-300) / std::max(cost_from, 1e-300)) + (k_to - k_from) * std::log(n_eff);
+  }
+  static double delta_bic(const State& from, const State& to, double n_eff) {
+    return bic_change(from.cost, from.n_params, to.cost, to.n_params, n_eff);
   }
 
   // Every candidate on top of s, jointly; the significant ones, best first, each after the
@@ -834,7 +832,7 @@ class Explainer {
       }
     }
     const double n = static_cast<double>(f.fit.r.size());
-    const double n_eff = f.fit.r.size() ? effective_n(n, lag1_autocorrelation(all_, f.fit.r)) : 1.0;
+    const double n_eff = f.fit.r.size() ? n_eff_of(f.fit, all_) : 1.0;
     res.final_fitted = fitted_of(f, f.fit.r.size() ? f.cost / std::max(1.0, n - f.n_params) * n / n_eff : 1.0);
     f.flagged = f.implausible = false;
     for (const FittedEffect& fe : res.final_fitted) {
