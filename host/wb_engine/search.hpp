@@ -137,6 +137,16 @@ struct ExplainStep {
   bool flagged = false;               // an implausible or unidentified parameter
   bool implausible = false;           // a value outside or at the end of its physical range
   bool paper_held = false;            // the paper's parameters held at its values, not refitted
+  // The split heldout_ratio is of: 1, the search's (every third segment held out, from the
+  // third on); 2 or 3 (the first or second of every three) on a branch taken on the other
+  // splits' second opinion (docs/workbench.md "explain").
+  int split = 1;
+  // Taken on that second opinion: refused by split 1's held-out segments (refused_heldout
+  // against refused_from for the structure before), it passed on splits 2 and 3 (split_heldout
+  // against split_from, split_delta_bic; index 0 is split 2).
+  bool second_opinion = false;
+  double refused_heldout = kNaN, refused_from = kNaN;
+  std::vector<double> split_heldout, split_from, split_delta_bic;
   std::vector<Candidate> alternatives;  // candidates this step nearly chose instead (near ties)
 };
 struct ExplainResult {

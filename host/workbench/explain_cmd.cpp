@@ -162,6 +162,15 @@ int run_explain(int argc, char** argv) {
         j.end_array();
         j.channels("heldout_ratio", s.heldout_ratio, r.active).num("heldout_combined", s.heldout_combined);
         j.num("delta_bic", s.delta_bic).boolean("flagged", s.flagged).boolean("paper_params_held", s.paper_held);
+        j.num("split", s.split);
+        if (s.second_opinion) {
+          j.begin_object("second_opinion").num("refused_heldout", s.refused_heldout).num("refused_from", s.refused_from);
+          j.begin_array("splits");
+          for (std::size_t k = 0; k < s.split_heldout.size(); ++k)
+            j.begin_object().num("split", static_cast<double>(k + 2)).num("heldout_combined", s.split_heldout[k])
+                .num("before", s.split_from[k]).num("delta_bic", s.split_delta_bic[k]).end_object();
+          j.end_array().end_object();
+        }
         json_fitted(j, "fitted", s.fitted);
         j.begin_array("alternatives");
         for (const auto& c : s.alternatives) {
@@ -214,6 +223,15 @@ int run_explain(int argc, char** argv) {
       if (s.index > 0) std::printf("  %9.1f%s", s.delta_bic, s.flagged ? "  FLAGGED" : "");
       std::printf("\n");
       for (const auto& d : s.dropped) std::printf("      - %s dropped: it no longer pays for itself\n", d.c_str());
+      if (s.second_opinion) {
+        std::printf("      (refused by the held-out segments alone: %.2f against %.2f before; taken because it\n"
+                    "      passes on the log's two other splits, each holding out another third of the segments:\n     ",
+                    s.refused_heldout, s.refused_from);
+        for (std::size_t k = 0; k < s.split_heldout.size(); ++k)
+          std::printf(" split %zu: %.2f against %.2f, delta BIC %.1f%s", k + 2, s.split_heldout[k], s.split_from[k],
+                      s.split_delta_bic[k], k + 1 < s.split_heldout.size() ? ";" : ".\n");
+        std::printf("      Held-out errors from here on are split %d's)\n", s.split);
+      }
       if (s.paper_held && s.index > 0 && !r.steps[static_cast<std::size_t>(s.index - 1)].paper_held)
         std::printf("      (the paper's parameters held at its values: refitted, they ran to the end of their range)\n");
       for (const auto& c : s.alternatives)
@@ -224,7 +242,9 @@ int run_explain(int argc, char** argv) {
                 "a candidate is taken when it gains more than 10 in BIC and lowers the held-out error by 2 %%, the\n"
                 "lowest held-out error first (a fit with a value at or beyond its physical range counted 15 %% worse).\n"
                 "Where the paper's parameters run to the end of their range, the structure is fitted with them held\n"
-                "at the paper's values too, and the one with the lower held-out error is taken.\n");
+                "at the paper's values too, and the one with the lower held-out error is taken. Where the held-out\n"
+                "segments alone refuse the candidate that gains most in BIC, it is taken if it passes on both other\n"
+                "splits of the log (each holding out another third of its segments).\n");
     std::printf("\nfinal model, refitted on every segment; error as `auger compare --model` computes it (segments of\n"
                 "25 s, multiples of the noise floor):");
     for (int c = 0; c < kChannels; ++c)
