@@ -304,10 +304,8 @@ class Explainer {
     const std::vector<FitParam> all = fit_params(s.fit.JtJ.size() ? s.fit : plain, s.fit.JtJ.size() ? s2_scale : 1.0);
     std::size_t k = 0;
     for (const Part& p : s.parts) {
-      FittedEffect fe;
-      fe.effect = p.entry ? label(p, ctx_.size()) : p.id;
-      for (std::size_t i = 0; i < p.specs.size() && k < all.size(); ++i) fe.params.push_back(all[k++]);
-      fe.description = describe(p, base_for(p));
+      FittedEffect fe = fitted_effect(p, base_for(p), all, k);
+      if (p.entry) fe.effect = label(p, ctx_.size());
       if (!p.entry && ctx_.size() > 1) fe.description += " (terrain " + p.terrain + ")";
       out.push_back(fe);
     }

@@ -130,6 +130,9 @@ ErrorStats segments_error(const Model& m, const Dataset& d, const Segments& segs
 // Parameter values with 1-sigma uncertainties (Gauss-Newton covariance, times s2_scale).
 std::vector<FitParam> fit_params(const FitOutcome& o, double s2_scale);
 std::string describe(const Part& p, const Model& base);
+// p as reported: its id, its parameters (the next p.specs.size() of `all`, from k on; k advances),
+// its description, and whether it was held at its values.
+FittedEffect fitted_effect(const Part& p, const Model& base, const std::vector<FitParam>& all, std::size_t& k);
 // Which experiment separates two effects that explain a log equally well.
 std::string tell_apart(const std::string& a, const std::string& b);
 // The library's candidates for this log (effects that need an IMU heading only with one; a

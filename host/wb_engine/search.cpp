@@ -885,6 +885,15 @@ std::string describe(const Part& p, const Model& base) {
   return p.entry->describe ? p.entry->describe(p.values) : p.entry->doc;
 }
 
+FittedEffect fitted_effect(const Part& p, const Model& base, const std::vector<FitParam>& all, std::size_t& k) {
+  FittedEffect fe;
+  fe.effect = p.id;
+  for (std::size_t i = 0; i < p.specs.size() && k < all.size(); ++i) fe.params.push_back(all[k++]);
+  fe.description = describe(p, base);
+  fe.held = p.free.empty();
+  return fe;
+}
+
 std::string tell_apart(const std::string& a, const std::string& b) {
   auto is = [&](const char* x, const char* y) { return (a == x && b == y) || (a == y && b == x); };
   auto any = [&](std::initializer_list<const char*> xs) {

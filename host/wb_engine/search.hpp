@@ -31,6 +31,7 @@ struct FittedEffect {
   std::string effect;               // identifier, docs/workbench.md
   std::vector<FitParam> params;     // as written to a model file
   std::string description;          // plain words, e.g. "a constant force of 15 N opposing ..."
+  bool held = false;                // its values held, not fitted (the paper's, where explain held them)
 };
 
 struct Candidate {

@@ -141,10 +141,7 @@ DiagnoseResult diagnose(const Dataset& full, ModelChoice mc, const DiagnoseOptio
     const std::vector<FitParam> all = fit_params(o, s2 * scale);
     std::size_t k = 0;
     for (std::size_t p = 0; p < o.parts.size(); ++p) {
-      FittedEffect fe;
-      fe.effect = o.parts[p].id;
-      for (std::size_t q = 0; q < o.parts[p].specs.size(); ++q) fe.params.push_back(all[k++]);
-      fe.description = describe(o.parts[p], base);
+      const FittedEffect fe = fitted_effect(o.parts[p], base, all, k);
       c.flagged = c.flagged || any_flag(fe.params);
       c.implausible = c.implausible || any_implausible(fe.params);
       if (p + 1 == o.parts.size()) c.fitted = fe;
@@ -265,11 +262,7 @@ FitResult fit(const Dataset& full, ModelChoice mc, const std::vector<std::string
   const std::vector<FitParam> all_params = fit_params(o, o.cost / std::max(1.0, n - o.n_params) * n / n_eff);
   std::size_t k = 0;
   for (const Part& p : o.parts) {
-    FittedEffect fe;
-    fe.effect = p.id;
-    for (std::size_t i = 0; i < p.specs.size(); ++i) fe.params.push_back(all_params[k++]);
-    fe.description = describe(p, base);
-    res.effects.push_back(fe);
+    res.effects.push_back(fitted_effect(p, base, all_params, k));
   }
   res.after = mc;
   res.after.model = build(base, o.parts);
@@ -297,8 +290,7 @@ ModelFile fitted_model_file(const Model& m, const Dataset& d, const std::vector<
   if (t.params.name.empty()) t.params.name = "sand";
   if (d.gantry) t.params.D_psi = kNaN;
   bool refitted = false;
-  for (const auto& fe : effects)
-    refitted = refitted || (fe.effect == kPaperParams && fe.description.find("re-identified") != std::string::npos);
+  for (const auto& fe : effects) refitted = refitted || (fe.effect == kPaperParams && !fe.held);
   t.comment = refitted ? "paper_params (eqs. (15)-(17)), re-identified" : "paper_params (eqs. (15)-(17)), not refitted here";
   f.terrains.push_back(t);
   for (const auto& e : m.effects) {

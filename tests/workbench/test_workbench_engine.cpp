@@ -11,7 +11,7 @@
 #include <random>
 #include <sstream>
 
-#include "fitting.hpp"  // flag_params: the plausibility rule itself
+#include "fitting.hpp"  // flag_params (the plausibility rule itself), make_part, fitted_effect
 #include "workbench.hpp"
 
 using namespace auger;
@@ -612,4 +612,22 @@ TEST_CASE("explain: several logs of one robot are explained together with shared
   CHECK(a[0].second == b[0].second);
   CHECK(a[0].second == Approx(8).epsilon(0.15));
   for (int c = 0; c < kChannels; ++c) CHECK(r.final_ratio[static_cast<std::size_t>(c)] < 1.2);
+}
+
+TEST_CASE("model file: the terrain's comment says whether the paper's parameters were refitted or held") {
+  const Model m = make_model(RobotParams{}, kSand);
+  SynthOptions o;
+  o.seconds = 10;
+  const Dataset d = synth(m, o);
+  search::Part paper = search::make_part(search::kPaperParams, m, d);
+  REQUIRE_FALSE(paper.free.empty());
+  auto comment = [&](const search::Part& p) {
+    std::size_t k = 0;
+    const FittedEffect fe = search::fitted_effect(p, m, {}, k);
+    return fitted_model_file(m, d, {fe}).terrains.front().comment;
+  };
+  CHECK(comment(paper).find("re-identified") != std::string::npos);
+  paper.free.clear();  // as explain holds them
+  CHECK(comment(paper).find("not refitted here") != std::string::npos);
+  CHECK(fitted_model_file(m, d, {}).terrains.front().comment.find("not refitted here") != std::string::npos);
 }
