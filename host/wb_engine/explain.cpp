@@ -649,13 +649,18 @@ class Explainer {
     s.fit = std::move(o);
     s.history = parent.history;
     heldout(s);
-    const double n = static_cast<double>(s.fit.r.size());
-    const double s2 = s.cost / std::max(1.0, n - s.n_params) * n / n_eff_of(s.fit, fit_on(s.fold));
-    for (const FittedEffect& fe : fitted_of(s, s2)) {
+    for (const FittedEffect& fe : fitted_of(s, s2_scale(s))) {
       s.flagged = s.flagged || any_flag(fe.params);
       s.implausible = s.implausible || any_implausible(fe.params);
     }
     return s;
+  }
+
+  // The residual variance of s's fit, times n / n_eff over the segments it was fitted on
+  // (fit_params' s2_scale).
+  double s2_scale(const State& s) const {
+    const double n = static_cast<double>(s.fit.r.size());
+    return s.cost / std::max(1.0, n - s.n_params) * n / n_eff_of(s.fit, fit_on(s.fold));
   }
 
   static double bic_change(double cost_from, int k_from, double cost_to, int k_to, double n_eff) {
@@ -751,7 +756,8 @@ class Explainer {
     for (std::size_t j = 0; j < order.size() && static_cast<int>(out.size()) < opt_.beam; ++j) {
       const std::size_t i = order[j];
       const bool on_other = cands[i].fold != s.fold;
-      State e = backward(std::move(cands[i]), added[i], on_other ? other.n_eff[static_cast<std::size_t>(other.best)] : n_eff);
+      const double n_eff_i = on_other ? n_eff_of(cands[i].fit, fit_on(cands[i].fold)) : n_eff;
+      State e = backward(std::move(cands[i]), added[i], n_eff_i);
       ExplainStep st;
       st.index = static_cast<int>(s.history.size());
       st.added = added[i];
@@ -776,8 +782,7 @@ class Explainer {
           st.split_delta_bic.push_back(other.delta_bic[fi]);
         }
       }
-      const double n = static_cast<double>(e.fit.r.size());
-      st.fitted = fitted_of(e, e.cost / std::max(1.0, n - e.n_params) * n / n_eff_of(e.fit, fit_on(e.fold)));
+      st.fitted = fitted_of(e, s2_scale(e));
       for (std::size_t k = 0; k < sig.size(); ++k)
         if (k != j && (tied[k] || (j > 0 && k == 0))) {
           st.alternatives.push_back(sig[k]);
@@ -803,10 +808,11 @@ class Explainer {
   // third): the structure so far and the candidate refitted on each split's training segments
   // and judged on its held-out ones. The candidate is taken when it passes on both as any
   // candidate must (10 in BIC, 2 % lower held-out error, plausible); its branch then stays on the
-  // first of them, so that every later step is judged on segments its fits did not see.
+  // one that predicted it best, so that every later step is judged on segments its fits did not
+  // see.
   struct OtherSplits {
     std::array<State, kFolds> parent, cand;  // refitted on fold f's training segments (f = 1, 2)
-    std::array<double, kFolds> delta_bic{}, n_eff{};
+    std::array<double, kFolds> delta_bic{};
     double refused_heldout = kNaN;
     int best = 1;  // the split whose fit predicts its held-out segments best: the branch goes on there
   };
@@ -831,8 +837,7 @@ class Explainer {
       ++structures_;
       if (!std::isfinite(o.cost)) return false;
       out.cand[fi] = make_state(p, std::move(o));
-      out.n_eff[fi] = n_eff_of(out.cand[fi].fit, fit_on(f));
-      out.delta_bic[fi] = delta_bic(p, out.cand[fi], out.n_eff[fi]);
+      out.delta_bic[fi] = delta_bic(p, out.cand[fi], n_eff_of(out.cand[fi].fit, fit_on(f)));
       out.parent[fi] = std::move(p);
       const State& a = out.cand[fi];
       pass = out.delta_bic[fi] < kAddBic && a.h < out.parent[fi].h * (1.0 - kAddHeldout) && !a.implausible;
