@@ -119,19 +119,95 @@ double estimate_noise(const std::vector<double>& t_s, const std::vector<double>&
   return std::max(1.4826 * *mid, 1e-9);  // MAD of a normal
 }
 
+namespace {
+
+// The camera noise's autoregressive filter from the same differences: their autocovariance at
+// lags of 1..kMaxOrder frames is the camera's own (the averaged IMU noise of two frames does not
+// overlap), at lag 0 it is the camera's whole variance (passed in). Levinson-Durbin, the order by
+// the Bayesian information criterion: a generic description of the colour, not the form of any
+// one camera, and no more terms than the data carry (Akaike's criterion took 6 on a 60 s log,
+// whose extra terms, fitted to the autocovariance's own scatter, left the camera's true noise
+// far from white).
+WhiteningFilter camera_noise_filter(const std::vector<double>& t_s, const std::vector<double>& e,
+                                    const std::vector<long>& group, double var0, double frame_s) {
+  constexpr int kMaxOrder = 6;
+  WhiteningFilter f;
+  std::array<double, kMaxOrder + 1> gamma{};
+  gamma[0] = var0;
+  for (int lag = 1; lag <= kMaxOrder; ++lag) {
+    double acc = 0;
+    std::size_t pairs = 0;
+    for (std::size_t i = 0; i < e.size(); ++i)
+      for (std::size_t j = i + 1; j < e.size() && group[j] == group[i] && t_s[j] - t_s[i] < (lag + 0.5) * frame_s; ++j)
+        if (t_s[j] - t_s[i] > (lag - 0.5) * frame_s) {
+          acc += e[i] * e[j];
+          ++pairs;
+        }
+    if (pairs < 100) return f;
+    gamma[static_cast<std::size_t>(lag)] = acc / static_cast<double>(pairs);
+  }
+  // Levinson-Durbin: a[1..p] of e_k = sum a_j e_{k-j} + w_k, innovation variance v.
+  // The autocovariances scatter as if from n (1 - rho_1) / (1 + rho_1) independent samples, not
+  // n: the criterion counts those.
+  const double rho1 = std::clamp(gamma[1] / gamma[0], 0.0, 0.99);
+  const double n_eff = static_cast<double>(e.size()) * (1.0 - rho1) / (1.0 + rho1);
+  std::vector<double> a, best;
+  double v = gamma[0], best_bic = n_eff * std::log(v);
+  for (int p = 1; p <= kMaxOrder; ++p) {
+    double acc = gamma[static_cast<std::size_t>(p)];
+    for (int j = 1; j < p; ++j) acc -= a[static_cast<std::size_t>(j - 1)] * gamma[static_cast<std::size_t>(p - j)];
+    const double k = acc / v;
+    if (!(std::fabs(k) < 1.0)) break;  // not a valid autocovariance (estimation noise)
+    std::vector<double> next(static_cast<std::size_t>(p));
+    for (int j = 1; j < p; ++j)
+      next[static_cast<std::size_t>(j - 1)] = a[static_cast<std::size_t>(j - 1)] - k * a[static_cast<std::size_t>(p - j - 1)];
+    next[static_cast<std::size_t>(p - 1)] = k;
+    a = next;
+    v *= 1.0 - k * k;
+    const double bic = n_eff * std::log(v) + p * std::log(n_eff);
+    if (bic < best_bic) {
+      best_bic = bic;
+      best = a;
+    }
+  }
+  f.ar = best;
+  f.frame_s = frame_s;
+  return f;
+}
+
+}  // namespace
+
 NoiseColour camera_noise_colour(const Dataset& d, const ChannelValues& white) {
   // A tracking camera's error is often coloured (it wanders over a fraction of a second), and
   // the sample-to-sample estimate above sees only its fast part. The IMU heading is a second,
   // independent heading: while the robot does not turn (so a time offset between the two does
-  // not matter), camera psi minus IMU heading, its mean and trend removed per 25 s stretch (an
+  // not matter), camera psi minus IMU heading, its mean and trend removed per 60 s of log (an
   // IMU bias or drift), has the variance of both sensors' whole errors. Less the IMU's own
   // (white) noise, that is the camera's whole heading noise; its ratio to the fast part is the
   // colour factor, taken to hold for x and y too (one pose solver makes all three).
+  // An IMU usually reports faster than the camera: the IMU headings within half a camera period
+  // of a frame are averaged (n of them), so its white noise enters the difference with variance
+  // white^2 / n. On a 60 s log that halves the estimate's spread: the IMU's own noise, and its
+  // chance correlation with the camera's, would otherwise be as large as what is estimated.
   NoiseColour nc;
   if (d.gantry || !d.active[kPsi] || !d.active[kImuPsi] || !finite(white[kPsi]) || !finite(white[kImuPsi])) return nc;
   const bool have_r = d.imu_r_radps.size() == d.size();
+  std::vector<double> frame_dt;
+  for (std::size_t k = 0, last = d.size(); k < d.size(); ++k) {
+    if (!finite(d.meas[k][kPsi])) continue;
+    if (last < d.size()) frame_dt.push_back(d.t_s[k] - d.t_s[last]);
+    last = k;
+  }
+  if (frame_dt.empty()) return nc;
+  auto mid_dt = frame_dt.begin() + static_cast<std::ptrdiff_t>(frame_dt.size() / 2);
+  std::nth_element(frame_dt.begin(), mid_dt, frame_dt.end());
+  const double half_frame_s = 0.5 * *mid_dt * (1.0 - 1e-6);
   std::vector<double> t, diff;
-  double sum = 0;
+  double sum = 0, imu_share = 0;  // imu_share: sum of 1 / n over the pairs kept
+  std::vector<double> stretch_share;
+  std::vector<double> kept_t, kept_e;  // every detrended difference, with its time
+  std::vector<long> kept_group;
+  long group = -1;
   std::size_t n = 0;
   auto flush = [&]() {
     if (diff.size() >= 40) {
@@ -152,15 +228,19 @@ NoiseColour camera_noise_colour(const Dataset& d, const ChannelValues& white) {
       for (std::size_t i = 0; i < diff.size(); ++i) {
         const double e = diff[i] - md - slope * (t[i] - mt);
         sum += e * e;
+        imu_share += stretch_share[i];
+        kept_t.push_back(t[i]);
+        kept_e.push_back(e);
+        kept_group.push_back(group);
         ++n;
       }
     }
     t.clear();
     diff.clear();
+    stretch_share.clear();
   };
   // Samples grouped by 60 s of log time (not by contiguous stretch: the mean of a short stretch
   // would take away much of a slow noise's variance).
-  long group = -1;
   for (std::size_t k = 0; k < d.size(); ++k) {
     const auto& m = d.meas[k];
     if (!finite(m[kPsi]) || !finite(m[kImuPsi])) continue;
@@ -174,17 +254,29 @@ NoiseColour camera_noise_colour(const Dataset& d, const ChannelValues& white) {
       flush();
       group = g;
     }
+    // The IMU's mean heading over the frame's neighbourhood (angles relative to this row's).
+    double acc = 0;
+    int in = 0;
+    auto add = [&](std::size_t j) {
+      if (!finite(d.meas[j][kImuPsi])) return;
+      acc += wrap_angle(d.meas[j][kImuPsi] - m[kImuPsi]);
+      ++in;
+    };
+    for (std::size_t j = k; j-- > 0 && d.t_s[k] - d.t_s[j] <= half_frame_s;) add(j);
+    for (std::size_t j = k; j < d.size() && d.t_s[j] - d.t_s[k] <= half_frame_s; ++j) add(j);
     t.push_back(d.t_s[k]);
-    diff.push_back(wrap_angle(m[kPsi] - m[kImuPsi]));
+    diff.push_back(wrap_angle(m[kPsi] - m[kImuPsi] - acc / in));
+    stretch_share.push_back(1.0 / in);
   }
   flush();
   nc.samples = n;
   if (n < 200) return nc;
-  const double whole2 = sum / static_cast<double>(n) - white[kImuPsi] * white[kImuPsi];
+  const double whole2 = sum / static_cast<double>(n) - white[kImuPsi] * white[kImuPsi] * imu_share / static_cast<double>(n);
   if (!(whole2 > 0)) return nc;
   nc.factor = std::sqrt(whole2) / white[kPsi];
   // Within what white noise gives (the estimate's own spread is a few %): not coloured.
   nc.applied = nc.factor > 1.25;
+  if (nc.applied) nc.whiten = camera_noise_filter(kept_t, kept_e, kept_group, whole2, 2.0 * half_frame_s);
   return nc;
 }
 

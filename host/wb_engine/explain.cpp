@@ -40,6 +40,7 @@ struct LogCtx {
   ModelChoice choice;
   Model base;    // the given model without its effects
   ChannelValues noise{};
+  WhiteningFilter whiten;  // the camera noise's colour, for the residual tests
   Segments all;
   // Per fold (Explainer::other_splits): the segments fitted on and those judged on; fold 0 is
   // the search's split (every third segment held out), folds 1 and 2 hold out the other thirds.
@@ -95,7 +96,9 @@ class Explainer {
       c.full = &logs[i];
       c.choice = models[i];
       c.base = without_effects(models[i].model);
-      c.noise = estimate_noise_floor(logs[i]);
+      NoiseColour colour;
+      c.noise = estimate_noise_floor(logs[i], &colour);
+      c.whiten = colour.whiten;
       c.data = decimate_for_search(logs[i]);
       for (int ch = 0; ch < kChannels; ++ch)
         if (c.data.active[static_cast<std::size_t>(ch)] && !std::isfinite(c.noise[static_cast<std::size_t>(ch)]))
@@ -246,7 +249,7 @@ class Explainer {
   bool tests_pass(const State& s) {
     for (std::size_t i = 0; i < ctx_.size(); ++i) {
       const Model m = build(ctx_[i].base, s.parts, static_cast<int>(i));
-      const ResidualTests t = residual_tests(m, *ctx_[i].full, ctx_[i].noise);
+      const ResidualTests t = residual_tests(m, *ctx_[i].full, ctx_[i].noise, ctx_[i].whiten);
       if (!t.white || !t.independent) return false;
     }
     return true;
@@ -962,7 +965,7 @@ class Explainer {
         sum[cc] += e.ratio_to_noise[cc] * e.ratio_to_noise[cc] * static_cast<double>(e.n[cc]);
         cnt[cc] += static_cast<double>(e.n[cc]);
       }
-      res.tests.push_back(residual_tests(mc.model, *ctx_[i].full, ctx_[i].noise));
+      res.tests.push_back(residual_tests(mc.model, *ctx_[i].full, ctx_[i].noise, ctx_[i].whiten));
       if (i == 0) {
         res.where = worst_windows(window_errors(mc.model, *ctx_[i].full, ctx_[i].noise, 5.0, sim_options_for(mc.model)), 5);
         std::vector<RegimeRow> rows = error_by_regime(mc.model, *ctx_[i].full, p, ctx_[i].noise);

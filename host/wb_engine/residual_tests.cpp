@@ -29,9 +29,48 @@ double two_sided_z(double p) {
   return 0.5 * (lo + hi);
 }
 
+// Box-Jenkins prewhitening: residual and input both through w_k = x_k - sum_j a_j x_{k-j}, for
+// samples whose p predecessors are the frames just before them in the same run (a dropout or a
+// segment's start begins a new run, p samples later).
+void prewhiten(const WhiteningFilter& f, std::vector<double>& e, const std::vector<double>& t_s, std::vector<Vec3>& u,
+               std::vector<std::size_t>& run_start) {
+  const std::size_t p = f.ar.size();
+  std::vector<double> we;
+  std::vector<Vec3> wu;
+  std::vector<std::size_t> starts;
+  std::size_t run = 0;
+  bool broken = true;
+  for (std::size_t i = 0; i < e.size(); ++i) {
+    while (run + 1 < run_start.size() && i >= run_start[run + 1]) ++run;
+    bool ok = i >= run_start[run] + p;
+    for (std::size_t j = 1; ok && j <= p; ++j) {
+      const double gap = t_s[i] - t_s[i - j];
+      ok = std::fabs(gap - static_cast<double>(j) * f.frame_s) < 0.5 * f.frame_s;
+    }
+    if (!ok) {
+      broken = true;
+      continue;
+    }
+    double x = e[i];
+    Vec3 v = u[i];
+    for (std::size_t j = 1; j <= p; ++j) {
+      x -= f.ar[j - 1] * e[i - j];
+      v -= f.ar[j - 1] * u[i - j];
+    }
+    if (broken) starts.push_back(we.size());
+    broken = false;
+    we.push_back(x);
+    wu.push_back(v);
+  }
+  e = std::move(we);
+  u = std::move(wu);
+  run_start = std::move(starts);
+}
+
 }  // namespace
 
-ResidualTests residual_tests(const Model& model, const Dataset& data, const ChannelValues& noise, int max_lag) {
+ResidualTests residual_tests(const Model& model, const Dataset& data, const ChannelValues& noise,
+                             const WhiteningFilter& whiten, int max_lag) {
   ResidualTests t;
   t.max_lag = max_lag;
   Prediction p;
@@ -43,7 +82,7 @@ ResidualTests residual_tests(const Model& model, const Dataset& data, const Chan
     if (!data.active[cc]) continue;
     // Residuals of each segment with the segment's mean removed (its start anchor is a mean of
     // noisy poses, a constant that would look like correlation), in order of measurement.
-    std::vector<double> e;
+    std::vector<double> e, t_s;
     std::vector<Vec3> u;
     std::vector<std::size_t> run_start;
     for (std::size_t s = 0; s < p.segment_start.size(); ++s) {
@@ -56,10 +95,12 @@ ResidualTests residual_tests(const Model& model, const Dataset& data, const Chan
         double d = q - m;
         if (c >= kPsi) d = wrap_angle(d);
         e.push_back(d / noise[cc]);
+        t_s.push_back(data.t_s[k]);
         u.push_back(model.SB * data.omega_rpm[k]);
       }
       if (e.size() - first < static_cast<std::size_t>(2 * max_lag + 2)) {
         e.resize(first);
+        t_s.resize(first);
         u.resize(first);
         continue;
       }
@@ -71,6 +112,10 @@ ResidualTests residual_tests(const Model& model, const Dataset& data, const Chan
     }
     ChannelResidualTest ct;
     ct.channel = c;
+    if (c != kImuPsi && !whiten.ar.empty()) {
+      prewhiten(whiten, e, t_s, u, run_start);
+      ct.whitened_order = static_cast<int>(whiten.ar.size());
+    }
     ct.n = e.size();
     if (e.size() < 50) {
       t.channels.push_back(ct);
@@ -150,7 +195,15 @@ std::string describe_residual_tests(const ResidualTests& t) {
       s += buf;
     }
   }
-  return s.empty() ? "residuals white and independent of the inputs" : s;
+  if (s.empty()) s = "residuals white and independent of the inputs";
+  for (const auto& ct : t.channels)
+    if (ct.n >= 50 && ct.whitened_order > 0) {
+      std::snprintf(buf, sizeof buf, " (the camera's channels tested with the camera noise's own colour filtered out, AR(%d))",
+                    ct.whitened_order);
+      s += buf;
+      break;
+    }
+  return s;
 }
 
 }  // namespace auger::wb

@@ -108,13 +108,17 @@ struct ChannelResidualTest {
   double independence_z = 0, independence_limit = 0;  // largest |correlation| sqrt(n) with an input
   int worst_input = 0, worst_lag = 0;  // input: drive force x, y, yaw torque (eq. (7)); lag in samples
   bool independent = true;
+  int whitened_order = 0;  // > 0: tested after the camera noise's AR filter of that order
 };
 struct ResidualTests {
   int max_lag = 10;
   std::vector<ChannelResidualTest> channels;
   bool white = true, independent = true;
 };
-ResidualTests residual_tests(const Model& model, const Dataset& data, const ChannelValues& noise, int max_lag = 10);
+// With a whitening filter (NoiseColour::whiten) the camera's channels and the inputs are both
+// filtered by it first (Box and Jenkins' prewhitening): coloured camera noise is then no finding.
+ResidualTests residual_tests(const Model& model, const Dataset& data, const ChannelValues& noise,
+                             const WhiteningFilter& whiten = {}, int max_lag = 10);
 std::string describe_residual_tests(const ResidualTests& t);  // plain words, "" never
 
 // ---- explain (explain.cpp): the loop compare -> diagnose -> fit -> diagnose ... in one command.

@@ -492,7 +492,7 @@ CompareResult compare(const Dataset& data, ModelChoice mc) {
   CompareResult r;
   r.model = std::move(mc);
   const Model& m = r.model.model;
-  r.noise_floor = estimate_noise_floor(data);
+  r.noise_floor = estimate_noise_floor(data, &r.noise_colour);
   SimOptions o = sim_options_for(m);
   SimOptions ol = o;
   ol.segment_s = 0;  // Table 4: open loop from the first pose

@@ -92,6 +92,11 @@ int run_compare(int argc, char** argv) {
       j.str("terrain", r.model.terrain);
       j.num("duration_s", d.duration_s()).num("samples", static_cast<double>(d.size()));
       j.channels("noise_floor", r.noise_floor, d.active);
+      const NoiseColour& nc = r.noise_colour;
+      j.begin_object("noise_colour").num("factor", nc.factor).num("pairs", static_cast<double>(nc.samples));
+      j.boolean("applied", nc.applied).num("frame_s", nc.whiten.frame_s).begin_array("ar");
+      for (double a : nc.whiten.ar) j.num(nullptr, a);
+      j.end_array().end_object();
       json_stats(j, "open_loop", r.open_loop_err, d);
       json_stats(j, "segments", r.segments_err, d);
       if (d.active[kImuPsi]) json_stats(j, "imu_heading", r.imu_heading_err, d);
@@ -121,6 +126,12 @@ int run_compare(int argc, char** argv) {
     for (int c = 0; c < kChannels; ++c)
       if (d.active[static_cast<std::size_t>(c)])
         std::printf("  %s %s", channel_name(c), with_unit(r.noise_floor[static_cast<std::size_t>(c)], channel_unit(c), 3).c_str());
+    if (r.noise_colour.applied) {
+      std::printf("\n  the camera's noise is coloured: x, y, psi are %.2f times their sample-to-sample spread (from %zu "
+                  "camera / IMU heading pairs while not turning); its filter for the residual tests: AR(%zu) per %.3g s frame,",
+                  r.noise_colour.factor, r.noise_colour.samples, r.noise_colour.whiten.ar.size(), r.noise_colour.whiten.frame_s);
+      for (double a : r.noise_colour.whiten.ar) std::printf(" %.3f", a);
+    }
     std::vector<Variant> vs = {{"open loop (Table 4)", &r.open_loop_err}, {"segments of 25 s", &r.segments_err}};
     if (d.active[kImuPsi]) vs.push_back({"IMU heading (Fig. 9)", &r.imu_heading_err});
     vs.push_back({"one step ahead", &r.one_step_err});

@@ -59,12 +59,12 @@ PAIR_CLASSES = [
 # (class, seed): the issue's example, and three cases the search once got wrong: stick-slip must
 # come in place of the Coulomb friction chosen before it (seed 2); a change of terrain after a
 # saturation that imitated it, found only when its time is profiled with everything refitted
-# (seed 0); one that falls inside a held-out segment (seed 3); and a slope that the held-out
-# segments alone refused after stick-slip (a breakaway placed by a hair in one of them), taken on
-# the other splits' second opinion (stick-slip seed 4).
+# (seed 0); and a slope that the held-out segments alone refused after stick-slip (a breakaway
+# placed by a hair in one of them), taken on the other splits' second opinion (stick-slip seed 4).
+# A change that falls inside a held-out segment (seed 3 of that pair) has its own unit test
+# ("explain: a change of terrain inside a held-out segment ...") and runs in test-full.
 SAMPLE_PAIRS = [(("screw_dead_band", "resistance_offset"), 0), (("stick_slip_friction", "terrain_slope"), 2),
-                (("stick_slip_friction", "terrain_slope"), 4),
-                (("terrain_change", "traction_saturation"), 0), (("terrain_change", "traction_saturation"), 3)]
+                (("stick_slip_friction", "terrain_slope"), 4), (("terrain_change", "traction_saturation"), 0)]
 
 FIL_CASES = [(terrain, drive) for terrain in ("sand", "frozen_grass") for drive in ("square", "diagonal", "manual")]
 SAMPLE_FIL = [("sand", "square")]
