@@ -132,19 +132,22 @@ WhiteningFilter camera_noise_filter(const std::vector<double>& t_s, const std::v
                                     const std::vector<long>& group, double var0, double frame_s) {
   constexpr int kMaxOrder = 6;
   WhiteningFilter f;
-  std::array<double, kMaxOrder + 1> gamma{};
+  // Every pair within kMaxOrder frames of each other in one group, once, to the lag of its
+  // nearest whole number of frames.
+  std::array<double, kMaxOrder + 1> gamma{}, acc{};
+  std::array<std::size_t, kMaxOrder + 1> pairs{};
+  for (std::size_t i = 0; i < e.size(); ++i)
+    for (std::size_t j = i + 1; j < e.size() && group[j] == group[i] && t_s[j] - t_s[i] < (kMaxOrder + 0.5) * frame_s; ++j) {
+      const double frames = (t_s[j] - t_s[i]) / frame_s;
+      const double lag = std::floor(frames + 0.5);
+      if (lag < 1 || !(std::fabs(frames - lag) < 0.5)) continue;
+      acc[static_cast<std::size_t>(lag)] += e[i] * e[j];
+      ++pairs[static_cast<std::size_t>(lag)];
+    }
   gamma[0] = var0;
-  for (int lag = 1; lag <= kMaxOrder; ++lag) {
-    double acc = 0;
-    std::size_t pairs = 0;
-    for (std::size_t i = 0; i < e.size(); ++i)
-      for (std::size_t j = i + 1; j < e.size() && group[j] == group[i] && t_s[j] - t_s[i] < (lag + 0.5) * frame_s; ++j)
-        if (t_s[j] - t_s[i] > (lag - 0.5) * frame_s) {
-          acc += e[i] * e[j];
-          ++pairs;
-        }
-    if (pairs < 100) return f;
-    gamma[static_cast<std::size_t>(lag)] = acc / static_cast<double>(pairs);
+  for (std::size_t lag = 1; lag <= kMaxOrder; ++lag) {
+    if (pairs[lag] < 100) return f;
+    gamma[lag] = acc[lag] / static_cast<double>(pairs[lag]);
   }
   // Levinson-Durbin: a[1..p] of e_k = sum a_j e_{k-j} + w_k, innovation variance v.
   // The autocovariances scatter as if from n (1 - rho_1) / (1 + rho_1) independent samples, not

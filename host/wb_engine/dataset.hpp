@@ -46,15 +46,15 @@ struct Dataset {
 // Throws auger::LogError naming file, line and column.
 Dataset load_dataset(const std::string& path);
 
-// Coloured camera noise (docs/workbench.md "Noise floor"): the camera heading against the IMU
-// heading while the robot does not turn gives the camera's whole heading noise; factor is its
-// ratio to the sample-to-sample estimate, applied to x, y and psi when above 1.25.
 // Coloured noise as an autoregressive filter over camera frames: w_k = e_k - sum_j ar[j-1]
 // e_{k-j} is white (empty ar: the noise is white already). The residual tests whiten by it.
 struct WhiteningFilter {
   std::vector<double> ar;
   double frame_s = 0;  // the camera's frame period the lags count
 };
+// Coloured camera noise (docs/workbench.md "Noise floor"): the camera heading against the IMU
+// heading while the robot does not turn gives the camera's whole heading noise; factor is its
+// ratio to the sample-to-sample estimate, applied to x, y and psi when above 1.25.
 struct NoiseColour {
   double factor = 1.0;
   std::size_t samples = 0;  // camera/IMU pairs compared (fewer than 200: not estimated)

@@ -582,8 +582,8 @@ class Explainer {
 
   // A structure that held the paper's parameters because the training segments alone could not
   // place them: on every segment they may be identified. Freed there, they are a candidate when
-  // they stay inside their range and gain strongly (10 in BIC, as an effect must); `finish` keeps
-  // them only if, polished, they predict the 25 s segments no worse than held.
+  // they stay inside their range and gain strongly (10 in BIC, as an effect must); `final_fit`
+  // keeps them only if, polished, they predict the 25 s segments 2 % better than held.
   bool free_paper_on_all(const FitOutcome& o, FitOutcome& freed_out) {
     std::vector<Part> freed = o.parts;
     for (Part& p : freed)
