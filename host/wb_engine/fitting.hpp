@@ -1,6 +1,6 @@
 // The effect search's machinery (search.hpp is its public side), shared by diagnose and fit
 // (search.cpp, search_diagnose.cpp) and explain (explain.cpp); internal to the workbench engine
-// (docs/workbench.md "How effects are fitted").
+// (docs/workbench.md "diagnose", point 1).
 // A model under test is a list of Parts (the paper's parameters, library effects), fitted by
 // simulation error over segments of one or more logs (a Problem) with Levenberg-Marquardt.
 #pragma once
@@ -94,6 +94,9 @@ struct FitOutcome {
   int sims = 0;
 };
 FitOutcome levenberg_marquardt(const Problem& pr, std::vector<Part> parts, int max_iter);
+// The bounds of the search: a parameter's own bounds and its physical range, the stricter.
+double search_lower(const ParamSpec& s);
+double search_upper(const ParamSpec& s);
 // Levenberg-Marquardt restarted with a fresh damping while it still gains (a stalled step is
 // often a poor finite-difference direction, not the optimum).
 FitOutcome refit(const Problem& pr, std::vector<Part> parts, int max_iter, int restarts = 3);
