@@ -44,9 +44,12 @@ Explainer::Explainer(const std::vector<Dataset>& logs, const std::vector<ModelCh
     if (c.all.empty()) throw std::runtime_error(logs[i].path + ": no measured pose to start a simulation from");
   }
   for (int f = 0; f < kFolds; ++f)
-    for (std::size_t i = 0; i < ctx_.size(); ++i)
+    for (std::size_t i = 0; i < ctx_.size(); ++i) {
       add_log(fit_[static_cast<std::size_t>(f)], ctx_[i].data, *ctx_[i].full, ctx_[i].base, ctx_[i].noise,
               ctx_[i].fit[static_cast<std::size_t>(f)], static_cast<int>(i));
+      add_log(judge_[static_cast<std::size_t>(f)], ctx_[i].data, *ctx_[i].full, ctx_[i].base, ctx_[i].noise,
+              ctx_[i].judge[static_cast<std::size_t>(f)], static_cast<int>(i));
+    }
   for (std::size_t i = 0; i < ctx_.size(); ++i)
     add_log(all_, ctx_[i].data, *ctx_[i].full, ctx_[i].base, ctx_[i].noise, ctx_[i].all, static_cast<int>(i));
 }

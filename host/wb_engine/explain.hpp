@@ -42,6 +42,28 @@ struct ExplainStep {
   std::vector<double> split_heldout, split_from, split_delta_bic;
   std::vector<Candidate> alternatives;  // candidates this step nearly chose instead (near ties)
 };
+// A library effect the final checks took out of the model (docs/workbench.md "Parsimony"), and why.
+struct RemovedEffect {
+  std::string effect;
+  std::string why;             // plain words
+  double contribution = kNaN;  // what it changed in the prediction, times the noise floor (largest channel)
+};
+// A term no library effect has, proposed from the residuals (docs/workbench.md "Discovered terms").
+struct DiscoveredTerm {
+  std::string dof, form;            // as the model file's [[effect]] id = "term" takes them
+  std::vector<std::string> inputs;  // the vocabulary's names it reads (omega_rpm_2, u_mps, ...)
+  double coefficient = kNaN, uncertainty = kNaN;
+  std::string unit;                 // of the coefficient
+  std::string description;
+  double contribution = kNaN;       // as RemovedEffect::contribution
+};
+// The terms of one dof (`channel`: x, y, yaw, screw_0..3, screws) and the error compare reports
+// with them and the groups listed before.
+struct DiscoveredGroup {
+  std::string channel;
+  std::vector<DiscoveredTerm> terms;
+  ChannelValues ratio_after{kNaN, kNaN, kNaN, kNaN};
+};
 struct ExplainResult {
   std::vector<std::string> logs;
   std::vector<ChannelValues> noise_floor;  // per log
@@ -59,6 +81,12 @@ struct ExplainResult {
   int structures_tried = 0;        // joint fits run
   std::vector<ModelChoice> final_models;  // per log
   std::string model_toml;
+  std::vector<RemovedEffect> removed;       // effects of the search's structure the final checks took out
+  // When no library effect fits in form: the library model's own error and the best library
+  // candidate's name, and the terms proposed instead (empty: the dictionary has none either).
+  bool outside_library = false;
+  ChannelValues library_ratio{kNaN, kNaN, kNaN, kNaN};
+  std::vector<DiscoveredGroup> discovered;
 };
 // logs and models: one model choice per log (its terrain); effects are shared, the paper's
 // parameters are shared per terrain.

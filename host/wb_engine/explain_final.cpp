@@ -162,6 +162,34 @@ void Explainer::finish(const State& s, ExplainResult& res, FitOutcome* pre) {
       f.fit = std::move(o);
     }
   }
+  if (!f.parts.empty() && std::isfinite(f.fit.cost)) {
+    // The final checks, then, where the library's model does not fit in form, discovered terms.
+    const std::size_t before = f.parts.size();
+    parsimony(f.fit, res.removed);
+    if (f.fit.parts.size() != before || !res.removed.empty()) polish(f.fit);
+    compare_error(f.fit.parts, &res.library_ratio);
+    bool noise = true;
+    for (double v : res.library_ratio) noise = noise && (!std::isfinite(v) || v <= kVerdictNoise);
+    for (std::size_t i = 0; i < ctx_.size() && noise; ++i) {
+      const ResidualTests t = residual_tests(build(ctx_[i].base, f.fit.parts, static_cast<int>(i)), *ctx_[i].full,
+                                             ctx_[i].noise, ctx_[i].whiten);
+      noise = t.white && t.independent;
+    }
+    if (!noise) res.outside_library = discover(f.fit, res);
+    f.parts = f.fit.parts;
+    f.cost = f.fit.cost;
+    f.n_params = f.fit.n_params;
+    // The effects named: those still in the model, in the order added.
+    std::vector<std::string> kept;
+    for (const Part& p : f.parts)
+      if (p.entry && p.texts.empty()) kept.push_back(label(p, ctx_.size()));
+    std::vector<std::string> named;
+    for (const std::string& id : res.effects)
+      if (std::find(kept.begin(), kept.end(), id) != kept.end()) named.push_back(id);
+    for (const std::string& id : kept)
+      if (std::find(named.begin(), named.end(), id) == named.end()) named.push_back(id);
+    res.effects = named;
+  }
   if (s.parts.empty() || f.fit.r.size() != static_cast<Eigen::Index>(all_.size())) {
     // Nothing refitted: the residuals of the model as it is, over every segment (the state's
     // are the training segments').

@@ -38,11 +38,20 @@ constexpr const char* kTerrainChange = "terrain_change";
 // A channel whose held-out error is at most this multiple of the noise floor is at the noise:
 // logs with no missing effect give 1.0-1.1 (docs/workbench.md "Calibration").
 constexpr double kAtNoise = 1.15;
+// The verdict's noise: every channel of the final model, as compare reports it, at most this
+// multiple of the noise floor (docs/workbench.md "The stop rule").
+constexpr double kVerdictNoise = 1.2;
 // Adding an effect must gain this much in BIC (strong evidence, Kass and Raftery) and lower the
 // held-out error by this share.
 constexpr double kAddBic = -10.0;
 constexpr double kAddHeldout = 0.02;
 constexpr int kFolds = 3;
+// An effect (or a discovered term) stays in the final model only when it changes the prediction
+// by at least this share of the noise floor (RMS over every segment, in its strongest channel):
+// less could not move a channel across the verdict's 1.2 (sqrt(1 + 0.5^2) = 1.12).
+constexpr double kMinContribution = 0.5;
+// ... and when taking it out raises the cross-validated error by this share.
+constexpr double kConfirm = 0.01;
 
 // Error ratios to the noise floor pooled over logs: per channel the sample-weighted root mean
 // square, and over the channels their root mean square (the held-out error's `h`).
@@ -301,11 +310,29 @@ class Explainer {
 
   std::string model_file(const ExplainResult& res) const;
 
+  // ---- the final checks (explain_parsimony.cpp, docs/workbench.md "Parsimony")
+  // Per channel, how much part i changes the prediction over every segment (the rest held), as a
+  // multiple of the noise floor.
+  ChannelValues contribution(const std::vector<Part>& parts, std::size_t i) const;
+  // The held-out error pooled over the three splits (each segment judged once, by a fit that did
+  // not see it): 3-fold cross-validation.
+  double cross_validated(const std::vector<Part>& parts);
+  // Effects that change the prediction by less than kMinContribution of the noise floor, or
+  // with a parameter the log does not identify that a simpler form (or nothing) predicts as well,
+  // or whose removal does not raise the cross-validated error, leave the model (o refitted).
+  void parsimony(FitOutcome& o, std::vector<RemovedEffect>& removed);
+
+  // ---- discovered terms (explain_discover.cpp, docs/workbench.md "Discovered terms")
+  // Terms of the dictionary chosen by sparse regression of what the model o leaves; with them,
+  // library effects that no longer pay leave the model (res.removed). False: none is significant.
+  bool discover(FitOutcome& o, ExplainResult& res);
+
   void verdict(const State& f, ExplainResult& res) const;
 
   ExplainOptions opt_;
   std::vector<LogCtx> ctx_;
   std::array<Problem, kFolds> fit_;  // per fold, the segments fitted on (fold 0: the training segments)
+  std::array<Problem, kFolds> judge_;  // per fold, the segments judged on (held out)
   Problem all_;
   bool folds_ = true;  // every log has a segment for each fold to judge on
   std::mutex print_;

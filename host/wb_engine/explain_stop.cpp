@@ -33,7 +33,7 @@ void Explainer::verdict(const State& f, ExplainResult& res) const {
       worst = v;
       worst_c = c;
     }
-    noise = noise && v <= 1.2;
+    noise = noise && v <= kVerdictNoise;
   }
   bool tests_ok = true;
   std::string tests_words;
@@ -46,20 +46,49 @@ void Explainer::verdict(const State& f, ExplainResult& res) const {
   }
   std::string named;
   for (const auto& id : res.effects) named += (named.empty() ? "" : ", ") + id;
-  if (named.empty()) named = "no effect";
-  char buf[1200];
-  if (noise && tests_ok) {
+  if (named.empty()) named = "no library effect";
+  std::string terms;
+  for (const DiscoveredGroup& g : res.discovered)
+    for (const DiscoveredTerm& d : g.terms) terms += (terms.empty() ? "" : "; ") + d.description;
+  std::string with = named + (terms.empty() ? "" : " and the discovered terms");
+  char buf[2400];
+  if (res.outside_library) {
+    // The library's best model, its error, and why it is not accepted; then the term proposed.
+    double lib_worst = 0;
+    int lib_c = 0;
+    for (int c = 0; c < kChannels; ++c) {
+      const double v = res.library_ratio[static_cast<std::size_t>(c)];
+      if (std::isfinite(v) && v > lib_worst) {
+        lib_worst = v;
+        lib_c = c;
+      }
+    }
+    std::string stand_ins;
+    for (const RemovedEffect& r : res.removed)
+      if (r.why.find("stood in") != std::string::npos) stand_ins += (stand_ins.empty() ? "" : ", ") + r.effect;
+    res.verdict_kind = "outside_library";
+    std::snprintf(buf, sizeof buf,
+                  "no library effect fits this log in form: the library's best model (%s%s%s) %s %.2f times the noise "
+                  "floor in %s%s; the missing term, from the dictionary of docs/workbench.md \"Discovered terms\": %s; "
+                  "with it the error is at most %.2f times the noise floor%s%s%s",
+                  named.c_str(), stand_ins.empty() ? "" : ", with ", stand_ins.c_str(),
+                  lib_worst > kVerdictNoise ? "leaves" : "is within its size, at", lib_worst, channel_name(lib_c),
+                  lib_worst > kVerdictNoise ? "" : ", but its residuals are not noise in form",
+                  terms.c_str(), worst,
+                  stand_ins.empty() ? "" : (" (" + stand_ins + " only stood in for it and left the model)").c_str(),
+                  tests_words.empty() ? "" : "; still ", tests_words.c_str());
+  } else if (noise && tests_ok) {
     res.verdict_kind = "noise";
     std::snprintf(buf, sizeof buf,
                   "what remains is noise: with %s the error is at most %.2f times the noise floor in every channel "
                   "and the residuals are white and independent of the inputs",
-                  named.c_str(), worst);
+                  with.c_str(), worst);
   } else if (noise) {
     res.verdict_kind = "near_noise";
     std::snprintf(buf, sizeof buf,
                   "at the noise floor in size (at most %.2f times, with %s), but not yet noise in form: %s; no "
-                  "further library effect is significant",
-                  worst, named.c_str(), tests_words.c_str());
+                  "further library effect is significant, and no term of the dictionary either",
+                  worst, with.c_str(), tests_words.c_str());
   } else {
     res.verdict_kind = limit_reached_ ? "max_effects" : "unexplained";
     const Window* w = res.where.empty() ? nullptr : &res.where.front();
@@ -70,14 +99,19 @@ void Explainer::verdict(const State& f, ExplainResult& res) const {
                   "%s: with %s the error is still %.2f times the noise floor in %s; it is largest at t = %.1f-%.1f s "
                   "in %s (%.1f times) and in the regime '%s'%s%s",
                   limit_reached_ ? "stopped at the effect limit (--max-effects) before the noise floor"
-                                 : "nothing more in the library explains what is left",
-                  named.c_str(), worst, channel_name(worst_c), w ? w->t_start_s : 0.0, w ? w->t_end_s : 0.0,
+                                 : "nothing more in the library (nor in the dictionary of terms) explains what is left",
+                  with.c_str(), worst, channel_name(worst_c), w ? w->t_start_s : 0.0, w ? w->t_end_s : 0.0,
                   w ? channel_name(w->dof) : "-", w ? w->ratio_to_noise : 0.0, regime.c_str(),
                   tests_words.empty() ? "" : "; ", tests_words.c_str());
   }
   res.verdict = buf;
-  if (f.implausible) res.verdict += "; CAUTION: a fitted value is at or beyond its physical range (see the flags)";
-  else if (f.flagged) res.verdict += "; a fitted value is not identified by this log (see the flags)";
+  // Which values are flagged, by name.
+  std::string flagged;
+  for (const FittedEffect& fe : res.final_fitted)
+    for (const FitParam& p : fe.params)
+      if (!p.flag.empty()) flagged += (flagged.empty() ? "" : ", ") + fe.effect + "." + p.name;
+  if (f.implausible) res.verdict += "; CAUTION: a fitted value is at or beyond its physical range (" + flagged + ")";
+  else if (f.flagged) res.verdict += "; not identified by this log: " + flagged;
 }
 
 }  // namespace auger::wb::explain_internal

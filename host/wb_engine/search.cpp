@@ -4,6 +4,8 @@
 // starting points, on training segments; judged on held-out segments.
 #include "fitting.hpp"
 
+#include "auger/term_form.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -83,9 +85,33 @@ Part make_part(const std::string& id, const Model& base, const Dataset& d) {
   return p;
 }
 
+Part make_term_part(const std::string& dof, const std::string& form, double typical_coefficient) {
+  const TermForm f(dof, form);  // checks both
+  Part p;
+  p.id = "term";
+  const auto& entries = EffectRegistry::builtin().entries();
+  p.entry = &entries.at(p.id);
+  p.specs = p.entry->params;
+  p.specs[0].typical = typical_coefficient > 0 && std::isfinite(typical_coefficient) ? typical_coefficient : 1.0;
+  p.specs[0].unit = f.coefficient_unit();
+  p.values = {0.0};
+  p.free = {0};
+  p.texts = {f.dof_text(), f.form_text()};
+  return p;
+}
+
 std::vector<Part> parts_of(const Model& model, const Dataset& d) {
   std::vector<Part> out;
   for (const auto& e : model.effects) {
+    const auto texts = e->text_params();
+    if (!texts.empty()) {
+      // A discovered term: its coefficient's typical size from its value.
+      const double c = e->params().front().second;
+      Part p = make_term_part(texts.at(0).second, texts.at(1).second, std::fabs(c) > 0 ? std::fabs(c) : 1.0);
+      p.values = {c};
+      out.push_back(std::move(p));
+      continue;
+    }
     Part p = make_part(e->id(), model, d);
     const auto values = e->params();
     for (std::size_t i = 0; i < p.values.size() && i < values.size(); ++i) p.values[i] = values[i].second;
@@ -109,7 +135,7 @@ Model build(const Model& base, const std::vector<Part>& parts, int log) {
       t.D_y = p.values[3];
       t.D_psi = p.values[4];
     } else {
-      effects.push_back(p.entry->make(p.values));
+      effects.push_back(p.entry->build(p.values, p.texts));
     }
   }
   return make_model(base.robot, t, std::move(effects));
@@ -278,6 +304,7 @@ std::vector<LibraryEffect> effect_library() {
   // inertia, turning couplings, a blocked screw's moment.
   static const char* yaw_only[] = {"resistance_offset", "yaw_time_constant", "rigid_body_coupling", "screw_blocking"};
   for (const auto& [id, e] : EffectRegistry::builtin().entries()) {
+    if (!e.text_params.empty()) continue;  // a discovered term: proposed by explain, not a candidate
     LibraryEffect le;
     le.id = id;
     le.summary = e.doc;

@@ -32,6 +32,7 @@ struct FittedEffect {
   std::vector<FitParam> params;     // as written to a model file
   std::string description;          // plain words, e.g. "a constant force of 15 N opposing ..."
   bool held = false;                // its values held, not fitted (the paper's, where explain held them)
+  std::vector<std::pair<std::string, std::string>> texts;  // a discovered term's dof and form
 };
 
 struct Candidate {
@@ -81,8 +82,9 @@ struct FitResult {
   std::vector<FittedEffect> effects;  // includes "paper_params" (the terrain set) first
   std::string model_toml;             // the model file text
 };
+// terms: discovered terms to fit as well, each (dof, form) of auger/term_form.hpp (`fit --add-term`).
 FitResult fit(const Dataset& data, ModelChoice model, const std::vector<std::string>& effect_ids,
-              bool progress = false);
+              bool progress = false, const std::vector<std::pair<std::string, std::string>>& terms = {});
 
 // The effect library as the workbench knows it: registry entries plus paper_params, with the
 // fitting metadata (documented in docs/workbench.md "Adding an effect").

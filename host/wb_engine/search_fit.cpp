@@ -3,14 +3,17 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
 
+#include "discover.hpp"
 #include "fitting.hpp"
 
 namespace auger::wb {
 
 using namespace search;
 
-FitResult fit(const Dataset& full, ModelChoice mc, const std::vector<std::string>& ids, bool progress) {
+FitResult fit(const Dataset& full, ModelChoice mc, const std::vector<std::string>& ids, bool progress,
+              const std::vector<std::pair<std::string, std::string>>& terms) {
   FitResult res;
   res.before = mc;
   const Model& base = mc.model;
@@ -20,6 +23,7 @@ FitResult fit(const Dataset& full, ModelChoice mc, const std::vector<std::string
   std::vector<Part> parts{make_part(kPaperParams, base, data)};
   for (const auto& id : ids)
     if (id != kPaperParams) parts.push_back(make_part(id, base, data));
+  for (const auto& [dof, form] : terms) parts.push_back(make_term_part(dof, form, term_scale(base, data, dof, form)));
   // First each effect alone from the paper's parameters (so its start is sensible), then all
   // together with the paper's parameters, eqs. (15)-(17).
   for (std::size_t p = 1; p < parts.size(); ++p) {
@@ -88,12 +92,15 @@ ModelFile fitted_model_file(const Model& m, const Dataset& d, const std::vector<
   for (const auto& fe : effects) refitted = refitted || (fe.effect == kPaperParams && !fe.held);
   t.comment = refitted ? "paper_params (eqs. (15)-(17)), re-identified" : "paper_params (eqs. (15)-(17)), not refitted here";
   f.terrains.push_back(t);
+  std::map<std::string, int> seen;  // the n-th model effect of an id is the n-th fitted one (several terms)
   for (const auto& e : m.effects) {
     EffectConfig c;
     c.id = e->id();
+    int n = seen[c.id]++;
     for (const auto& fe : effects)
-      if (fe.effect == e->id()) c.comment = fe.description;
+      if (fe.effect == e->id() && n-- == 0) c.comment = fe.description;
     for (const auto& [name, value] : e->params()) c.params.push_back({name, value, 0, 0});
+    for (const auto& [name, value] : e->text_params()) c.texts.push_back({name, value, 0, 0});
     f.effects.push_back(std::move(c));
   }
   return f;

@@ -3,6 +3,8 @@
 // experiment tells two effects apart, the candidates for a log; and the threads that fit them.
 #include "fitting.hpp"
 
+#include "auger/term_form.hpp"
+
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -146,6 +148,15 @@ void flag_params(std::vector<FitParam>& params, const Part& part) {
       std::snprintf(buf, sizeof buf, "at the end of its physical range, %g %s", at_lo ? s.physical_lower : s.physical_upper,
                     s.unit.c_str());
       p.flag = buf;
+    } else if ((near(search_lower(s)) || near(search_upper(s))) && part.entry && std::isfinite(p.sigma) &&
+               p.sigma > 0.5 * std::fabs(p.value) && (s.log_scale || p.sigma > 0.1 * std::fabs(s.typical))) {
+      // At the end of the range the effect itself defines (a Stribeck speed at its shortest, a
+      // level at zero) with an uncertainty over half its value: the log does not tell where it
+      // lies (a level pinned at zero and known to a tenth of its typical size is zero, though).
+      const bool lo = near(search_lower(s));
+      std::snprintf(buf, sizeof buf, "not identified by this log: at the end of its range, %g %s, +- %.2g",
+                    lo ? search_lower(s) : search_upper(s), s.unit.c_str(), p.sigma);
+      p.flag = buf;
     } else if (searched && std::isfinite(p.sigma) && p.sigma > std::fabs(p.value) && p.sigma > 0.5 * std::fabs(s.typical)) {
       // (A value near zero known to a small fraction of its typical size is identified: it is zero.)
       p.flag = "uncertainty larger than the value: not identified by this log";
@@ -183,6 +194,7 @@ std::string describe(const Part& p, const Model& base) {
                   base.terrain.D_x, p.values[3], base.terrain.D_y, p.values[4], base.terrain.D_psi);
     return buf;
   }
+  if (p.texts.size() == 2 && !p.values.empty()) return TermForm(p.texts[0], p.texts[1]).describe(p.values[0]);
   return p.entry->describe ? p.entry->describe(p.values) : p.entry->doc;
 }
 
@@ -192,6 +204,7 @@ FittedEffect fitted_effect(const Part& p, const Model& base, const std::vector<F
   for (std::size_t i = 0; i < p.specs.size() && k < all.size(); ++i) fe.params.push_back(all[k++]);
   fe.description = describe(p, base);
   fe.held = p.free.empty();
+  if (p.texts.size() == 2) fe.texts = {{"dof", p.texts[0]}, {"form", p.texts[1]}};
   return fe;
 }
 

@@ -63,6 +63,7 @@ void json_fitted(Json& j, const char* key, const std::vector<FittedEffect>& effe
   j.begin_array(key);
   for (const auto& e : effects) {
     j.begin_object().str("effect", e.effect).str("description", e.description);
+    for (const auto& [name, value] : e.texts) j.str(name.c_str(), value);
     j.begin_object("params");
     for (const auto& p : e.params) j.num(p.name.c_str(), p.value);
     j.end_object().begin_object("params_sigma");

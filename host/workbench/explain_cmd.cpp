@@ -191,6 +191,24 @@ int run_explain(int argc, char** argv) {
       j.end_array();
       j.str("model_file", out);
       j.end_object();
+      j.begin_array("removed");
+      for (const auto& x : r.removed)
+        j.begin_object().str("effect", x.effect).str("why", x.why).num("contribution", x.contribution).end_object();
+      j.end_array();
+      j.boolean("outside_library", r.outside_library);
+      if (r.outside_library) j.channels("library_ratio", r.library_ratio, r.active);
+      j.begin_array("discovered");
+      for (const auto& g : r.discovered) {
+        j.begin_object().str("channel", g.channel).begin_array("terms");
+        for (const auto& d : g.terms) {
+          j.begin_object().str("dof", d.dof).str("form", d.form).begin_array("inputs");
+          for (const auto& in : d.inputs) j.str(nullptr, in);
+          j.end_array().num("coefficient", d.coefficient).str("unit", d.unit).num("uncertainty", d.uncertainty);
+          j.num("contribution", d.contribution).str("description", d.description).end_object();
+        }
+        j.end_array().channels("ratio_after", g.ratio_after, r.active).end_object();
+      }
+      j.end_array();
       j.str("verdict_kind", r.verdict_kind).str("verdict", r.verdict);
       json_windows(j, "where", r.where);
       j.num("structures_fitted", r.structures_tried);
@@ -254,6 +272,21 @@ int run_explain(int argc, char** argv) {
     for (const auto& e : r.final_fitted) {
       std::printf("  %s: %s\n", e.effect.c_str(), e.description.c_str());
       print_fitted(stdout, e, "    ");
+    }
+    for (const auto& x : r.removed)
+      std::printf("  left out by the final checks: %s: %s\n", x.effect.c_str(), x.why.c_str());
+    if (!r.discovered.empty()) {
+      std::printf("discovered terms (no library effect has them; docs/workbench.md \"Discovered terms\"):\n");
+      for (const auto& g : r.discovered) {
+        for (const auto& d : g.terms)
+          std::printf("  %s: %s = %.4g +- %.2g %s (changes the prediction by %.2f times the noise floor)\n",
+                      d.dof.c_str(), d.form.c_str(), d.coefficient, d.uncertainty, d.unit.c_str(), d.contribution);
+        std::printf("    error with the %s terms so far:", g.channel.c_str());
+        for (int c = 0; c < kChannels; ++c)
+          if (r.active[static_cast<std::size_t>(c)])
+            std::printf("  %s %s", channel_name(c), cell(g.ratio_after[static_cast<std::size_t>(c)]).c_str());
+        std::printf("\n");
+      }
     }
     std::printf("residual tests:");
     for (std::size_t i = 0; i < r.tests.size(); ++i)
