@@ -55,14 +55,7 @@ int run_fit(int argc, char** argv) {
     std::fprintf(stderr, "auger fit: --add EFFECT[,EFFECT...] is required (auger effects lists them)\n");
     return 2;
   }
-  for (const auto& id : ids) {
-    bool known = false;
-    for (const auto& le : effect_library()) known |= le.id == id;
-    if (!known) {
-      std::fprintf(stderr, "auger fit: unknown effect '%s' (auger effects lists them)\n", id.c_str());
-      return 2;
-    }
-  }
+  if (!known_effects("auger fit", ids)) return 2;
   try {
     const Dataset d = load_dataset(a.positional[0]);
     require_fit_data(d, "fit");
