@@ -80,7 +80,7 @@ class Daemon {
   void write_log(const std::array<double, 4>& cmd_rpm);
   std::string port_of(int module) const { return module >= 0 ? bus_.module(module).port : "-"; }
 
-  static constexpr double kArrivedM = 0.02, kArrivedRad = 0.05;  // docs/daemon.md, "arrived"
+  static constexpr double kArrivedM = 0.02, kArrivedRad = 0.05;  // docs/daemon.md "The loop"
 
   const DaemonConfig& cfg_;
   auger::Model model_;

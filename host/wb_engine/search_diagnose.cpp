@@ -22,7 +22,7 @@ constexpr const char* kStickSlip = "stick_slip_friction";
 // ---------------------------------------------------------------- diagnose
 namespace {
 
-// Ranking of candidates (docs/workbench.md "Ranking"): those that improve the held-out error
+// Ranking of candidates (docs/workbench.md "diagnose", 3): those that improve the held-out error
 // come first; among them plausible fits before implausible ones (a value outside or at the end
 // of its physical range); then by delta BIC.
 bool ranks_before(const Candidate& a, const Candidate& b, double nominal_heldout) {
