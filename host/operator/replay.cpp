@@ -106,7 +106,7 @@ int run_replay(int argc, char** argv) {
     ControllerConfig ccfg;
     if (!config_path.empty()) {
       // Whether this build could run augerd's ROS 2 bridge does not matter to a replay.
-      const DaemonConfig dc = read_daemon_config(config_path, /*ros2_available=*/true);
+      const DaemonConfig dc = read_daemon_config(config_path, /*ros2_available=*/true, /*ros2_security_stated=*/false);
       model = build_model(load_model_file(dc.model_file), dc.terrain);
       ccfg = dc.controller;
     } else {

@@ -13,6 +13,7 @@ set(floor_firmware 0)         # the firmware's hardware-free logic, on the proto
 set(floor_host 0)             # auger_core (host/src, host/include)
 set(floor_host/io 1)          # auger_io
 set(floor_host/ros2 2)        # auger_ros2, on io
+set(floor_host/ros2_keys 2)   # auger_ros2_keys (auger ros2-keys), on io
 set(floor_host/tools 2)       # auger-module
 set(floor_host/track 2)       # auger-track
 set(floor_host/wb_engine 2)   # auger_wb_engine, on the core
