@@ -192,7 +192,7 @@ int run_replay(int argc, char** argv) {
           sin.pose = Vec3(v("x_m"), v("y_m"), v("psi_rad"));
           const Vec3 sd(v("pose_sx_m"), v("pose_sy_m"), v("pose_spsi_rad"));
           sin.pose_cov = Vec3(sd[0] * sd[0], sd[1] * sd[1], sd[2] * sd[2]).asDiagonal();
-          sin.pose_t_s = v("pose_capture_t_s");
+          sin.pose_t_s = v(daemon::pose_capture_column());
         }
         if (!std::isnan(v("imu_psi_rad"))) {
           sin.has_imu_psi = sin.has_imu_r = true;

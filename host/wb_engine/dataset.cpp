@@ -2,6 +2,8 @@
 // compares, and the noise floor estimated from the data.
 #include "dataset.hpp"
 
+#include "auger/daemon_log.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -63,8 +65,19 @@ Dataset load_dataset(const std::string& path) {
   } else {
     RobotLogReader r(path);
     d.terrain = r.csv().meta("terrain").value_or("");
+    const int capture = r.csv().column_index(daemon::pose_capture_column());
     RobotSample s;
     while (r.next(s)) {
+      if (capture >= 0) {
+        // A capture time is on the log's clock, a little before the row (a camera's latency; a
+        // little after it where the camera's clock runs ahead of augerd's: up to 0.13 s in the
+        // demo's logs); one seconds away is not a time of this row's pose but an error.
+        const double tc = r.csv().value(capture);
+        if (finite(tc) && !(tc <= s.t_s + 1.0 && tc >= s.t_s - 2.0))
+          r.csv().fail_at_field(capture, "pose_capture_t_s " + std::to_string(tc) +
+                                             " is not within 2 s before or 1 s after the row's t_s " + std::to_string(s.t_s));
+        d.pose_t_s.push_back(finite(tc) && finite(s.x_m) ? tc : kNaN);
+      }
       d.t_s.push_back(s.t_s);
       Vec4 w(s.omega_rpm[0], s.omega_rpm[1], s.omega_rpm[2], s.omega_rpm[3]);
       fill_gap(w, last);

@@ -38,9 +38,13 @@ struct Dataset {
   std::array<bool, kChannels> active{};  // channels with at least a few measurements
   std::vector<double> force_n;        // gantry: the measured traction force along the rail (else empty)
   std::vector<double> imu_r_radps;    // robot: the IMU's yaw rate (NaN = not measured)
+  // When each row's pose was captured (augerd's pose_capture_t_s; NaN: at t_s). Empty if the log
+  // has no such column.
+  std::vector<double> pose_t_s;
   std::size_t size() const { return t_s.size(); }
   double duration_s() const { return t_s.empty() ? 0 : t_s.back() - t_s.front(); }
 };
+
 
 // Reads a robot or gantry log (by its `# format:`; a log without one is read as a robot log).
 // Throws auger::LogError naming file, line and column.
@@ -62,6 +66,7 @@ struct NoiseColour {
   WhiteningFilter whiten;   // of the camera's noise, when applied
 };
 NoiseColour camera_noise_colour(const Dataset& data, const ChannelValues& white);
+
 // Measurement noise per channel, from the data itself: the robust spread (MAD) of each
 // measured sample's deviation from the cubic through its measured neighbours, scaled for the
 // neighbours' weights, times the camera's colour factor. NaN for a channel without data.

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <set>
 #include <stdexcept>
 
 #include "auger/dynamics.hpp"
@@ -74,6 +75,23 @@ bool term_scale_over(const std::vector<TermInputs>& rows, const TermForm& f, dou
   return true;
 }
 
+// The forms a library effect already has, as a term of the dictionary would write them: the
+// paper's own drag and traction (paper_params: u on x, v on y, r on yaw, a screw's omega alone,
+// every screw's omega), dry friction (sign of u, v, r on their own axis), quadratic drag (u |u|
+// ...), the Coriolis terms (rigid_body_coupling: r v on x, r u on y), a slope (sin, cos of the
+// heading on x and y), the offset centre of resistance (r on x and y; u and v on yaw), one screw's
+// traction (screw_traction_loss: its omega).
+bool library_form(const std::string& dof, const std::string& form) {
+  static const std::set<std::pair<std::string, std::string>> library = {
+      {"x", "u_mps"},         {"x", "sign(u_mps)"},   {"x", "sqs(u_mps)"},   {"x", "r_radps"},
+      {"x", "v_mps*r_radps"}, {"x", "sin(psi_rad)"},  {"x", "cos(psi_rad)"}, {"y", "v_mps"},
+      {"y", "sign(v_mps)"},   {"y", "sqs(v_mps)"},    {"y", "r_radps"},      {"y", "u_mps*r_radps"},
+      {"y", "sin(psi_rad)"},  {"y", "cos(psi_rad)"},  {"yaw", "r_radps"},    {"yaw", "sign(r_radps)"},
+      {"yaw", "sqs(r_radps)"}, {"yaw", "u_mps"},      {"yaw", "v_mps"}};
+  if (library.count({dof, form})) return true;
+  return form == "omega_rpm" && (dof == "screws" || dof.rfind("screw_", 0) == 0);
+}
+
 }  // namespace
 
 std::vector<DictionaryTerm> term_dictionary(const Model& model, const Dataset& data) {
@@ -99,6 +117,10 @@ std::vector<DictionaryTerm> term_dictionary(const Model& model, const Dataset& d
     for (const char* f : {"omega_rpm", "sign(omega_rpm)", "pos(omega_rpm)", "neg(omega_rpm)", "sqs(omega_rpm)",
                           "omega_rpm*t_s"})
       raw.push_back({dof, f});
+  // Forms the library has are left out: a term must be what no library effect is (else the
+  // regression proposes a Coulomb friction as sign(u) in place of the library's own).
+  raw.erase(std::remove_if(raw.begin(), raw.end(), [](const auto& dt) { return library_form(dt.first, dt.second); }),
+            raw.end());
 
   std::vector<DictionaryTerm> out;
   const std::vector<TermInputs> rows = term_rows(model, data);

@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "discover.hpp"
 #include "explain.hpp"
 #include "fitting.hpp"
 
@@ -326,6 +327,14 @@ class Explainer {
   // Terms of the dictionary chosen by sparse regression of what the model o leaves; with them,
   // library effects that no longer pay leave the model (res.removed). False: none is significant.
   bool discover(FitOutcome& o, ExplainResult& res);
+  // Terms of the dictionary chosen by the regression on the model base_parts, with their
+  // coefficients; false: none is significant.
+  bool select_terms_on(const std::vector<Part>& base_parts, const std::vector<DictionaryTerm>& dict,
+                       std::vector<Part>& chosen);
+  // Library effects (terms = false) or terms that the model predicts as well without (within 2 %
+  // on the 25 s segments; a term also when it changes the prediction by less than
+  // kMinContribution) leave, one at a time; the library effects that left are listed in stand_ins.
+  FitOutcome drop_not_paying(FitOutcome with, bool terms, std::vector<RemovedEffect>* stand_ins);
 
   void verdict(const State& f, ExplainResult& res) const;
 

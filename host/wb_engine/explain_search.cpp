@@ -328,7 +328,11 @@ State Explainer::backward(State e, const std::string& just_added, double n_eff) 
       if (!std::isfinite(o.cost)) continue;
       State w = make_state(e, std::move(o));
       const double gain_bic = delta_bic(w, e, n_eff);  // negative: e is better than w
-      const bool pays = gain_bic < -2.0 && w.h > e.h * 1.002;
+      // It pays when it is worth its parameters on the training segments and helps on the held-out
+      // ones; an effect whose removal raises the held-out error by as much as an effect must lower
+      // it (2 %) stays whatever the training segments say (a joint fit that stopped short of its
+      // optimum can leave it looking worthless there).
+      const bool pays = (gain_bic < -2.0 && w.h > e.h * 1.002) || w.h > e.h * (1.0 + kAddHeldout);
       if (!pays) {
         progress("explain: backward check: %s no longer pays for itself (delta BIC %.1f, held-out %.3f without, %.3f with); dropped",
                  label(p, ctx_.size()).c_str(), gain_bic, w.h, e.h);

@@ -261,6 +261,7 @@ Dataset decimate_for_search(const Dataset& d, double max_dt_s) {
   c.omega_rpm.clear();
   c.meas.clear();
   c.force_n.clear();
+  c.pose_t_s.clear();
   Vec4 acc = Vec4::Zero();
   double acc_t = 0, last_pose_s = -1e300;
   for (std::size_t k = 0; k < d.size(); ++k) {
@@ -279,6 +280,7 @@ Dataset decimate_for_search(const Dataset& d, double max_dt_s) {
     c.omega_rpm.push_back(acc_t > 0 ? Vec4(acc / acc_t) : d.omega_rpm[k]);
     c.meas.push_back(m);
     if (!d.force_n.empty()) c.force_n.push_back(d.force_n[k]);
+    if (!d.pose_t_s.empty()) c.pose_t_s.push_back(d.pose_t_s[k]);
     acc.setZero();
     acc_t = 0;
   }

@@ -35,6 +35,8 @@ struct SimOptions {
   // Each segment's start pose is refined to the mean offset of its first anchor_s of measurements
   // (a rigid shift of the segment), so one noisy pose sample does not bias a whole segment.
   double anchor_s = 2.0;
+  // ... the heading from the IMU heading where the log has one (the camera's noise may wander).
+  bool heading_from_imu = true;
   double warm_s = 2.0;  // the model runs this long (> 5 x I_z / D_psi) before a segment start to set its velocity
 };
 

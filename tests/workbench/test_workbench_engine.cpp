@@ -729,10 +729,13 @@ TEST_CASE("fit --add-term: a discovered term's coefficient recovered from physic
 TEST_CASE("explain: physics outside the library is said so, with the missing term's form and no stand-in effect",
           "[slow]") {
   SynthOptions o;
-  o.seconds = 150;
+  o.seconds = 120;
   o.seed = 8;
   const Model truth = make_model(RobotParams{}, kSand, {std::make_shared<BackwardThrustLoss>(0.35)});
+  // (The library effects closest to it, which the search takes as stand-ins first: the whole
+  // library takes four times as long and ends the same.)
   ExplainOptions eo;
+  eo.only = {"screw_traction_loss", "traction_saturation", "terrain_slope", "resistance_offset"};
   const ExplainResult r = explain({synth(truth, o)}, {nominal()}, eo);
   INFO(r.verdict);
   CHECK(r.outside_library);
