@@ -64,8 +64,18 @@ struct NoiseColour {
   std::size_t samples = 0;  // camera/IMU pairs compared (fewer than 200: not estimated)
   bool applied = false;
   WhiteningFilter whiten;   // of the camera's noise, when applied
+  // The variance of the camera noise's mean over a segment's 2 s anchor (SimOptions::anchor_s),
+  // as a share of its whole variance: what the rigid shift of each segment keeps of a noise that
+  // wanders (measured, not modelled: 2 s means of camera minus IMU heading). 0: not applied.
+  double anchor_share = 0;
+  std::size_t anchor_windows = 0;  // 2 s windows it is the variance of
 };
 NoiseColour camera_noise_colour(const Dataset& data, const ChannelValues& white);
+// The error a perfect model leaves on segments anchored on 2 s of poses, per channel: the noise
+// floor, and where the camera's noise wanders, for x and y the part of it the anchor keeps,
+// sqrt(1 + anchor_share) times the floor (the heading is anchored on the IMU, whose noise is
+// white). The reference of every error ratio: 1.0 = only noise left.
+ChannelValues segment_floor(const ChannelValues& noise_floor, const NoiseColour& colour);
 
 // Measurement noise per channel, from the data itself: the robust spread (MAD) of each
 // measured sample's deviation from the cubic through its measured neighbours, scaled for the

@@ -26,7 +26,8 @@ Explainer::Explainer(const std::vector<Dataset>& logs, const std::vector<ModelCh
     c.choice = models[i];
     c.base = without_effects(models[i].model);
     NoiseColour colour;
-    c.noise = estimate_noise_floor(logs[i], &colour);
+    c.noise_floor = estimate_noise_floor(logs[i], &colour);
+    c.noise = segment_floor(c.noise_floor, colour);
     c.whiten = colour.whiten;
     c.data = decimate_for_search(logs[i]);
     for (int ch = 0; ch < kChannels; ++ch)
@@ -90,7 +91,8 @@ ExplainResult Explainer::run() {
   ExplainResult res;
   for (const LogCtx& c : ctx_) {
     res.logs.push_back(c.full->path);
-    res.noise_floor.push_back(c.noise);
+    res.noise_floor.push_back(c.noise_floor);
+    res.segment_floor.push_back(c.noise);
     for (int ch = 0; ch < kChannels; ++ch)
       res.active[static_cast<std::size_t>(ch)] = res.active[static_cast<std::size_t>(ch)] || c.data.active[static_cast<std::size_t>(ch)];
   }

@@ -67,6 +67,7 @@ struct DiscoveredGroup {
 struct ExplainResult {
   std::vector<std::string> logs;
   std::vector<ChannelValues> noise_floor;  // per log
+  std::vector<ChannelValues> segment_floor;  // per log: the ratios' reference (segment_floor())
   std::array<bool, kChannels> active{};    // channels any log measures
   std::vector<ExplainStep> steps;          // the path of the final model, step 0 first
   std::vector<std::string> effects;        // ids in the order added

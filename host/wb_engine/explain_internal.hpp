@@ -86,7 +86,8 @@ struct LogCtx {
   Dataset data;  // decimated for the search
   ModelChoice choice;
   Model base;    // the given model without its effects
-  ChannelValues noise{};
+  ChannelValues noise_floor{};  // the measurement noise (estimate_noise_floor)
+  ChannelValues noise{};        // the ratios' reference (segment_floor())
   WhiteningFilter whiten;  // the camera noise's colour, for the residual tests
   Segments all;
   // Per fold (Explainer::other_splits): the segments fitted on and those judged on; fold 0 is

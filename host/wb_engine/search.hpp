@@ -57,6 +57,7 @@ struct DiagnoseOptions {
 struct DiagnoseResult {
   ModelChoice model;
   ChannelValues noise_floor{};
+  ChannelValues segment_floor{};  // the ratios' reference (segment_floor(), dataset.hpp)
   ErrorStats nominal;          // segments, whole log
   double nominal_heldout_ratio = 0;
   double n_eff = 0, n = 0;
@@ -78,6 +79,7 @@ Dataset decimate_for_search(const Dataset& data, double max_dt_s = 0.05);
 struct FitResult {
   ModelChoice before, after;
   ChannelValues noise_floor{};
+  ChannelValues segment_floor{};  // the ratios' reference (segment_floor(), dataset.hpp)
   ErrorStats err_before, err_after;   // segments, whole log
   std::vector<FittedEffect> effects;  // includes "paper_params" (the terrain set) first
   std::string model_toml;             // the model file text

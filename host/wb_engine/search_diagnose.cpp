@@ -56,7 +56,9 @@ DiagnoseResult diagnose(const Dataset& full, ModelChoice mc, const DiagnoseOptio
   DiagnoseResult res;
   res.model = std::move(mc);
   const Model& given = res.model.model;
-  res.noise_floor = estimate_noise_floor(full);
+  NoiseColour colour;
+  res.noise_floor = estimate_noise_floor(full, &colour);
+  res.segment_floor = segment_floor(res.noise_floor, colour);
   const Dataset data = decimate_for_search(full);
   for (int c = 0; c < kChannels; ++c)
     if (data.active[static_cast<std::size_t>(c)] && !std::isfinite(res.noise_floor[static_cast<std::size_t>(c)]))
@@ -71,14 +73,14 @@ DiagnoseResult diagnose(const Dataset& full, ModelChoice mc, const DiagnoseOptio
 
   Segments train, held;
   split_segments(make_segments(data, search_segment_s(data)), train, held);
-  const Problem pr = make_problem(data, full, base, res.noise_floor, train);
+  const Problem pr = make_problem(data, full, base, res.segment_floor, train);
 
   {
     Prediction p;  // as compare reports it
     simulate(given, full, sim_options_for(given), p);
-    res.nominal = error_stats(full, p, res.noise_floor);
+    res.nominal = error_stats(full, p, res.segment_floor);
   }
-  res.nominal_heldout_ratio = combined_ratio(segments_error(given, data, held, res.noise_floor), data);
+  res.nominal_heldout_ratio = combined_ratio(segments_error(given, data, held, res.segment_floor), data);
   Eigen::VectorXd r0;
   Workspace work;
   residuals(pr, state, r0, work);
@@ -151,7 +153,7 @@ DiagnoseResult diagnose(const Dataset& full, ModelChoice mc, const DiagnoseOptio
     c.delta_bic = res.n_eff * std::log(std::max(o.cost, 1e-300) / std::max(cost0, 1e-300)) +
                   std::max(0, o.n_params - state_free) * std::log(res.n_eff);
     const Model m = build(base, o.parts);
-    const ErrorStats he = segments_error(m, data, held, res.noise_floor);
+    const ErrorStats he = segments_error(m, data, held, res.segment_floor);
     c.heldout_rms = he.rms;
     c.heldout_ratio = combined_ratio(he, data);
     res.candidates.push_back(std::move(c));
@@ -187,7 +189,7 @@ DiagnoseResult diagnose(const Dataset& full, ModelChoice mc, const DiagnoseOptio
                           res.nominal_heldout_ratio - best->heldout_ratio > 0.8 * (res.nominal_heldout_ratio - 1.0));
   Model remaining_model = given;
   if (res.significant && explained) remaining_model = build(base, best_parts.front());
-  res.where = worst_windows(window_errors(remaining_model, full, res.noise_floor, 5.0, sim_options_for(remaining_model)), 5);
+  res.where = worst_windows(window_errors(remaining_model, full, res.segment_floor, 5.0, sim_options_for(remaining_model)), 5);
   char buf[700];
   if (!best || !res.significant) {
     std::snprintf(buf, sizeof buf,

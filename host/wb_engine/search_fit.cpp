@@ -17,9 +17,11 @@ FitResult fit(const Dataset& full, ModelChoice mc, const std::vector<std::string
   FitResult res;
   res.before = mc;
   const Model& base = mc.model;
-  res.noise_floor = estimate_noise_floor(full);
+  NoiseColour colour;
+  res.noise_floor = estimate_noise_floor(full, &colour);
+  res.segment_floor = segment_floor(res.noise_floor, colour);
   const Dataset data = decimate_for_search(full);
-  const Problem pr = make_problem(data, full, base, res.noise_floor, make_segments(data, search_segment_s(data)));
+  const Problem pr = make_problem(data, full, base, res.segment_floor, make_segments(data, search_segment_s(data)));
   std::vector<Part> parts{make_part(kPaperParams, base, data)};
   for (const auto& id : ids)
     if (id != kPaperParams) parts.push_back(make_part(id, base, data));
@@ -69,9 +71,9 @@ FitResult fit(const Dataset& full, ModelChoice mc, const std::vector<std::string
   // Reported as compare reports it (segments of 25 s), so the two commands agree.
   Prediction p;
   simulate(base, full, sim_options_for(base), p);
-  res.err_before = error_stats(full, p, res.noise_floor);
+  res.err_before = error_stats(full, p, res.segment_floor);
   simulate(res.after.model, full, sim_options_for(res.after.model), p);
-  res.err_after = error_stats(full, p, res.noise_floor);
+  res.err_after = error_stats(full, p, res.segment_floor);
   res.model_toml = write_model_file(fitted_model_file(res.after.model, data, res.effects));
   return res;
 }

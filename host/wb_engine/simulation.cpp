@@ -519,23 +519,24 @@ CompareResult compare(const Dataset& data, ModelChoice mc) {
   r.model = std::move(mc);
   const Model& m = r.model.model;
   r.noise_floor = estimate_noise_floor(data, &r.noise_colour);
+  r.segment_floor = segment_floor(r.noise_floor, r.noise_colour);
   SimOptions o = sim_options_for(m);
   SimOptions ol = o;
   ol.segment_s = 0;  // Table 4: open loop from the first pose
   simulate(m, data, ol, r.open_loop);
-  r.open_loop_err = error_stats(data, r.open_loop, r.noise_floor);
+  r.open_loop_err = error_stats(data, r.open_loop, r.segment_floor);
   simulate(m, data, o, r.segments);
-  r.segments_err = error_stats(data, r.segments, r.noise_floor);
+  r.segments_err = error_stats(data, r.segments, r.segment_floor);
   if (data.active[kImuPsi]) {
     SimOptions oi = o;
     oi.imu_heading = true;
     simulate(m, data, oi, r.imu_heading);
-    r.imu_heading_err = error_stats(data, r.imu_heading, r.noise_floor);
+    r.imu_heading_err = error_stats(data, r.imu_heading, r.segment_floor);
   }
   r.one_step_err = one_step_error(m, data, r.noise_floor);
-  r.windows = window_errors(m, data, r.noise_floor, 5.0, o);
+  r.windows = window_errors(m, data, r.segment_floor, 5.0, o);
   r.worst = worst_windows(r.windows, 5);
-  r.regimes = error_by_regime(m, data, r.segments, r.noise_floor);
+  r.regimes = error_by_regime(m, data, r.segments, r.segment_floor);
   return r;
 }
 

@@ -106,6 +106,7 @@ struct CompareResult {
   ModelChoice model;
   ChannelValues noise_floor{};
   NoiseColour noise_colour;  // the camera noise's colour, found against the IMU heading
+  ChannelValues segment_floor{};  // the reference of the ratios (segment_floor(): the noise the anchor keeps)
   Prediction open_loop, segments, imu_heading;  // imu_heading empty without IMU heading data
   ErrorStats open_loop_err, segments_err, imu_heading_err, one_step_err;
   std::vector<Window> windows;  // 5 s windows

@@ -72,6 +72,7 @@ int run_diagnose(int argc, char** argv) {
       j.str("log", d.path).str("kind", d.gantry ? "gantry" : "robot").str("model", r.model.source);
       j.str("terrain", r.model.terrain);
       j.channels("noise_floor", r.noise_floor, d.active);
+      j.channels("segment_floor", r.segment_floor, d.active);
       j.channels("nominal_rms", r.nominal.rms, d.active);
       j.channels("nominal_ratio", r.nominal.ratio_to_noise, d.active);
       j.num("nominal_heldout_ratio", r.nominal_heldout_ratio).num("n", r.n).num("n_eff", r.n_eff);

@@ -29,7 +29,8 @@ void print_explain_json(const ExplainResult& r, const std::vector<Dataset>& logs
   j.begin_array("logs");
   for (std::size_t i = 0; i < r.logs.size(); ++i) {
     j.begin_object().str("log", r.logs[i]).str("model", models[i].source).str("terrain", models[i].terrain);
-    j.channels("noise_floor", r.noise_floor[i], logs[i].active).end_object();
+    j.channels("noise_floor", r.noise_floor[i], logs[i].active);
+    j.channels("segment_floor", r.segment_floor[i], logs[i].active).end_object();
   }
   j.end_array();
   j.begin_array("effects");

@@ -107,6 +107,7 @@ int run_fit(int argc, char** argv) {
       Json j;
       j.begin_object().str("log", d.path);
       j.channels("noise_floor", r.noise_floor, d.active);
+      j.channels("segment_floor", r.segment_floor, d.active);
       j.begin_object("before").channels("rms", r.err_before.rms, d.active).channels("ratio", r.err_before.ratio_to_noise, d.active).end_object();
       j.begin_object("after").channels("rms", r.err_after.rms, d.active).channels("ratio", r.err_after.ratio_to_noise, d.active).end_object();
       json_fitted(j, "effects", r.effects);
