@@ -113,9 +113,11 @@ fuzz-smoke: $(FUZZ_BUILD)/fuzz_parser $(FUZZ_BUILD)/corpus
 	$(FUZZ_BUILD)/fuzz_parser -runs=300000 -seed=1 -max_len=512 -print_final_stats=1 \
 	  $(FUZZ_BUILD)/smoke $(FUZZ_BUILD)/corpus 2>&1 | tail -n 3
 
+# Two tests at a time, except those marked RUN_SERIAL (real-time loops, load tests, the
+# workbench suites that run two jobs themselves), which ctest runs alone.
 test: deps check-protocol host venv asan fuzz-smoke board
 	cd $(ASAN_BUILD) && ctest --output-on-failure -L unit -j $(JOBS)
-	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) ctest --output-on-failure -LE long
+	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) ctest --output-on-failure -LE long -j $(JOBS)
 
 # Longer suites (docs/benchmarks.md has their times): the tests labelled `long` (flash-all into
 # four simulated modules; auger report --explain in headless Chromium with a screenshot), the

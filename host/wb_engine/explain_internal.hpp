@@ -47,6 +47,7 @@ constexpr double kVerdictNoise = 1.2;
 constexpr double kAddBic = -10.0;
 constexpr double kAddHeldout = 0.02;
 constexpr int kFolds = 3;
+using FoldValues = std::array<double, kFolds>;
 // An effect (or a discovered term) stays in the final model only when it changes the prediction
 // by at least this share of the noise floor (RMS over every segment, in its strongest channel):
 // less could not move a channel across the verdict's 1.2 (sqrt(1 + 0.5^2) = 1.12).
@@ -316,9 +317,9 @@ class Explainer {
   // Per channel, how much part i changes the prediction over every segment (the rest held), as a
   // multiple of the noise floor.
   ChannelValues contribution(const std::vector<Part>& parts, std::size_t i) const;
-  // The held-out error pooled over the three splits (each segment judged once, by a fit that did
-  // not see it): 3-fold cross-validation.
-  double cross_validated(const std::vector<Part>& parts);
+  // 3-fold cross-validation: per fold, the error of the segments it judges by a fit on the
+  // others (every segment judged once, by a fit that did not see it); NaN where a fit failed.
+  FoldValues cross_validated(const std::vector<Part>& parts);
   // Effects that change the prediction by less than kMinContribution of the noise floor, or
   // with a parameter the log does not identify that a simpler form (or nothing) predicts as well,
   // or whose removal does not raise the cross-validated error, leave the model (o refitted).
