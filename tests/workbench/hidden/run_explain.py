@@ -58,15 +58,16 @@ PAIR_CLASSES = [
     ("screw_traction_loss", "imu_heading_drift"),
     ("stick_slip_friction", "terrain_slope"),
 ]
-# (class, seed): the issue's example, and three cases the search once got wrong: stick-slip must
-# come in place of the Coulomb friction chosen before it (seed 2); a change of terrain after a
-# saturation that imitated it, found only when its time is profiled with everything refitted
-# (seed 0); and a slope that the held-out segments alone refused after stick-slip (a breakaway
-# placed by a hair in one of them), taken on the other splits' second opinion (stick-slip seed 4).
+# (class, seed): the issue's example, and cases the search once got wrong: a change of terrain
+# after a saturation that imitated it, found only when its time is profiled with everything
+# refitted (seed 0, in make test); stick-slip must come in place of the Coulomb friction chosen
+# before it (seed 2), and a slope that the held-out segments alone refused after stick-slip (a
+# breakaway placed by a hair in one of them), taken on the other splits' second opinion (seed 4):
+# these two run in make test-full, which takes every class with seeds 0-4 (make test's time is
+# spent elsewhere).
 # A change that falls inside a held-out segment (seed 3 of that pair) has its own unit test
-# ("explain: a change of terrain inside a held-out segment ...") and runs in test-full.
-SAMPLE_PAIRS = [(("screw_dead_band", "resistance_offset"), 0), (("stick_slip_friction", "terrain_slope"), 2),
-                (("stick_slip_friction", "terrain_slope"), 4), (("terrain_change", "traction_saturation"), 0)]
+# ("explain: a change of terrain inside a held-out segment ...").
+SAMPLE_PAIRS = [(("screw_dead_band", "resistance_offset"), 0), (("terrain_change", "traction_saturation"), 0)]
 
 FIL_CASES = [(terrain, drive) for terrain in ("sand", "frozen_grass") for drive in ("square", "diagonal", "manual")]
 SAMPLE_FIL = [("sand", "square")]
@@ -79,12 +80,13 @@ SAMPLE_FIL = [("sand", "square")]
 # speeds, shorter time constants): more in BIC, no better on the 25 s segments.
 # The third, from `make demo` at 16:33 UTC: a terrain change (there is none: the demo drives on one
 # sand) taken on the other splits' second opinion won the final choice on its luckier split and
-# ended at 1.45 times the noise floor. (test-full only: make test's time is spent elsewhere.)
+# ended at 1.45 times the noise floor. (The second and third in test-full only: make test's time is
+# spent elsewhere.)
 # Each: the log, the effects of the truth explain must name, effects it must not name.
 RECORDED = [("augerd-sand-square.csv.gz", ["screw_blocking"], ["terrain_change"]),
             ("augerd-sand-square-2.csv.gz", ["screw_blocking"], ["terrain_change"]),
             ("augerd-sand-square-3.csv.gz", ["screw_blocking"], ["terrain_change"])]
-SAMPLE_RECORDED = RECORDED[:2]
+SAMPLE_RECORDED = RECORDED[:1]
 PAPER_MAX_SHIFT = 0.3  # re-identified paper parameters: at most 30 % from the tables
 RECORDED_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "recorded")
 

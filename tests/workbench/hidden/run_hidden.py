@@ -16,7 +16,7 @@ issue's criteria:
 
 Same for gantry logs (one module on the rail; the channel is the rail's position).
 Each case is one log; the trajectory alternates with the seed (single-DOF moves like the paper's
-Table 4 runs, and manual-style driving), so 3 seeds give both kinds. Logs carry only the format
+Table 4 runs, and manual-style driving), so 2 seeds give both kinds. Logs carry only the format
 and terrain metadata (gantry: axis, mass_kg, which the format requires).
 
 Usage: run_hidden.py --auger PATH --sim-log PATH [--seeds 3] [--min-pass N] [--jobs 2]
