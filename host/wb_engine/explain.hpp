@@ -48,6 +48,13 @@ struct RemovedEffect {
   std::string why;             // plain words
   double contribution = kNaN;  // what it changed in the prediction, times the noise floor (largest channel)
 };
+// An effect of the final model that its step took in a near tie: the log cannot tell it from the
+// alternatives, so the choice between them is no finding (docs/workbench.md "Near ties").
+struct NearTie {
+  std::string effect;
+  std::vector<std::string> with;  // the alternatives, as their step listed them
+  std::string tell_apart;         // the experiment that tells them apart
+};
 // A term no library effect has, proposed from the residuals (docs/workbench.md "Discovered terms").
 struct DiscoveredTerm {
   std::string dof, form;            // as the model file's [[effect]] id = "term" takes them
@@ -83,6 +90,7 @@ struct ExplainResult {
   std::vector<ModelChoice> final_models;  // per log
   std::string model_toml;
   std::vector<RemovedEffect> removed;       // effects of the search's structure the final checks took out
+  std::vector<NearTie> near_ties;           // effects of the final model taken in a near tie
   // When no library effect fits in form: the library model's own error and the best library
   // candidate's name, and the terms proposed instead (empty: the dictionary has none either).
   bool outside_library = false;

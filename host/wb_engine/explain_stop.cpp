@@ -1,6 +1,8 @@
 // explain's stop rule and verdict (explain_internal.hpp, docs/workbench.md "The stop rule"): what
 // remains is noise when every channel is at the noise floor and the residuals are white and
 // independent of the inputs.
+#include <algorithm>
+
 #include "explain_internal.hpp"
 
 namespace auger::wb::explain_internal {
@@ -112,6 +114,24 @@ void Explainer::verdict(const State& f, ExplainResult& res) const {
       if (!p.flag.empty()) flagged += (flagged.empty() ? "" : ", ") + fe.effect + "." + p.name;
   if (f.implausible) res.verdict += "; CAUTION: a fitted value is at or beyond its physical range (" + flagged + ")";
   else if (f.flagged) res.verdict += "; not identified by this log: " + flagged;
+  // An effect its step took in a near tie is named with its alternatives: which of them acts is
+  // what this log cannot say (a dead band, Coulomb and stick-slip friction within 2 % of each
+  // other on held-out segments, each at the noise floor).
+  res.near_ties.clear();
+  for (const ExplainStep& st : res.steps) {
+    if (st.added.empty() || st.alternatives.empty() ||
+        std::find(res.effects.begin(), res.effects.end(), st.added) == res.effects.end())
+      continue;
+    NearTie t{st.added, {}, st.alternatives.front().tell_apart};
+    std::string with;
+    for (const Candidate& c : st.alternatives) {
+      t.with.push_back(c.fitted.effect);
+      with += (with.empty() ? "" : " or ") + c.fitted.effect;
+    }
+    res.verdict += "; " + st.added + " is a near tie with " + with +
+                   ": this log cannot tell them apart (step " + std::to_string(st.index) + " names the experiment that can)";
+    res.near_ties.push_back(std::move(t));
+  }
 }
 
 }  // namespace auger::wb::explain_internal

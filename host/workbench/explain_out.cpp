@@ -79,6 +79,13 @@ void print_explain_json(const ExplainResult& r, const std::vector<Dataset>& logs
   for (const auto& x : r.removed)
     j.begin_object().str("effect", x.effect).str("why", x.why).num("contribution", x.contribution).end_object();
   j.end_array();
+  j.begin_array("near_ties");
+  for (const auto& t : r.near_ties) {
+    j.begin_object().str("effect", t.effect).begin_array("with");
+    for (const auto& w : t.with) j.str(nullptr, w);
+    j.end_array().str("tell_apart", t.tell_apart).end_object();
+  }
+  j.end_array();
   j.boolean("outside_library", r.outside_library);
   if (r.outside_library) j.channels("library_ratio", r.library_ratio, r.active);
   j.begin_array("discovered");
