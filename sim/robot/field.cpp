@@ -56,9 +56,6 @@ std::vector<Eigen::Vector2d> read_polygon(const std::string& file, const toml::n
   }
   if (poly.size() >= 2 && poly.front() == poly.back()) poly.pop_back();  // a closed ring is fine
   if (poly.size() < 3) fail(file, n, "'polygon' needs at least 3 distinct points, has " + std::to_string(poly.size()));
-  double area2 = 0;
-  for (std::size_t i = 0; i < poly.size(); ++i) area2 += cross(Eigen::Vector2d::Zero(), poly[i], poly[(i + 1) % poly.size()]);
-  if (!(std::fabs(area2) > 1e-12)) fail(file, n, "'polygon' encloses no area");
   // A simple polygon: no two edges meet except adjacent ones at their shared vertex.
   const std::size_t k = poly.size();
   for (std::size_t i = 0; i < k; ++i)
@@ -69,6 +66,9 @@ std::vector<Eigen::Vector2d> read_polygon(const std::string& file, const toml::n
         fail(file, n, "'polygon' crosses itself: edge " + std::to_string(i + 1) + " meets edge " + std::to_string(j + 1) +
                           " (edge n runs from point n to the next)");
     }
+  double area2 = 0;
+  for (std::size_t i = 0; i < poly.size(); ++i) area2 += cross(Eigen::Vector2d::Zero(), poly[i], poly[(i + 1) % poly.size()]);
+  if (!(std::fabs(area2) > 1e-12)) fail(file, n, "'polygon' encloses no area");
   return poly;
 }
 
