@@ -10,7 +10,6 @@
 #include <cstdlib>
 #include <fstream>
 #include <memory>
-#include <optional>
 #include <random>
 #include <string>
 
@@ -129,13 +128,9 @@ int main(int argc, char** argv) {
   }
   try {
     const ModelFile file = load_model_file(model_path);
-    std::shared_ptr<sim::Field> field;
-    if (!field_path.empty()) {
-      field = std::make_shared<sim::Field>(sim::load_field(field_path, file));
-      // Each zone's blocking: the patch's own, else --blocking-rpm, else 1.5 rpm on sand.
-      sim::default_blocking(*field, blocking_rpm >= 0 ? std::optional<double>(blocking_rpm) : std::nullopt);
-      if (terrain.empty()) terrain = field->zones[0].terrain_name;
-    }
+    // Each zone's blocking: the patch's own, else --blocking-rpm, else 1.5 rpm on sand.
+    std::shared_ptr<const sim::Field> field;
+    if (!field_path.empty()) field = sim::load_field_for_run(field_path, file, blocking_rpm, terrain);
     if (terrain.empty()) terrain = "sand";
     const Model m = build_model(file, terrain);
     ControllerConfig cc = controller_config(file, terrain);

@@ -277,4 +277,12 @@ void default_blocking(Field& field, std::optional<double> rpm) {
     if (!z.blocking_rpm) z.blocking_rpm = rpm ? *rpm : default_blocking_rpm(z.terrain_name);
 }
 
+std::shared_ptr<const Field> load_field_for_run(const std::string& path, const ModelFile& model, double blocking_rpm,
+                                                std::string& terrain) {
+  auto field = std::make_shared<Field>(load_field(path, model));
+  default_blocking(*field, blocking_rpm >= 0 ? std::optional<double>(blocking_rpm) : std::nullopt);
+  if (terrain.empty()) terrain = field->zones[0].terrain_name;
+  return field;
+}
+
 }  // namespace auger::sim

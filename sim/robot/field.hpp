@@ -6,6 +6,7 @@
 #pragma once
 
 #include <array>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -68,5 +69,11 @@ std::string terrain_ids_metadata(const Field& field);
 // rule auger-sim-drive applies to --terrain).
 void default_blocking(Field& field, std::optional<double> rpm);
 double default_blocking_rpm(const std::string& terrain_name);
+
+// A program's --field: the file loaded and default_blocking applied (blocking_rpm >= 0: the
+// program's --blocking-rpm); an empty terrain (the controller's and the log's) becomes the
+// field's background terrain.
+std::shared_ptr<const Field> load_field_for_run(const std::string& path, const ModelFile& model, double blocking_rpm,
+                                                std::string& terrain);
 
 }  // namespace auger::sim
