@@ -5,6 +5,7 @@
 // diagonal (as `auger cmd follow`), or open loop by a simulated joystick through eq. (4) (as
 // `auger cmd vel`). Batch, not paced: a 240 s log takes seconds. With --field the ground under
 // each screw changes with place (field.hpp, docs/robot-sim.md "Fields").
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -31,7 +32,7 @@ const auger::CommandLine kCli{
      {"--drive", "square|diagonal|manual", "what drives the robot (default square)"},
      {"--terrain", "sand|frozen_grass", "the terrain (default sand; with --field the controller's: default the field's background)"},
      {"--field", "FILE", "terrain patches in the world frame (e.g. sim/fields/sand-grass.toml)"},
-     {"--course-m", "L", "side of the square, length of the diagonal (default 0.5 m; legs of 24 s/m, 40 s/m)"},
+     {"--course-m", "L", "side of the square, length of the diagonal (default 0.5 m; legs of 24 s/m, 40 s/m; longer ones as ramps of 0.1 m steps over 3/4 of the leg)"},
      {"--seconds", "S", "the log's length (default 240 s)"},
      {"--seed", "N", "the random seed (default 1)"},
      {"--screws", "fil|ideal", "firmware in the loop, or first-order screws (default fil)"},
@@ -201,8 +202,15 @@ int main(int argc, char** argv) {
       std::vector<Waypoint> wps;
       const double scale = course_m / 0.5;  // the demo's courses are 0.5 m
       const double leg_s = (drive == "square" ? 12.0 : 20.0) * scale;
+      // A leg longer than the demo's is a ramp of 0.1 m set-point steps over its first 3/4
+      // share, then a hold: the reference model (eq. (18), time constant 1 / gamma = 5 s) then
+      // moves at nearly the ramp's mean speed, arrives, and dwells only at the corners and ends,
+      // not on its way (e.g. on a field's edge).
+      const int steps = scale > 1 ? static_cast<int>(std::ceil(course_m / 0.1 - 1e-9)) : 1;
+      const double ramp = scale > 1 ? 0.75 : 1.0;
       const double diag = std::atan2(m.terrain.sigma_lat / m.terrain.D_y, m.terrain.sigma_long / m.terrain.D_x);
-      for (int k = 1; k * leg_s <= seconds; ++k) {
+      Vec3 from = Vec3::Zero();
+      for (int k = 1; (k - 1) * leg_s + ramp * leg_s / steps <= seconds; ++k) {
         Vec3 p = Vec3::Zero();
         if (drive == "square") {
           static const double corners[4][2] = {{0.5, 0}, {0.5, 0.5}, {0, 0.5}, {0, 0}};
@@ -210,7 +218,13 @@ int main(int argc, char** argv) {
         } else if (k % 2 == 1) {
           p << course_m * std::cos(diag), course_m * std::sin(diag), 0;
         }
-        wps.push_back({k * leg_s, p});
+        for (int j = 1; j < steps; ++j) {
+          const double t = (k - 1) * leg_s + j * ramp * leg_s / steps;
+          if (t <= seconds) wps.push_back({t, from + (p - from) * (static_cast<double>(j) / steps)});
+        }
+        const double t_end = steps > 1 ? (k - 1) * leg_s + ramp * leg_s : k * leg_s;
+        if (t_end <= seconds) wps.push_back({t_end, p});
+        from = p;
       }
       s.run_until(boot_s);
       controller.set_waypoints(wps);
