@@ -35,8 +35,8 @@ const auger::CommandLine kCli{
     "host opens one), the true robot paced to real time, camera and IMU lines sent to\n"
     "augerd's sensors socket (reconnecting until it exists), the true trajectory logged.\n",
     {{"--pty-dir", "DIR", "where the modules' ptys module0..3 are made"},
-     {"--terrain", "sand|frozen_grass", "the terrain (default sand; with --field the log's: default the field's background)"},
-     {"--field", "FILE", "terrain patches in the world frame (e.g. sim/fields/sand-grass.toml; docs/robot-sim.md)"},
+     {"--terrain", "sand|frozen_grass", "the (log's) terrain (default sand; the field's background)"},
+     {"--field", "FILE", "terrain patches in the world frame (e.g. sim/fields/sand-grass.toml)"},
      {"--model", "PATH", "the true robot's model file (default " AUGER_DEFAULT_MODEL ")"},
      {"--elf", "PATH", "the firmware image (default " AUGER_DEFAULT_ELF ")"},
      {"--sensor-socket", "PATH", "augerd's sensors socket (default: none)"},
