@@ -14,15 +14,17 @@ sim_wait_for() {
   done
 }
 
-# sim_start DIR TERRAIN SECONDS : the simulated robot on TERRAIN with four modules running the
+# sim_start DIR TERRAIN SECONDS [FIELD] : the simulated robot on TERRAIN (or, given a FIELD file,
+# on its patches: docs/robot-sim.md "Fields") with four modules running the
 # firmware on ptys DIR/pty/module0..3, its camera and IMU sent to DIR/sensors.sock, its true
 # trajectory logged to DIR/truth.csv; then each module commissioned with its id (screw position
 # n gets id n), as `make flash ID=n` does on the robot: a fresh module boots with id 0.
 # Sets SIM_PID.
 sim_start() {
-  local d=$1 terrain=$2 seconds=$3 i
+  local d=$1 terrain=$2 seconds=$3 i field=()
+  [[ -z ${4:-} ]] || field=(--field "$4")
   mkdir -p "$d/pty"
-  "$AUGER_BUILD/sim/robot/auger-sim-robot" --pty-dir "$d/pty" --terrain "$terrain" \
+  "$AUGER_BUILD/sim/robot/auger-sim-robot" --pty-dir "$d/pty" --terrain "$terrain" "${field[@]}" \
     --model "$AUGER_SRC/models/robot.toml" --elf "$AUGER_SRC/firmware/build/auger-module.elf" \
     --sensor-socket "$d/sensors.sock" --log "$d/truth.csv" --seconds "$seconds" \
     > "$d/sim.out" 2>&1 &

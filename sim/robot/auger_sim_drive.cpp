@@ -3,11 +3,14 @@
 // physical robot (Coriolis terms, the real lever arms' yaw, blocking of stopped screws on sand),
 // the simulated camera and IMU, driven by the host controller along a square or the helix
 // diagonal (as `auger cmd follow`), or open loop by a simulated joystick through eq. (4) (as
-// `auger cmd vel`). Batch, not paced: a 240 s log takes seconds.
+// `auger cmd vel`). Batch, not paced: a 240 s log takes seconds. With --field the ground under
+// each screw changes with place (field.hpp, docs/robot-sim.md "Fields").
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <memory>
 #include <random>
 #include <string>
 
@@ -23,18 +26,21 @@ const auger::CommandLine kCli{
     "A robot log in augerd's format from the lock-step scheduler: the firmware image in four\n"
     "simulated modules, the physical robot on the terrain, camera and IMU; driven by the host\n"
     "controller around 0.5 m squares or back and forth along the helix diagonal, or by a\n"
-    "simulated joystick (manual: body velocities through eq. (4), as augerd's vel).\n",
+    "simulated joystick (manual: body velocities through eq. (4), as augerd's vel). With --field\n"
+    "the terrain changes where the robot is (patches of a field file, docs/robot-sim.md).\n",
     {{"--out", "LOG", "the log to write"},
      {"--drive", "square|diagonal|manual", "what drives the robot (default square)"},
-     {"--terrain", "sand|frozen_grass", "the terrain (default sand)"},
+     {"--terrain", "sand|frozen_grass", "the (controller's) terrain (default sand; the field's background)"},
+     {"--field", "FILE", "terrain patches in the world frame (e.g. sim/fields/sand-grass.toml)"},
+     {"--course-m", "L", "square side, diagonal length (default 0.5 m; docs/robot-sim.md)"},
      {"--seconds", "S", "the log's length (default 240 s)"},
      {"--seed", "N", "the random seed (default 1)"},
      {"--screws", "fil|ideal", "firmware in the loop, or first-order screws (default fil)"},
-     {"--blocking-rpm", "X", "screws slower than X block (default 1.5 rpm on sand, 0 = off)"},
+     {"--blocking-rpm", "X", "screws slower than X block (default 1.5 rpm on sand, 0 = off; a patch's own wins)"},
      {"--model", "PATH", "the model file (default " AUGER_DEFAULT_MODEL ")"},
      {"--elf", "PATH", "the firmware image (default " AUGER_DEFAULT_ELF ")"},
      {"--threads", "N", "simulation threads (default 1)"},
-     {"--truth-out", "FILE", "write the true trajectory there"},
+     {"--truth-out", "FILE", "write the true pose and the ground under the robot there"},
      {"--camera-corr-s", "S", "correlation time of the camera's noise (default 0.3 s)"},
      {"--camera-latency-s", "S", "the camera's capture-to-delivery latency (default 0.03 s)"}},
     "Exit 2: bad usage.\n"};
@@ -85,9 +91,9 @@ class Joystick {
 
 int main(int argc, char** argv) {
   using namespace auger;
-  std::string out_path, truth_path, drive = "square", terrain = "sand", screws = "fil";
+  std::string out_path, truth_path, drive = "square", terrain, screws = "fil", field_path;
   std::string model_path = AUGER_DEFAULT_MODEL, elf = AUGER_DEFAULT_ELF;
-  double seconds = 240, blocking_rpm = -1;
+  double seconds = 240, blocking_rpm = -1, course_m = 0.5;
   std::uint64_t seed = 1;
   int threads = 1;  // one thread is faster here: the modules and the robot exchange every 1 ms
   sim::CameraParams camera;
@@ -104,6 +110,8 @@ int main(int argc, char** argv) {
     else if (a == "--truth-out") truth_path = val();
     else if (a == "--drive") drive = val();
     else if (a == "--terrain") terrain = val();
+    else if (a == "--field") field_path = val();
+    else if (a == "--course-m") course_m = number("--course-m", val());
     else if (a == "--screws") screws = val();
     else if (a == "--model") model_path = val();
     else if (a == "--elf") elf = val();
@@ -114,13 +122,17 @@ int main(int argc, char** argv) {
     else if (a == "--camera-corr-s") camera.noise_corr_s = number("--camera-corr-s", val());
     else if (a == "--camera-latency-s") camera.latency_s = number("--camera-latency-s", val());
   }
-  if (out_path.empty() || !(seconds > 0) || (drive != "square" && drive != "diagonal" && drive != "manual") ||
+  if (out_path.empty() || !(seconds > 0) || !(course_m > 0) || (drive != "square" && drive != "diagonal" && drive != "manual") ||
       (screws != "fil" && screws != "ideal") || threads < 1) {
     usage(stderr);
     return 2;
   }
   try {
     const ModelFile file = load_model_file(model_path);
+    // Each zone's blocking: the patch's own, else --blocking-rpm, else 1.5 rpm on sand.
+    std::shared_ptr<const sim::Field> field;
+    if (!field_path.empty()) field = sim::load_field_for_run(field_path, file, blocking_rpm, terrain);
+    if (terrain.empty()) terrain = "sand";
     const Model m = build_model(file, terrain);
     ControllerConfig cc = controller_config(file, terrain);
     // As the demo configures augerd (scripts/demo.sh): the null-space allocator keeps every screw
@@ -134,6 +146,7 @@ int main(int argc, char** argv) {
     if (blocking_rpm < 0) blocking_rpm = terrain == "sand" ? 1.5 : 0.0;
     tp.blocking.on = blocking_rpm > 0;
     tp.blocking.omega_block_rpm = blocking_rpm;
+    tp.field = field;
     sim::SchedulerConfig sc;
     sc.mode = screws == "fil" ? sim::ScrewMode::fil : sim::ScrewMode::ideal;
     sc.elf_path = elf;
@@ -148,7 +161,32 @@ int main(int argc, char** argv) {
       return 1;
     }
     s.set_log(&log);
-    s.set_keep_history(!truth_path.empty());
+    s.set_keep_history(false);
+    // The truth, streamed row by row (an hour's run is not held in memory).
+    std::ofstream truth_file;
+    std::unique_ptr<CsvLogWriter> truth;
+    const sim::Field ground = field ? *field : sim::uniform_field(file, terrain);
+    std::vector<double> row;
+    if (!truth_path.empty()) {
+      truth_file.open(truth_path);
+      if (!truth_file) {
+        std::fprintf(stderr, "auger-sim-drive: cannot write %s\n", truth_path.c_str());
+        return 1;
+      }
+      std::vector<std::string> cols{"t_s", "x_m", "y_m", "psi_rad"};
+      for (const auto& c : sim::ground_columns()) cols.push_back(c);
+      truth = std::make_unique<CsvLogWriter>(
+          truth_file,
+          std::vector<std::pair<std::string, std::string>>{{"format", "auger-sim-truth v1"},
+                                                           {"field", field ? field->path : ground.path},
+                                                           {"terrain_ids", sim::terrain_ids_metadata(ground)}},
+          cols);
+      s.set_tick_sink([&](const sim::TickRecord& h) {
+        sim::ground_values(ground, h.zone, h.contact_zone, row);
+        row.insert(row.begin(), {h.t_s, h.eta_true[0], h.eta_true[1], h.eta_true[2]});
+        truth->write_row(row.data(), row.size());
+      });
+    }
     const double boot_s = 0.1;
     if (drive == "manual") {
       Joystick stick(seed);
@@ -162,17 +200,31 @@ int main(int argc, char** argv) {
     } else {
       s.set_controller(&controller);
       std::vector<Waypoint> wps;
-      const double leg_s = drive == "square" ? 12.0 : 20.0;
+      const double scale = course_m / 0.5;  // the demo's courses are 0.5 m
+      const double leg_s = (drive == "square" ? 12.0 : 20.0) * scale;
+      // A leg longer than the demo's is a ramp of 0.1 m set-point steps over its first 3/4
+      // share, then a hold: the reference model (eq. (18), time constant 1 / gamma = 5 s) then
+      // moves at nearly the ramp's mean speed, arrives, and dwells only at the corners and ends,
+      // not on its way (e.g. on a field's edge).
+      const int steps = scale > 1 ? static_cast<int>(std::ceil(course_m / 0.1 - 1e-9)) : 1;
+      const double ramp = scale > 1 ? 0.75 : 1.0;
       const double diag = std::atan2(m.terrain.sigma_lat / m.terrain.D_y, m.terrain.sigma_long / m.terrain.D_x);
-      for (int k = 1; k * leg_s <= seconds; ++k) {
+      Vec3 from = Vec3::Zero();
+      for (int k = 1; (k - 1) * leg_s + ramp * leg_s / steps <= seconds; ++k) {
         Vec3 p = Vec3::Zero();
         if (drive == "square") {
           static const double corners[4][2] = {{0.5, 0}, {0.5, 0.5}, {0, 0.5}, {0, 0}};
-          p << corners[(k - 1) % 4][0], corners[(k - 1) % 4][1], 0;
+          p << corners[(k - 1) % 4][0] * scale, corners[(k - 1) % 4][1] * scale, 0;
         } else if (k % 2 == 1) {
-          p << 0.5 * std::cos(diag), 0.5 * std::sin(diag), 0;
+          p << course_m * std::cos(diag), course_m * std::sin(diag), 0;
         }
-        wps.push_back({k * leg_s, p});
+        for (int j = 1; j < steps; ++j) {
+          const double t = (k - 1) * leg_s + j * ramp * leg_s / steps;
+          if (t <= seconds) wps.push_back({t, from + (p - from) * (static_cast<double>(j) / steps)});
+        }
+        const double t_end = steps > 1 ? (k - 1) * leg_s + ramp * leg_s : k * leg_s;
+        if (t_end <= seconds) wps.push_back({t_end, p});
+        from = p;
       }
       s.run_until(boot_s);
       controller.set_waypoints(wps);
@@ -184,12 +236,11 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "auger-sim-drive: writing %s failed\n", out_path.c_str());
       return 1;
     }
-    if (!truth_path.empty()) {
-      std::ofstream tr(truth_path);
-      CsvLogWriter w(tr, {{"format", "auger-sim-truth v1"}}, {"t_s", "x_m", "y_m", "psi_rad"});
-      for (const auto& h : s.history()) {
-        const double row[4] = {h.t_s, h.eta_true[0], h.eta_true[1], h.eta_true[2]};
-        w.write_row(row, 4);
+    if (truth) {
+      truth_file.close();
+      if (!truth_file) {
+        std::fprintf(stderr, "auger-sim-drive: writing %s failed\n", truth_path.c_str());
+        return 1;
       }
     }
   } catch (const std::exception& e) {

@@ -15,6 +15,7 @@
 #include <cstring>
 #include <fstream>
 #include <iostream>
+#include <memory>
 #include <string>
 
 #include "auger/args.hpp"
@@ -34,7 +35,8 @@ const auger::CommandLine kCli{
     "host opens one), the true robot paced to real time, camera and IMU lines sent to\n"
     "augerd's sensors socket (reconnecting until it exists), the true trajectory logged.\n",
     {{"--pty-dir", "DIR", "where the modules' ptys module0..3 are made"},
-     {"--terrain", "sand|frozen_grass", "the terrain (default sand)"},
+     {"--terrain", "sand|frozen_grass", "the (log's) terrain (default sand; the field's background)"},
+     {"--field", "FILE", "terrain patches in the world frame (e.g. sim/fields/sand-grass.toml)"},
      {"--model", "PATH", "the true robot's model file (default " AUGER_DEFAULT_MODEL ")"},
      {"--elf", "PATH", "the firmware image (default " AUGER_DEFAULT_ELF ")"},
      {"--sensor-socket", "PATH", "augerd's sensors socket (default: none)"},
@@ -107,7 +109,7 @@ class SensorLink {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string pty_dir, terrain = "sand", model_path = AUGER_DEFAULT_MODEL, elf = AUGER_DEFAULT_ELF;
+  std::string pty_dir, terrain, field_path, model_path = AUGER_DEFAULT_MODEL, elf = AUGER_DEFAULT_ELF;
   std::string socket_path, log_path;
   double seconds = -1, blocking_rpm = -1;
   unsigned long long seed = 1;
@@ -121,6 +123,7 @@ int main(int argc, char** argv) {
   for (const auto& [a, value] : args.options) {  // in order: the last of a repeated option wins
     if (a == "--pty-dir") pty_dir = value;
     else if (a == "--terrain") terrain = value;
+    else if (a == "--field") field_path = value;
     else if (a == "--model") model_path = value;
     else if (a == "--elf") elf = value;
     else if (a == "--sensor-socket") socket_path = value;
@@ -135,11 +138,15 @@ int main(int argc, char** argv) {
   }
   try {
     const auger::ModelFile file = auger::load_model_file(model_path);
+    std::shared_ptr<const auger::sim::Field> field;
+    if (!field_path.empty()) field = auger::sim::load_field_for_run(field_path, file, blocking_rpm, terrain);
+    if (terrain.empty()) terrain = "sand";
     const auger::Model model = auger::build_model(file, terrain);
     auger::sim::TruthParams truth;
     if (blocking_rpm < 0) blocking_rpm = terrain == "sand" ? 1.5 : 0.0;
     truth.blocking.on = blocking_rpm > 0;
     truth.blocking.omega_block_rpm = blocking_rpm;
+    truth.field = field;  // the truth log (--log) then also records the ground under the robot
     auger::sim::SchedulerConfig sc;
     sc.mode = auger::sim::ScrewMode::fil;
     sc.elf_path = elf;

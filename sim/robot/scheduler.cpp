@@ -56,8 +56,16 @@ void Scheduler::set_log(std::ostream* out) {
     log_.reset();
     return;
   }
-  log_ = std::make_unique<RobotLogWriter>(
-      *out, std::vector<std::pair<std::string, std::string>>{{"format", kRobotLogFormat}, {"terrain", cfg_.terrain}});
+  std::vector<std::pair<std::string, std::string>> meta{{"format", kRobotLogFormat}, {"terrain", cfg_.terrain}};
+  std::vector<std::string> extra;
+  // A truth log on a field also records the ground under the robot (a measurement log never does).
+  const Field* field = robot_.params().field.get();
+  if (cfg_.log_truth && field) {
+    meta.emplace_back("field", field->path);
+    meta.emplace_back("terrain_ids", terrain_ids_metadata(*field));
+    extra = ground_columns();
+  }
+  log_ = std::make_unique<RobotLogWriter>(*out, meta, extra);
 }
 
 void Scheduler::on_byte(void* ctx, int module, std::uint8_t byte, double) {
@@ -173,9 +181,14 @@ void Scheduler::tick() {
     r.imu_psi_rad = imu.psi_rad;
     r.imu_r_radps = imu.r_radps;
     if (controller_ && enabled) auger::io::log_reference(controller_->reference().eta_d, r);
-    log_->write(r);
+    if (cfg_.log_truth && robot_.params().field) {
+      ground_values(*robot_.params().field, robot_.centre_zone(truth), robot_.contact_zones(truth), log_extra_);
+      log_->write(r, log_extra_);
+    } else {
+      log_->write(r);
+    }
   }
-  if (keep_history_) {
+  if (keep_history_ || tick_sink_) {
     TickRecord rec;
     rec.t_s = t;
     rec.eta_true = truth.eta;
@@ -183,7 +196,10 @@ void Scheduler::tick() {
     rec.enabled = enabled;
     rec.cmd_rpm = cmd;
     rec.omega_true_rpm = omega_true_;
-    history_.push_back(rec);
+    rec.zone = robot_.centre_zone(truth);
+    rec.contact_zone = robot_.contact_zones(truth);
+    if (tick_sink_) tick_sink_(rec);
+    if (keep_history_) history_.push_back(rec);
   }
 
   for (auto& l : links_) l->tm.fresh = false;

@@ -55,6 +55,8 @@ struct TickRecord {
   bool enabled = false;
   Vec4 cmd_rpm = Vec4::Zero();
   Vec4 omega_true_rpm = Vec4::Zero();
+  int zone = 0;                        // the field's zone under the body's centre (field.hpp; 0 without one)
+  std::array<int, 4> contact_zone{};   // and under each screw's contact
 };
 
 class Scheduler {
@@ -76,6 +78,9 @@ class Scheduler {
   // Called once per control period with the readings delivered in it (null if none).
   using SensorSink = std::function<void(double t_s, const ImuReading* imu, const PoseReading* pose)>;
   void set_sensor_sink(SensorSink sink) { sink_ = std::move(sink); }
+  // Called once per control period with its record (a truth log streamed, not kept in memory).
+  using TickSink = std::function<void(const TickRecord&)>;
+  void set_tick_sink(TickSink sink) { tick_sink_ = std::move(sink); }
 
   // Advance whole control periods until t_s (simulated seconds from creation).
   void run_until(double t_s);
@@ -103,10 +108,12 @@ class Scheduler {
   Controller* controller_ = nullptr;
   CommandSource source_;
   SensorSink sink_;
+  TickSink tick_sink_;
   simmod_t* sim_ = nullptr;
   struct SimModule;  // protocol parser, latest telemetry (host/io's module adapter), setpoint state
   std::vector<std::unique_ptr<SimModule>> links_;
   std::unique_ptr<RobotLogWriter> log_;
+  std::vector<double> log_extra_;  // the truth log's ground columns (with a field)
   double t_s_ = 0;
   bool stop_ = false;
   bool keep_history_ = true;

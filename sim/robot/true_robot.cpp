@@ -29,51 +29,99 @@ TrueRobot::TrueRobot(const Model& nominal, const TruthParams& params) : m_(nomin
     drive_[static_cast<std::size_t>(i)] =
         Eigen::Vector2d(sc.mount_sign * sc.helix_sign / tan_phi, sc.mount_sign).normalized();
   }
-  // Drag: each contact ploughs through the ground and resists its own velocity with a quarter
-  // of D_x, D_y (so translation keeps eq. (6)'s D_x, D_y exactly).
-  cdx_ = m_.D_diag[0] / 4.0;
-  cdy_ = m_.D_diag[1] / 4.0;
-  // Yaw: the truth's screw forces act at their real lever arms, about 17x the empirical yaw row
-  // of B (docs/model-notes.md). For the same steady r, D_psi is scaled by the same ratio:
-  // r_ss = T_true / D_true = T_nom / D_psi  =>  D_true = D_psi T_true / T_nom, with T per rpm of
-  // the pure-yaw pattern omega = [1 1 1 1] (it gives no net force in either model).
-  double torque_true = 0.0;
-  for (std::size_t i = 0; i < 4; ++i) {
-    const double fx = m_.terrain.sigma_long * s_sign_[i] * h_sign_[i];
-    const double fy = m_.terrain.sigma_lat * s_sign_[i];
-    torque_true += pos_[i].x() * fy - pos_[i].y() * fx;
-  }
-  const double torque_nom = m_.SB.row(2).sum();
-  if (!(std::fabs(torque_nom) > 0) || !std::isfinite(m_.D_diag[2]))
-    throw std::invalid_argument("TrueRobot: the terrain needs D_psi and a yaw row of B");
-  yaw_scale_ = torque_true / torque_nom;
-  const double d_psi_true = m_.D_diag[2] * yaw_scale_;
+  base_ = calibrate(m_);
+  base_.block_rpm = p_.blocking.on ? p_.blocking.omega_block_rpm : 0.0;
+  cdx_ = base_.cdx;
+  cdy_ = base_.cdy;
+  yaw_scale_ = base_.yaw_scale;
+  d_psi_res_ = base_.d_psi_res;
   i_z_ = m_.robot.I_z_kgm2 * (p_.nominal_yaw_time_constant ? yaw_scale_ : 1.0);
+  if (p_.field && p_.nominal_yaw_time_constant)
+    throw std::invalid_argument("TrueRobot: a field needs the physical yaw inertia (nominal_yaw_time_constant off)");
+  // The stiffest ground sets the stability bound below.
+  double d_xy_max = m_.D_diag[0] + m_.D_diag[1], d_psi_max = base_.d_psi_true;
+  bool any_blocking = p_.blocking.on;
+  if (p_.field) {
+    for (const FieldZone& z : p_.field->zones) {
+      Ground g = calibrate(make_model(m_.robot, z.terrain));
+      g.block_rpm = z.blocking_rpm.value_or(base_.block_rpm);
+      any_blocking = any_blocking || g.block_rpm > 0;
+      d_xy_max = std::max(d_xy_max, z.terrain.D_x + z.terrain.D_y);
+      d_psi_max = std::max(d_psi_max, g.d_psi_true);
+      zones_.push_back(g);
+    }
+  }
   if (p_.offset.on && !(std::fabs(p_.offset.asym) < 1.0))
     throw std::invalid_argument("TrueRobot: resistance offset asym must lie in (-1, 1)");
-  double contact_yaw = 0.0;
-  for (const auto& r : pos_) contact_yaw += cdx_ * r.y() * r.y() + cdy_ * r.x() * r.x();
-  d_psi_res_ = d_psi_true - contact_yaw;
-  if (d_psi_res_ < 0)
-    throw std::invalid_argument("TrueRobot: the contact drag alone exceeds the calibrated yaw drag");
   // RK4 is stable for a real eigenvalue -lambda while lambda h < 2.78. The tanh forms are
   // stiffest at rest: slope F_max / eps. Translation: friction plus four blocked contacts.
   const double m = m_.robot.m_kg, g_n = m * kGravity_mps2;
-  double lambda = (m_.D_diag[0] + m_.D_diag[1]) / m;
+  double lambda = d_xy_max / m;
   if (p_.friction.on) lambda += p_.friction.stiction_n / p_.friction.eps_mps / m;
-  if (p_.blocking.on) lambda += p_.blocking.mu * g_n / p_.blocking.eps_mps / m;
+  if (any_blocking) lambda += p_.blocking.mu * g_n / p_.blocking.eps_mps / m;
   // The soft patch and a terrain change scale the drag; the front contacts of the offset too.
   double drag_gain = 1.0;
   if (p_.soft_patch.on) drag_gain *= 1.0 + std::max(0.0, p_.soft_patch.extra);
   if (p_.terrain_change.on) drag_gain *= std::max(1.0, p_.terrain_change.drag_scale);
   if (p_.offset.on) drag_gain *= 1.0 + std::fabs(p_.offset.asym);
   lambda *= drag_gain;
-  double lambda_z = drag_gain * d_psi_true / i_z_;
+  double lambda_z = drag_gain * d_psi_max / i_z_;
   if (p_.friction.on) lambda_z += p_.friction.stiction_nm / p_.friction.eps_radps / i_z_;
-  if (p_.blocking.on)
+  if (any_blocking)
     lambda_z += p_.blocking.mu * g_n / p_.blocking.eps_mps * 0.25 * (pos_[0].squaredNorm()) * 4 / i_z_;
   if (std::max(lambda, lambda_z) * p_.substep_s > 2.5)
     throw std::invalid_argument("TrueRobot: substep_s too long for the smoothing eps of the dry forces");
+}
+
+TrueRobot::Ground TrueRobot::calibrate(const Model& m) const {
+  Ground g;
+  g.sigma_long = m.terrain.sigma_long;
+  g.sigma_lat = m.terrain.sigma_lat;
+  // Drag: each contact ploughs through the ground and resists its own velocity with a quarter
+  // of D_x, D_y (so translation keeps eq. (6)'s D_x, D_y exactly).
+  g.cdx = m.D_diag[0] / 4.0;
+  g.cdy = m.D_diag[1] / 4.0;
+  // Yaw: the truth's screw forces act at their real lever arms, about 17x the empirical yaw row
+  // of B (docs/model-notes.md). For the same steady r, D_psi is scaled by the same ratio:
+  // r_ss = T_true / D_true = T_nom / D_psi  =>  D_true = D_psi T_true / T_nom, with T per rpm of
+  // the pure-yaw pattern omega = [1 1 1 1] (it gives no net force in either model).
+  double torque_true = 0.0;
+  for (std::size_t i = 0; i < 4; ++i) {
+    const double fx = m.terrain.sigma_long * s_sign_[i] * h_sign_[i];
+    const double fy = m.terrain.sigma_lat * s_sign_[i];
+    torque_true += pos_[i].x() * fy - pos_[i].y() * fx;
+  }
+  const double torque_nom = m.SB.row(2).sum();
+  if (!(std::fabs(torque_nom) > 0) || !std::isfinite(m.D_diag[2]))
+    throw std::invalid_argument("TrueRobot: the terrain needs D_psi and a yaw row of B");
+  g.yaw_scale = torque_true / torque_nom;
+  g.d_psi_true = m.D_diag[2] * g.yaw_scale;
+  double contact_yaw = 0.0;
+  for (const auto& r : pos_) contact_yaw += g.cdx * r.y() * r.y() + g.cdy * r.x() * r.x();
+  g.d_psi_res = g.d_psi_true - contact_yaw;
+  if (g.d_psi_res < 0)
+    throw std::invalid_argument("TrueRobot: the contact drag alone exceeds the calibrated yaw drag on " + m.terrain.name);
+  return g;
+}
+
+Eigen::Vector2d TrueRobot::contact_world(const TruthState& s, std::size_t i) const {
+  const double cpsi = std::cos(s.eta[2]), spsi = std::sin(s.eta[2]);
+  const Eigen::Vector2d& p = pos_[i];
+  return Eigen::Vector2d(s.eta[0] + cpsi * p.x() - spsi * p.y(), s.eta[1] + spsi * p.x() + cpsi * p.y());
+}
+
+std::array<int, 4> TrueRobot::contact_zones(const TruthState& s) const {
+  std::array<int, 4> z{};
+  if (!p_.field) return z;
+  for (std::size_t i = 0; i < 4; ++i) {
+    const Eigen::Vector2d w = contact_world(s, i);
+    z[i] = p_.field->zone_at(w.x(), w.y());
+  }
+  return z;
+}
+
+int TrueRobot::centre_zone(const TruthState& s) const {
+  return p_.field ? p_.field->zone_at(s.eta[0], s.eta[1]) : 0;
 }
 
 TrueRobot::Deriv TrueRobot::derivative(const TruthState& s, const Vec4& omega_rpm, double t_s,
@@ -119,13 +167,27 @@ TrueRobot::Deriv TrueRobot::derivative(const TruthState& s, const Vec4& omega_rp
   }
   const double cpsi = std::cos(s.eta[2]), spsi = std::sin(s.eta[2]);
 
+  // The ground under each contact (a field's zone, else the nominal terrain). The residual yaw
+  // drag is the body's: on a field each contact carries a quarter of its zone's.
+  std::array<const Ground*, 4> ground{&base_, &base_, &base_, &base_};
+  double d_psi_res = d_psi_res_;
+  if (p_.field) {
+    for (std::size_t i = 0; i < 4; ++i) {
+      const Eigen::Vector2d w = contact_world(s, i);
+      ground[i] = &zones_[static_cast<std::size_t>(p_.field->zone_at(w.x(), w.y()))];
+    }
+    const bool same = ground[1] == ground[0] && ground[2] == ground[0] && ground[3] == ground[0];
+    d_psi_res = same ? ground[0]->d_psi_res
+                     : 0.25 * (ground[0]->d_psi_res + ground[1]->d_psi_res + ground[2]->d_psi_res + ground[3]->d_psi_res);
+  }
   Eigen::Vector2d f_body = Eigen::Vector2d::Zero();
-  double m_z = -drag_gain * d_psi_res_ * r;
+  double m_z = -drag_gain * d_psi_res * r;
   for (std::size_t i = 0; i < 4; ++i) {
     const Eigen::Vector2d& p = pos_[i];
     // Traction of screw i from its speed (N per rpm, eq. (7) distributed per screw).
-    double f_long = sigma_gain * m_.terrain.sigma_long * w_tr[static_cast<int>(i)];
-    double f_lat = sigma_gain * m_.terrain.sigma_lat * w_tr[static_cast<int>(i)];
+    const Ground& gr = *ground[i];
+    double f_long = sigma_gain * gr.sigma_long * w_tr[static_cast<int>(i)];
+    double f_lat = sigma_gain * gr.sigma_lat * w_tr[static_cast<int>(i)];
     if (p_.saturation.on) {
       f_long = saturate_force(f_long, p_.saturation.long_max_n, p_.saturation.sharpness);
       f_lat = saturate_force(f_lat, p_.saturation.lat_max_n, p_.saturation.sharpness);
@@ -138,7 +200,7 @@ TrueRobot::Deriv TrueRobot::derivative(const TruthState& s, const Vec4& omega_rp
     // Contact point velocity (u - r y_i, v + r x_i) (docs/model-notes.md "Frames").
     const Eigen::Vector2d c(u - r * p.y(), v + r * p.x());
     Eigen::Vector2d f_block = Eigen::Vector2d::Zero();
-    if (p_.blocking.on && std::fabs(omega_rpm[static_cast<int>(i)]) < p_.blocking.omega_block_rpm)
+    if (gr.block_rpm > 0 && std::fabs(omega_rpm[static_cast<int>(i)]) < gr.block_rpm)
       f_block = -(p_.blocking.mu * normal_n / 4.0) * smooth_direction(c, p_.blocking.eps_mps);
     // Contact drag; the resistance offset makes the front pair plough more than the rear (so a
     // sideways velocity gives a yaw moment a D_y l_x v, and r a lateral force), the soft patch
@@ -151,7 +213,7 @@ TrueRobot::Deriv TrueRobot::derivative(const TruthState& s, const Vec4& omega_rp
       const double inside = 0.5 * (1.0 - std::tanh((std::hypot(xw, yw) - sp.radius_m) / sp.edge_m));
       k_drag *= 1.0 + sp.extra * inside;
     }
-    const Eigen::Vector2d f_plain(-k_drag * cdx_ * c.x(), -k_drag * cdy_ * c.y());
+    const Eigen::Vector2d f_plain(-k_drag * gr.cdx * c.x(), -k_drag * gr.cdy * c.y());
     Eigen::Vector2d f_drag = f_plain;
     if (p_.offset.on) {
       const double asym = p.x() > 0 ? p_.offset.asym : -p_.offset.asym;

@@ -9,10 +9,12 @@
 
 #include <array>
 #include <cmath>
+#include <memory>
 
 #include <Eigen/Core>
 
 #include "auger/model.hpp"
+#include "field.hpp"
 
 namespace auger::sim {
 
@@ -110,6 +112,10 @@ struct TruthParams {
   ResistanceOffset offset;
   TerrainChange terrain_change;
   SoftPatch soft_patch;
+  // A field (field.hpp): each contact takes the sigma, drag and blocking threshold of the zone
+  // under it (a zone's unset blocking_rpm: blocking's threshold if on, else none). Null: the
+  // nominal model's terrain everywhere, exactly as without fields.
+  std::shared_ptr<const Field> field;
 };
 
 // State: pose eta (world), body velocity zeta, and the force-lag filter (value, rate per screw).
@@ -149,6 +155,11 @@ class TrueRobot {
   // Yaw inertia in use (I_z, or I_z yaw_scale() with nominal_yaw_time_constant).
   double yaw_inertia_kgm2() const { return i_z_; }
 
+  // The field's zone under each contact and under the body's centre at state s (all 0 without
+  // a field).
+  std::array<int, 4> contact_zones(const TruthState& s) const;
+  int centre_zone(const TruthState& s) const;
+
   // Derivative of the full state (exposed for tests); also fills per-screw load torques.
   struct Deriv {
     Vec3 eta_dot, zeta_dot;
@@ -157,8 +168,19 @@ class TrueRobot {
   Deriv derivative(const TruthState& s, const Vec4& omega_rpm, double t_s, Vec4* load_nm) const;
 
  private:
+  // What a contact needs of the ground under it: the terrain's traction per rpm, its share of the
+  // drag, the residual yaw drag (a quarter per contact on a field), the blocking threshold.
+  struct Ground {
+    double sigma_long = 0, sigma_lat = 0, cdx = 0, cdy = 0, yaw_scale = 1, d_psi_true = 0, d_psi_res = 0;
+    double block_rpm = 0;  // 0: no blocking
+  };
+  Ground calibrate(const Model& m) const;
+  Eigen::Vector2d contact_world(const TruthState& s, std::size_t i) const;
+
   Model m_;
   TruthParams p_;
+  Ground base_;                // the nominal model's terrain (no field)
+  std::vector<Ground> zones_;  // per zone of p_.field
   TruthState s_;
   double t_s_ = 0;
   double cdx_ = 0, cdy_ = 0, d_psi_res_ = 0, yaw_scale_ = 1, i_z_ = 0;
