@@ -162,18 +162,12 @@ std::string Daemon::sensor(const SensorMessage& m, const std::string& line) {
            " s (clocks in sync?): " + quote_line(line);
   if (age_s > 2.0)
     return "error: timestamp " + std::to_string(m.t_unix_s) + " is " + std::to_string(age_s) + " s old: " + quote_line(line);
+  auger::daemon::to_sensor_input(m, t_loop_s, sensors_in_);
   if (m.kind == SensorKind::pose) {
-    sensors_in_.has_pose = true;
-    sensors_in_.pose = auger::Vec3(m.x_m, m.y_m, m.psi_rad);
-    sensors_in_.pose_cov = auger::daemon::pose_covariance(m);
-    sensors_in_.pose_t_s = t_loop_s;  // the EKF compares it with its prediction for that time
     pose_sd_ = auger::Vec3(m.sx_m, m.sy_m, m.spsi_rad);
     last_pose_ = sensors_in_.pose;
     last_pose_t_s_ = t_loop_s;
   } else {
-    sensors_in_.has_imu_psi = sensors_in_.has_imu_r = true;
-    sensors_in_.imu_psi_rad = m.imu_psi_rad;
-    sensors_in_.imu_r_radps = m.imu_r_radps;
     last_imu_t_s_ = t_loop_s;
     last_imu_psi_rad_ = m.imu_psi_rad;
     last_imu_r_radps_ = m.imu_r_radps;

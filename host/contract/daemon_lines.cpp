@@ -95,13 +95,22 @@ std::string check_sensor(const SensorMessage& m) {
   return check_pose(m.x_m, m.y_m, m.psi_rad, m.sx_m, m.sy_m, m.spsi_rad);
 }
 
-Mat3 pose_covariance(double sx_m, double sy_m, double spsi_rad) {
-  return Vec3(sx_m * sx_m, sy_m * sy_m, spsi_rad * spsi_rad).asDiagonal();
-}
-
 Mat3 pose_covariance(const SensorMessage& m) {
   auto var = [](double given, double sd) { return std::isnan(given) ? sd * sd : given; };
   return Vec3(var(m.var_x_m2, m.sx_m), var(m.var_y_m2, m.sy_m), var(m.var_psi_rad2, m.spsi_rad)).asDiagonal();
+}
+
+void to_sensor_input(const SensorMessage& m, double t_loop_s, SensorInput& in) {
+  if (m.kind == SensorKind::pose) {
+    in.has_pose = true;
+    in.pose = Vec3(m.x_m, m.y_m, m.psi_rad);
+    in.pose_cov = pose_covariance(m);
+    in.pose_t_s = t_loop_s;  // the EKF compares it with its prediction for that time
+  } else {
+    in.has_imu_psi = in.has_imu_r = true;
+    in.imu_psi_rad = m.imu_psi_rad;
+    in.imu_r_radps = m.imu_r_radps;
+  }
 }
 
 std::string quote_line(const std::string& s) { return auger::quote_input(s, 200); }

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "auger/controller.hpp"
 #include "auger/model.hpp"
 
 namespace auger::daemon {
@@ -35,7 +36,10 @@ struct SensorMessage {
 // The pose's covariance for the estimator (diagonal): the variances given, else the squares of
 // the standard deviations. The one place a pose's covariance is built (augerd, auger replay).
 Mat3 pose_covariance(const SensorMessage& m);
-Mat3 pose_covariance(double sx_m, double sy_m, double spsi_rad);
+
+// A message into the controller's sensor input of this cycle (augerd; `auger replay` from the
+// log's row): t_loop_s is its time on the loop's clock (a pose's capture time).
+void to_sensor_input(const SensorMessage& m, double t_loop_s, SensorInput& in);
 
 // Each returns an empty string on success, else the error text (without "error: "). A line
 // with a control byte, a number that is not the whole field, or a value outside the bounds of

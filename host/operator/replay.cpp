@@ -191,17 +191,20 @@ int run_replay(int argc, char** argv) {
           if (tel[std::size_t(i)].valid && std::isnan(tel[std::size_t(i)].omega_rpm))
             r.fail_at_field(col("omega_rpm_" + s), "fresh telemetry without omega_rpm_" + s);
         }
+        // The sensor messages of the row, as augerd turned them into the controller's input.
         SensorInput sin;
         if (!std::isnan(v("x_m"))) {
-          sin.has_pose = true;
-          sin.pose = Vec3(v("x_m"), v("y_m"), v("psi_rad"));
-          sin.pose_cov = daemon::pose_covariance(row.pose_sx_m, row.pose_sy_m, row.pose_spsi_rad);
-          sin.pose_t_s = row.pose_capture_t_s;
+          daemon::SensorMessage pose;
+          pose.kind = daemon::SensorKind::pose;
+          pose.x_m = v("x_m"), pose.y_m = v("y_m"), pose.psi_rad = v("psi_rad");
+          pose.sx_m = row.pose_sx_m, pose.sy_m = row.pose_sy_m, pose.spsi_rad = row.pose_spsi_rad;
+          daemon::to_sensor_input(pose, row.pose_capture_t_s, sin);
         }
         if (!std::isnan(v("imu_psi_rad"))) {
-          sin.has_imu_psi = sin.has_imu_r = true;
-          sin.imu_psi_rad = v("imu_psi_rad");
-          sin.imu_r_radps = v("imu_r_radps");
+          daemon::SensorMessage imu;
+          imu.kind = daemon::SensorKind::imu;
+          imu.imu_psi_rad = v("imu_psi_rad"), imu.imu_r_radps = v("imu_r_radps");
+          daemon::to_sensor_input(imu, r.t_s(), sin);
         }
         const std::array<double, 4> ctrl_rpm = ctrl->step(r.t_s(), tel, sin);
         // What augerd sent: the same rule (auger_contract's mode_setpoints) on the logged mode and

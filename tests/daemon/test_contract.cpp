@@ -162,4 +162,19 @@ TEST_CASE("a typed input meets a line's checks, and its variances reach the esti
   p.var_x_m2 = 0.0101, p.var_y_m2 = 0.0402, p.var_psi_rad2 = 0.0903;
   CHECK(pose_covariance(p).diagonal() == Vec3(0.0101, 0.0402, 0.0903));
   CHECK(pose_covariance(p)(0, 1) == 0);
+  // Into the controller's input of the cycle, at the given time on the loop's clock.
+  SensorInput in;
+  p.x_m = 1, p.y_m = 2, p.psi_rad = 0.5;
+  to_sensor_input(p, 41.25, in);
+  CHECK(in.has_pose);
+  CHECK(in.pose == Vec3(1, 2, 0.5));
+  CHECK(in.pose_t_s == 41.25);
+  CHECK(in.pose_cov == pose_covariance(p));
+  CHECK_FALSE(in.has_imu_psi);
+  SensorMessage imu;
+  imu.kind = SensorKind::imu;
+  imu.imu_psi_rad = 0.3, imu.imu_r_radps = -0.1;
+  to_sensor_input(imu, 41.26, in);
+  CHECK(in.has_pose);  // the cycle's pose stays
+  CHECK((in.has_imu_psi && in.has_imu_r && in.imu_psi_rad == 0.3 && in.imu_r_radps == -0.1));
 }

@@ -18,8 +18,9 @@
 #include "auger/log.hpp"
 #include "auger/model_file.hpp"
 #include "config.hpp"
-#include "data_log.hpp"
+#include "daemon_lines.hpp"
 #include "daemon_log.hpp"
+#include "data_log.hpp"
 #include "dataset.hpp"
 #include "search.hpp"
 #include "simulation.hpp"
@@ -139,10 +140,12 @@ double mean_error_m(const Model& model, const ControllerConfig& cc) {
     SensorInput s;
     if (k >= late && (k - late) % 5 == 0) {
       const std::size_t captured = k - late;
-      s.has_pose = true;
-      s.pose = eta[captured];
-      s.pose_cov = daemon::pose_covariance(0.002, 0.002, 0.004);
-      s.pose_t_s = double(captured) * kDt + kStampLate_s;  // the stamp on the loop's clock
+      daemon::SensorMessage pose;
+      pose.kind = daemon::SensorKind::pose;
+      pose.x_m = eta[captured][0], pose.y_m = eta[captured][1], pose.psi_rad = eta[captured][2];
+      pose.sx_m = pose.sy_m = 0.002;
+      pose.spsi_rad = 0.004;
+      daemon::to_sensor_input(pose, double(captured) * kDt + kStampLate_s, s);  // the stamp, loop clock
     }
     c.step(t, tel, s);
     if (t > 5) {
