@@ -76,6 +76,8 @@ ASAN_TARGETS := test_protocol test_firmware_logic test_host_core test_sim_models
 ASAN_TARGETS += test_sim_log test_workbench_engine
 # augerd's ROS 2 interface without DDS: names, conversions, its configuration (tests/ros2).
 ASAN_TARGETS += test_ros2_unit
+# A pose_time_offset fitted on augerd's log and loaded into augerd (tests/daemon).
+ASAN_TARGETS += test_pose_time
 asan: deps firmware
 	cmake -S . -B $(ASAN_BUILD) -G $(CMAKE_GENERATOR) -DCMAKE_BUILD_TYPE=Debug \
 	  -DAUGER_SANITIZE=ON -DAUGER_WITH_SIM=ON

@@ -11,11 +11,14 @@ std::optional<std::string> Daemon::command(const std::string& line) {
   Command c;
   const std::string err = parse_command(line, c);
   if (!err.empty()) return "error: " + err;
+  return command(c, line);
+}
+
+std::optional<std::string> Daemon::command(const Command& c, const std::string& line) {
   const std::string not_enabled = "error: not enabled (send enable first): " + quote_line(line);
   switch (c.kind) {
     case CommandKind::status:
-      return c.text == "all" ? status_line() + bus_.status_fields(t_s_) + sensors_status() + ros2_status()
-                           : status_line();
+      return auger::daemon::format_status(status(c.text == "all"));
     case CommandKind::enable: {
       const int bad = bus_.first_not_answering();
       if (bad >= 0)
@@ -147,6 +150,10 @@ std::string Daemon::sensor(const std::string& line) {
   SensorMessage m;
   const std::string err = parse_sensor(line, m);
   if (!err.empty()) return "error: " + err;
+  return sensor(m, line);
+}
+
+std::string Daemon::sensor(const SensorMessage& m, const std::string& line) {
   // Wall-clock stamp to the loop's clock (CLOCK_MONOTONIC since start).
   const double t_loop_s = m.t_unix_s - mono_to_unix_s_ - t0_mono_s_;
   const double age_s = t_s_ - t_loop_s;
@@ -155,18 +162,12 @@ std::string Daemon::sensor(const std::string& line) {
            " s (clocks in sync?): " + quote_line(line);
   if (age_s > 2.0)
     return "error: timestamp " + std::to_string(m.t_unix_s) + " is " + std::to_string(age_s) + " s old: " + quote_line(line);
+  auger::daemon::to_sensor_input(m, t_loop_s, sensors_in_);
   if (m.kind == SensorKind::pose) {
-    sensors_in_.has_pose = true;
-    sensors_in_.pose = auger::Vec3(m.x_m, m.y_m, m.psi_rad);
-    sensors_in_.pose_cov = auger::Vec3(m.sx_m * m.sx_m, m.sy_m * m.sy_m, m.spsi_rad * m.spsi_rad).asDiagonal();
-    sensors_in_.pose_t_s = t_loop_s;  // the EKF compares it with its prediction for that time
     pose_sd_ = auger::Vec3(m.sx_m, m.sy_m, m.spsi_rad);
     last_pose_ = sensors_in_.pose;
     last_pose_t_s_ = t_loop_s;
   } else {
-    sensors_in_.has_imu_psi = sensors_in_.has_imu_r = true;
-    sensors_in_.imu_psi_rad = m.imu_psi_rad;
-    sensors_in_.imu_r_radps = m.imu_r_radps;
     last_imu_t_s_ = t_loop_s;
     last_imu_psi_rad_ = m.imu_psi_rad;
     last_imu_r_radps_ = m.imu_r_radps;
@@ -191,29 +192,30 @@ void Daemon::check_arrival() {
   enter(Mode::hold);
 }
 
-std::string Daemon::sensors_status() const {
-  char buf[320];
-  std::snprintf(buf, sizeof buf,
-                " imu_age_s=%.3f imu_psi_rad=%.4f imu_r_radps=%.4f pose_age_s=%.3f cam_x_m=%.4f cam_y_m=%.4f "
-                "cam_psi_rad=%.4f",
-                t_s_ - last_imu_t_s_, last_imu_psi_rad_, last_imu_r_radps_, t_s_ - last_pose_t_s_, last_pose_[0],
-                last_pose_[1], last_pose_[2]);
-  return buf;
-}
-
-std::string Daemon::status_line() const {
+auger::daemon::Status Daemon::status(bool all) const {
+  auger::daemon::Status s;
   const auto& eta = controller_->eta_estimate();
   const auto& eta_d = controller_->reference().eta_d;
-  char buf[512];
-  const std::string fault = fault_module_ >= 0 ? std::to_string(fault_module_) + ":" + fault_reason_
-                                               : fault_reason_ == "none" ? "none" : fault_reason_;
-  const DataLog::Stats ls = log_ ? log_->stats() : DataLog::Stats{};
-  std::snprintf(buf, sizeof buf,
-                "status t_s=%.3f enabled=%d mode=%s x_m=%.4f y_m=%.4f psi_rad=%.4f xd_m=%.4f yd_m=%.4f "
-                "psid_rad=%.4f fault=%s loop_dt_s=%.5f loop_jitter_max_s=%.5f arrived=%d log_ok=%d",
-                t_s_, enabled_ ? 1 : 0, mode_name(mode_), eta[0], eta[1], eta[2], eta_d[0], eta_d[1], eta_d[2],
-                fault.c_str(), loop_dt_s_, jitter_max_s_, arrived_ ? 1 : 0, ls.ok ? 1 : 0);
-  return buf;
+  s.t_s = t_s_;
+  s.enabled = enabled_;
+  s.mode = mode_name(mode_);
+  s.x_m = eta[0], s.y_m = eta[1], s.psi_rad = eta[2];
+  s.xd_m = eta_d[0], s.yd_m = eta_d[1], s.psid_rad = eta_d[2];
+  s.fault = fault_module_ >= 0 ? std::to_string(fault_module_) + ":" + fault_reason_ : fault_reason_;
+  s.loop_dt_s = loop_dt_s_;
+  s.loop_jitter_max_s = jitter_max_s_;
+  s.arrived = arrived_;
+  s.log_ok = log_ ? log_->stats().ok : DataLog::Stats{}.ok;
+  s.all = all;
+  if (!all) return s;
+  bus_.status_fields(t_s_, s.modules);
+  s.imu_age_s = t_s_ - last_imu_t_s_;
+  s.imu_psi_rad = last_imu_psi_rad_;
+  s.imu_r_radps = last_imu_r_radps_;
+  s.pose_age_s = t_s_ - last_pose_t_s_;
+  s.cam_x_m = last_pose_[0], s.cam_y_m = last_pose_[1], s.cam_psi_rad = last_pose_[2];
+  ros2_status(s);
+  return s;
 }
 
 }  // namespace augerd

@@ -1,4 +1,4 @@
-// augerd's configuration (read by the core: auger/daemon_config.hpp) and what start-up needs from
+// augerd's configuration (read by auger_contract: host/contract/daemon_config.hpp) and what start-up needs from
 // the system (startup_check.cpp).
 #pragma once
 
@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "auger/daemon_config.hpp"
+#include "daemon_config.hpp"
 #include "ros2.hpp"
 
 namespace augerd {

@@ -22,7 +22,7 @@ namespace {
 
 // The reserved connection of the commands socket takes these only (LineServerOptions).
 bool reserved_command(const std::string& line) {
-  const auto f = split_fields(line);
+  const auto f = auger::daemon::split_fields(line);
   return !f.empty() && (f[0] == "stop" || f[0] == "status");
 }
 
@@ -124,37 +124,18 @@ void Daemon::fault(int module, const std::string& reason_token, const std::strin
   disable_controller();
 }
 
-// What each mode sends (docs/daemon.md "The loop").
+// What each mode sends (docs/daemon.md "The loop"; the rule is auger_contract's, which `auger
+// replay` applies too): here only what is augerd's own, `enable` and the dead-man.
 std::array<double, 4> Daemon::setpoints(const std::array<double, 4>& ctrl_rpm) {
-  std::array<double, 4> cmd_rpm{};
-  if (!enabled_) return cmd_rpm;
-  const double lim = ctrl_cfg_.allocator.omega_max_rpm;
-  switch (mode_) {
-    case Mode::spin:
-      if (t_s_ > vel_until_s_) enter(Mode::idle);  // dead-man, as for vel
-      else cmd_rpm[std::size_t(spin_module_)] = std::clamp(spin_rpm_, -lim, lim);
-      break;
-    case Mode::vel:
-      if (t_s_ > vel_until_s_) {
-        enter(Mode::idle);  // dead-man: the command was not repeated
-      } else {
-        // Open loop, eq. (4): the core's controller tracks poses only.
-        const auger::Vec4 w = auger::kinematic_screw_speeds_rpm(model_, vel_cmd_);
-        const double peak = w.cwiseAbs().maxCoeff();
-        const double scale = peak > lim ? lim / peak : 1.0;  // keep the direction when saturated
-        for (std::size_t i = 0; i < 4; ++i) cmd_rpm[i] = w[int(i)] * scale;
-      }
-      break;
-    case Mode::go_to:
-    case Mode::follow:
-    case Mode::hold:
-      cmd_rpm = ctrl_rpm;
-      break;
-    case Mode::stopped:
-    case Mode::idle:
-      break;
-  }
-  return cmd_rpm;
+  if (!enabled_) return {};
+  // vel and spin expire into idle unless repeated (the dead-man).
+  if ((mode_ == Mode::vel || mode_ == Mode::spin) && t_s_ > vel_until_s_) enter(Mode::idle);
+  auger::daemon::MotionInput in;
+  in.mode = mode_;
+  in.vel = vel_cmd_;
+  in.spin_module = spin_module_;
+  in.spin_rpm = spin_rpm_;
+  return auger::daemon::mode_setpoints(in, ctrl_rpm, model_, ctrl_cfg_.allocator.omega_max_rpm);
 }
 
 void Daemon::write_log(const std::array<double, 4>& cmd_rpm) {
@@ -175,36 +156,36 @@ void Daemon::write_log(const std::array<double, 4>& cmd_rpm) {
   if (sensors_in_.has_imu_r) s.imu_r_radps = sensors_in_.imu_r_radps;
   if (controller_->enabled()) auger::io::log_reference(controller_->reference().eta_d, s);
   s.loop_dt_s = loop_dt_s_;
-  static thread_local std::vector<double> extra(replay_columns().size());
+  // The replay columns (auger_contract's LogRow names them).
+  auger::daemon::LogRow row;
+  row.mode = double(auger::daemon::mode_code(mode_));
+  row.ctrl_events = double(ctrl_events_);
+  row.ctrl_enabled = controller_->enabled() ? 1.0 : 0.0;
+  row.alloc_nullspace = ctrl_cfg_.allocator.kind == auger::AllocatorKind::null_space ? 1.0 : 0.0;
+  // A goto's goal on the row it came; a follow file by its number.
+  if ((ctrl_events_ & auger::daemon::kEvWaypoints) && traj_logged_ < 0) {
+    row.goal_x_m = goal_[0];
+    if (!std::isnan(row.goal_x_m)) row.goal_y_m = goal_[1], row.goal_psi_rad = goal_[2];
+  }
+  if (traj_logged_ >= 0) row.traj_n = double(traj_logged_);
+  row.tm_fresh_0 = bus_.module(0).tm.fresh ? 1.0 : 0.0;
+  row.tm_fresh_1 = bus_.module(1).tm.fresh ? 1.0 : 0.0;
+  row.tm_fresh_2 = bus_.module(2).tm.fresh ? 1.0 : 0.0;
+  row.tm_fresh_3 = bus_.module(3).tm.fresh ? 1.0 : 0.0;
+  if (sensors_in_.has_pose) {
+    row.pose_sx_m = pose_sd_[0];
+    row.pose_sy_m = pose_sd_[1];
+    row.pose_spsi_rad = pose_sd_[2];
+    row.pose_capture_t_s = sensors_in_.pose_t_s;
+  }
+  if (mode_ == Mode::vel) row.vel_u_mps = vel_cmd_[0], row.vel_v_mps = vel_cmd_[1], row.vel_r_radps = vel_cmd_[2];
+  if (mode_ == Mode::spin) row.spin_module = double(spin_module_), row.spin_rpm = spin_rpm_;
   const auto& eta = controller_->eta_estimate();
-  const bool vel = mode_ == Mode::vel, spin = mode_ == Mode::spin;
-  const double goal_x = (ctrl_events_ & kEvWaypoints) && traj_logged_ < 0 ? goal_[0] : NAN;
-  const double values[] = {double(mode_code(mode_)),
-                           double(ctrl_events_),
-                           controller_->enabled() ? 1.0 : 0.0,
-                           ctrl_cfg_.allocator.kind == auger::AllocatorKind::null_space ? 1.0 : 0.0,
-                           goal_x,
-                           std::isnan(goal_x) ? NAN : goal_[1],
-                           std::isnan(goal_x) ? NAN : goal_[2],
-                           traj_logged_ >= 0 ? double(traj_logged_) : NAN,
-                           bus_.module(0).tm.fresh ? 1.0 : 0.0,
-                           bus_.module(1).tm.fresh ? 1.0 : 0.0,
-                           bus_.module(2).tm.fresh ? 1.0 : 0.0,
-                           bus_.module(3).tm.fresh ? 1.0 : 0.0,
-                           sensors_in_.has_pose ? pose_sd_[0] : NAN,
-                           sensors_in_.has_pose ? pose_sd_[1] : NAN,
-                           sensors_in_.has_pose ? pose_sd_[2] : NAN,
-                           sensors_in_.has_pose ? sensors_in_.pose_t_s : NAN,
-                           vel ? vel_cmd_[0] : NAN,
-                           vel ? vel_cmd_[1] : NAN,
-                           vel ? vel_cmd_[2] : NAN,
-                           spin ? double(spin_module_) : NAN,
-                           spin ? spin_rpm_ : NAN,
-                           eta[0],
-                           eta[1],
-                           eta[2]};
-  static_assert(sizeof values / sizeof values[0] == 24, "one value per replay column");
-  std::copy(std::begin(values), std::end(values), extra.begin());
+  row.xe_m = eta[0];
+  row.ye_m = eta[1];
+  row.psie_rad = eta[2];
+  static thread_local std::vector<double> extra;
+  auger::daemon::log_row_values(row, extra);
   log_->write(s, extra);
 }
 

@@ -14,28 +14,45 @@
 #include <vector>
 
 #include "auger/controller.hpp"
-#include "auger/daemon_log.hpp"
 #include "auger/model.hpp"
 #include "config.hpp"
 #include "daemon_lines.hpp"
+#include "daemon_log.hpp"
 #include "data_log.hpp"
 #include "line_server.hpp"
 #include "module_bus.hpp"
 #include "ros2.hpp"
+#include "status.hpp"
 #include "waypoint_loader.hpp"
 
 namespace augerd {
 
-// The log schema and the socket line protocol are shared with `auger` (core and host/io).
-using namespace auger::daemon;
-using auger::io::Command;
-using auger::io::CommandKind;
-using auger::io::SensorKind;
-using auger::io::SensorMessage;
-using auger::io::parse_command;
-using auger::io::parse_sensor;
-using auger::io::quote_line;
-using auger::io::split_fields;
+// The log schema, the socket line protocols and the status answer are shared with `auger`
+// (auger_contract, host/contract).
+using auger::daemon::Command;
+using auger::daemon::CommandKind;
+using auger::daemon::Mode;
+using auger::daemon::SensorKind;
+using auger::daemon::SensorMessage;
+using auger::daemon::kEvDisabled;
+using auger::daemon::kEvRebuilt;
+using auger::daemon::kEvWaypoints;
+using auger::daemon::mode_name;
+using auger::daemon::parse_command;
+using auger::daemon::parse_sensor;
+using auger::daemon::quote_line;
+using auger::daemon::tracking;
+
+// The loop's time inside Bridge::poll and Bridge::publish (docs/benchmarks.md): this cycle's, the
+// longest over the last whole second (status all, diagnostics), and over the run; wall time, and
+// the loop thread's CPU time (wall minus CPU: the thread was preempted, not waiting: nothing in
+// there waits).
+struct Ros2Timing {
+  double cycle_us = 0, window_max_us = 0, window_start_s = 0, hook_us_max = 0;
+  double sum_us = 0, max_all_us = 0;
+  double cycle_cpu_us = 0, sum_cpu_us = 0, max_cpu_us = 0;
+  long cycles = 0;
+};
 
 class Daemon {
  public:
@@ -55,14 +72,18 @@ class Daemon {
  private:
   // commands.cpp
   std::optional<std::string> command(const std::string& line);
+  // A parsed command; line: how an error answer quotes it (the socket's line, or for a ROS 2
+  // input the command it stands for).
+  std::optional<std::string> command(const Command& c, const std::string& line);
   std::string sensor(const std::string& line);
-  std::string status_line() const;
-  std::string sensors_status() const;
+  // A parsed message (its values checked already: parse_sensor, check_sensor).
+  std::string sensor(const SensorMessage& m, const std::string& line);
+  auger::daemon::Status status(bool all) const;
   void check_arrival();
   void follow_loaded();  // a `follow` file's contents arrived from the loader
   void enter(Mode m) { mode_ = m; }
 
-  // ros2_link.cpp: ROS 2 inputs through command() and sensor(), the cycle's state out.
+  // ros2_link.cpp: ROS 2 inputs as typed commands and sensor messages, the cycle's state out.
   void ros2_inputs();
   void ros2_publish();
   void ros2_refused(const std::string& why);
@@ -75,7 +96,7 @@ class Daemon {
     return source_ == Source::local && enabled_ &&
            (mode_ == Mode::vel || mode_ == Mode::spin || mode_ == Mode::go_to || mode_ == Mode::follow);
   }
-  std::string ros2_status() const;  // status all's ros2_* fields ("" without ROS 2)
+  void ros2_status(auger::daemon::Status& s) const;  // status all's ros2_* fields (none without ROS 2)
   void ros2_report() const;         // the exit report's ROS 2 line
 
   // daemon.cpp
@@ -83,7 +104,7 @@ class Daemon {
   void event(int module, const std::string& what, const std::string& action);
   void disable_controller() {
     controller_->set_enabled(false);
-    ctrl_events_ |= kEvDisabled;
+    ctrl_events_ |= auger::daemon::kEvDisabled;
   }
   std::array<double, 4> setpoints(const std::array<double, 4>& ctrl_rpm);
   void write_log(const std::array<double, 4>& cmd_rpm);
@@ -150,14 +171,7 @@ class Daemon {
   std::string ros2_last_refusal_;
   double ros2_said_at_s_ = -1e9;  // refusals are printed at most every 5 s
   long ros2_unsaid_ = 0;
-  // The loop's time inside Bridge::poll and Bridge::publish (docs/benchmarks.md): this cycle's,
-  // the longest over the last whole second (status all, diagnostics), and over the run; wall
-  // time, and the loop thread's CPU time (wall minus CPU: the thread was preempted, not
-  // waiting: nothing in there waits).
-  double ros2_cycle_us_ = 0, ros2_window_max_us_ = 0, ros2_window_start_s_ = 0, ros2_hook_us_max_ = 0;
-  double ros2_sum_us_ = 0, ros2_max_all_us_ = 0;
-  double ros2_cycle_cpu_us_ = 0, ros2_sum_cpu_us_ = 0, ros2_max_cpu_us_ = 0;
-  long ros2_cycles_ = 0;
+  Ros2Timing ros2_time_;
 };
 
 }  // namespace augerd

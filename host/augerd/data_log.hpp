@@ -28,9 +28,9 @@
 #include <utility>
 #include <vector>
 
-#include "auger/daemon_log.hpp"
 #include "auger/log.hpp"
 #include "auger/log_mcap.hpp"
+#include "daemon_log.hpp"
 
 namespace augerd {
 

@@ -291,30 +291,30 @@ int ModuleBus::first_not_answering() const {
   return -1;
 }
 
-std::string ModuleBus::status_fields(double t_s) const {
-  std::string out;
-  char buf[640];
+void ModuleBus::status_fields(double t_s, std::array<auger::daemon::ModuleStatus, 4>& out) const {
   for (int i = 0; i < 4; ++i) {
     const Module& m = modules_[std::size_t(i)];
     const proto_telemetry_t& tm = m.tm.frame;
-    const uint16_t crc = m.link ? m.link->parser_stats().crc_errors : 0;
-    const uint16_t hdr = m.link ? m.link->parser_stats().header_errors : 0;
-    const uint16_t skipped = m.link ? m.link->parser_stats().bytes_discarded : 0;
-    const bool ok = m.tm.received && !m.lost;
-    std::snprintf(buf, sizeof buf,
-                  " m%d_port=%s m%d_lost=%d m%d_tm_age_s=%.3f m%d_time_ms=%" PRIu32 " m%d_omega_rpm=%.2f"
-                  " m%d_cmd_rpm=%.2f m%d_omega_cmd_rpm=%.2f m%d_position_counts=%" PRId32
-                  " m%d_current_a=%.3f m%d_voltage_v=%.3f m%d_pwm=%.4f m%d_status=0x%04x m%d_faults=%s"
-                  " m%d_rx_errors=%u m%d_encoder_errors=%u m%d_host_crc_errors=%u m%d_host_header_errors=%u"
-                  " m%d_host_bytes_skipped=%u",
-                  i, m.port.c_str(), i, (m.lost || !m.link) ? 1 : 0, i, ok ? t_s - m.last_valid_s : -1.0, i,
-                  tm.time_ms, i, m.tm.omega_rpm(), i, m.cmd_rpm, i, m.tm.omega_cmd_rpm(), i,
-                  tm.position_counts, i, m.tm.current_a(), i, m.tm.voltage_v(), i, m.tm.pwm(), i, tm.status, i,
-                  (tm.status & PROTO_F_MASK) ? fault_bits_text(tm.status).c_str() : "none", i, tm.rx_errors, i,
-                  tm.encoder_errors, i, crc, i, hdr, i, skipped);
-    out += buf;
+    auger::daemon::ModuleStatus& s = out[std::size_t(i)];
+    s.port = m.port;
+    s.lost = m.lost || !m.link;
+    s.tm_age_s = m.tm.received && !m.lost ? t_s - m.last_valid_s : -1.0;
+    s.time_ms = tm.time_ms;
+    s.omega_rpm = m.tm.omega_rpm();
+    s.cmd_rpm = m.cmd_rpm;
+    s.omega_cmd_rpm = m.tm.omega_cmd_rpm();
+    s.position_counts = tm.position_counts;
+    s.current_a = m.tm.current_a();
+    s.voltage_v = m.tm.voltage_v();
+    s.pwm = m.tm.pwm();
+    s.status = tm.status;
+    s.faults = (tm.status & PROTO_F_MASK) ? fault_bits_text(tm.status) : "none";
+    s.rx_errors = tm.rx_errors;
+    s.encoder_errors = tm.encoder_errors;
+    s.host_crc_errors = m.link ? m.link->parser_stats().crc_errors : 0;
+    s.host_header_errors = m.link ? m.link->parser_stats().header_errors : 0;
+    s.host_bytes_skipped = m.link ? m.link->parser_stats().bytes_discarded : 0;
   }
-  return out;
 }
 
 }  // namespace augerd

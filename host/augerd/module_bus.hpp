@@ -12,6 +12,7 @@
 
 #include "module_adapter.hpp"
 #include "module_link.hpp"
+#include "status.hpp"
 
 namespace augerd {
 
@@ -68,7 +69,7 @@ class ModuleBus {
   // module's telemetry periods and a control period, whichever is longer.
   double telemetry_timeout_s(const Module& m) const;
   // The per-module fields of `status all` (docs/daemon-protocol.md).
-  std::string status_fields(double t_s) const;
+  void status_fields(double t_s, std::array<auger::daemon::ModuleStatus, 4>& out) const;
 
  private:
   void pump_one(Module& m, int index, double t_s);

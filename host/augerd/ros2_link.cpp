@@ -17,10 +17,11 @@ void Daemon::open_ros2() {
   if (ros2_) std::fprintf(stderr, "augerd: ROS 2 on DDS, %s\n", ros2_->describe().c_str());
 }
 
-// Inputs go through the sockets' own entry points, `vel` and the sensors socket's `pose` and
-// `imu` lines (%.17g reproduces every double exactly): every bound and check of those
-// (parse_command, parse_sensor: auger/input_limits.hpp) applies to ROS 2 messages unchanged,
-// and the 0.5 s dead-man of `vel` to Twist.
+// Inputs go through the sockets' own entry points as typed messages, `vel` and the sensors
+// socket's `pose` and `imu`: every bound and check of those (check_command, check_sensor:
+// auger/input_limits.hpp) applies to ROS 2 messages unchanged, and the 0.5 s dead-man of `vel` to
+// Twist. The lines below are only how an error answer quotes the input (%.17g: every double
+// exactly), as if it had come as a line.
 void Daemon::ros2_inputs() {
   // When the local command stopped running (a vel's dead-man, a goto's arrival): the network
   // waits local_priority_s from there.
@@ -28,8 +29,8 @@ void Daemon::ros2_inputs() {
   auger::ros2::Inputs in;
   const double t0 = clock_s(CLOCK_MONOTONIC), c0 = clock_s(CLOCK_THREAD_CPUTIME_ID);
   const bool got = ros2_->poll(in);
-  ros2_cycle_us_ = 1e6 * (clock_s(CLOCK_MONOTONIC) - t0);
-  ros2_cycle_cpu_us_ = 1e6 * (clock_s(CLOCK_THREAD_CPUTIME_ID) - c0);
+  ros2_time_.cycle_us = 1e6 * (clock_s(CLOCK_MONOTONIC) - t0);
+  ros2_time_.cycle_cpu_us = 1e6 * (clock_s(CLOCK_THREAD_CPUTIME_ID) - c0);
   if (!got) return;
   if (in.refused > 0) {
     ros2_refused_ += in.refused - 1;  // ros2_refused() counts the last one
@@ -44,25 +45,32 @@ void Daemon::ros2_inputs() {
     ros2_refused(std::string(what) + ": " + (answer.rfind("error: ", 0) == 0 ? answer.substr(7) : answer));
   };
   if (in.has_vel) {
-    std::snprintf(line, sizeof line, "vel %.17g %.17g %.17g", in.u_mps, in.v_mps, in.r_radps);
+    Command c;
+    c.kind = CommandKind::vel;
+    c.a = in.u_mps, c.b = in.v_mps, c.c = in.r_radps;
+    std::snprintf(line, sizeof line, "vel %.17g %.17g %.17g", c.a, c.b, c.c);
     if (const std::string why = network_vel_refusal(); !why.empty()) {
       ros2_refused("cmd_vel: " + why);
+    } else if (const std::string bad = auger::daemon::check_command(c); !bad.empty()) {
+      apply("error: " + bad, "cmd_vel");
     } else {
       // `vel` always answers at once (only `follow` answers later).
       from_network_ = true;
-      apply(command(line).value_or("ok"), "cmd_vel");
+      apply(command(c, line).value_or("ok"), "cmd_vel");
       from_network_ = false;
     }
   }
-  if (in.has_pose) {
-    std::snprintf(line, sizeof line, "pose %.17g %.17g %.17g %.17g %.17g %.17g %.17g", in.pose_t_unix_s, in.x_m, in.y_m,
-                  in.psi_rad, in.sx_m, in.sy_m, in.spsi_rad);
-    apply(sensor(line), "pose");
-  }
-  if (in.has_imu) {
-    std::snprintf(line, sizeof line, "imu %.17g %.17g %.17g", in.imu_t_unix_s, in.imu_psi_rad, in.imu_r_radps);
-    apply(sensor(line), "imu");
-  }
+  auto sense = [&](const SensorMessage& m, const char* what) {
+    if (const std::string bad = auger::daemon::check_sensor(m); !bad.empty()) return apply("error: " + bad, what);
+    if (m.kind == SensorKind::pose)
+      std::snprintf(line, sizeof line, "pose %.17g %.17g %.17g %.17g %.17g %.17g %.17g", m.t_unix_s, m.x_m, m.y_m,
+                    m.psi_rad, m.sx_m, m.sy_m, m.spsi_rad);
+    else
+      std::snprintf(line, sizeof line, "imu %.17g %.17g %.17g", m.t_unix_s, m.imu_psi_rad, m.imu_r_radps);
+    apply(sensor(m, line), what);
+  };
+  if (in.has_pose) sense(in.pose, "pose");
+  if (in.has_imu) sense(in.imu, "imu");
 }
 
 // Motion commands arbitrated as twist_mux does it, by priority (docs/ros2.md "Arbitration"):
@@ -148,43 +156,45 @@ void Daemon::ros2_publish() {
   std::snprintf(o.fault_reason.data(), o.fault_reason.size(), "%s", fault_reason_.c_str());
   o.loop_dt_s = loop_dt_s_;
   o.loop_jitter_max_s = jitter_max_s_;
-  o.hook_max_us = ros2_hook_us_max_;
+  o.hook_max_us = ros2_time_.hook_us_max;
   o.inputs_applied = ros2_applied_;
   o.inputs_refused = ros2_refused_;
   std::snprintf(o.last_refusal.data(), o.last_refusal.size(), "%s", ros2_last_refusal_.c_str());
   const double t0 = clock_s(CLOCK_MONOTONIC), c0 = clock_s(CLOCK_THREAD_CPUTIME_ID);
   ros2_->publish(o);
-  ros2_cycle_us_ += 1e6 * (clock_s(CLOCK_MONOTONIC) - t0);
-  ros2_cycle_cpu_us_ += 1e6 * (clock_s(CLOCK_THREAD_CPUTIME_ID) - c0);
-  ros2_sum_cpu_us_ += ros2_cycle_cpu_us_;
-  ros2_max_cpu_us_ = std::max(ros2_max_cpu_us_, ros2_cycle_cpu_us_);
-  ros2_window_max_us_ = std::max(ros2_window_max_us_, ros2_cycle_us_);
-  if (t_s_ - ros2_window_start_s_ >= 1.0) {
-    ros2_hook_us_max_ = ros2_window_max_us_;
-    ros2_window_max_us_ = 0;
-    ros2_window_start_s_ = t_s_;
+  Ros2Timing& rt = ros2_time_;
+  rt.cycle_us += 1e6 * (clock_s(CLOCK_MONOTONIC) - t0);
+  rt.cycle_cpu_us += 1e6 * (clock_s(CLOCK_THREAD_CPUTIME_ID) - c0);
+  rt.sum_cpu_us += rt.cycle_cpu_us;
+  rt.max_cpu_us = std::max(rt.max_cpu_us, rt.cycle_cpu_us);
+  rt.window_max_us = std::max(rt.window_max_us, rt.cycle_us);
+  if (t_s_ - rt.window_start_s >= 1.0) {
+    rt.hook_us_max = rt.window_max_us;
+    rt.window_max_us = 0;
+    rt.window_start_s = t_s_;
   }
-  ros2_sum_us_ += ros2_cycle_us_;
-  ros2_max_all_us_ = std::max(ros2_max_all_us_, ros2_cycle_us_);
-  ++ros2_cycles_;
-  ros2_cycle_us_ = 0;
+  rt.sum_us += rt.cycle_us;
+  rt.max_all_us = std::max(rt.max_all_us, rt.cycle_us);
+  ++rt.cycles;
+  rt.cycle_us = 0;
 }
 
-std::string Daemon::ros2_status() const {
-  if (!ros2_) return "";
-  char buf[160];
-  std::snprintf(buf, sizeof buf, " ros2_applied=%ld ros2_refused=%ld ros2_hook_max_us=%.1f", ros2_applied_,
-                ros2_refused_, ros2_hook_us_max_);
-  return buf;
+void Daemon::ros2_status(auger::daemon::Status& s) const {
+  s.ros2 = ros2_ != nullptr;
+  if (!s.ros2) return;
+  s.ros2_applied = ros2_applied_;
+  s.ros2_refused = ros2_refused_;
+  s.ros2_hook_max_us = ros2_time_.hook_us_max;
 }
 
 void Daemon::ros2_report() const {
-  if (!ros2_ || ros2_cycles_ == 0) return;
+  const Ros2Timing& rt = ros2_time_;
+  if (!ros2_ || rt.cycles == 0) return;
   std::fprintf(stderr,
                "augerd: ROS 2: %ld inputs applied, %ld refused; the loop spent %.1f us mean, %.1f us max per cycle "
                "in the bridge's poll and publish (its own CPU time %.1f us mean, %.1f us max)\n",
-               ros2_applied_, ros2_refused_, ros2_sum_us_ / double(ros2_cycles_), ros2_max_all_us_,
-               ros2_sum_cpu_us_ / double(ros2_cycles_), ros2_max_cpu_us_);
+               ros2_applied_, ros2_refused_, rt.sum_us / double(rt.cycles), rt.max_all_us,
+               rt.sum_cpu_us / double(rt.cycles), rt.max_cpu_us);
 }
 
 }  // namespace augerd

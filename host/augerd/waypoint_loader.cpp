@@ -27,7 +27,7 @@ namespace {
 
 WaypointLoader::Result failed(const std::string& path, const std::string& why) {
   WaypointLoader::Result r;
-  r.error = auger::io::quote_line(path) + ": " + why;
+  r.error = auger::daemon::quote_line(path) + ": " + why;
   return r;
 }
 

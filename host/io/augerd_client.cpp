@@ -69,27 +69,4 @@ std::string AugerdClient::request(const std::string& line, int timeout_ms) {
 
 void AugerdClient::shutdown_sending() { ::shutdown(fd_, SHUT_WR); }
 
-std::map<std::string, std::string> parse_status(const std::string& line) {
-  std::map<std::string, std::string> kv;
-  std::size_t i = 0;
-  while (i < line.size()) {
-    while (i < line.size() && line[i] == ' ') ++i;
-    std::size_t j = i;
-    while (j < line.size() && line[j] != ' ') ++j;
-    const std::string field = line.substr(i, j - i);
-    const auto eq = field.find('=');
-    if (eq != std::string::npos) kv[field.substr(0, eq)] = field.substr(eq + 1);
-    i = j;
-  }
-  return kv;
-}
-
-double status_number(const std::map<std::string, std::string>& kv, const std::string& key) {
-  const auto it = kv.find(key);
-  if (it == kv.end()) return NAN;
-  char* end = nullptr;
-  const double v = std::strtod(it->second.c_str(), &end);
-  return (end == it->second.c_str() || *end != '\0') ? NAN : v;
-}
-
 }  // namespace auger::io

@@ -2,7 +2,6 @@
 // `auger sensor` and the field tools (host/operator): connect, send lines, read answer lines.
 #pragma once
 
-#include <map>
 #include <string>
 
 namespace auger::io {
@@ -32,10 +31,5 @@ class AugerdClient {
   int fd_ = -1;
   std::string buf_;
 };
-
-// The key=value fields of a `status` answer (the first word, "status", is skipped).
-std::map<std::string, std::string> parse_status(const std::string& line);
-// A field as a number; NaN if absent or not a number.
-double status_number(const std::map<std::string, std::string>& kv, const std::string& key);
 
 }  // namespace auger::io

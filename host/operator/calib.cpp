@@ -35,6 +35,7 @@
 #include "module_adapter.hpp"
 #include "module_link.hpp"
 #include "operator.hpp"
+#include "status.hpp"
 
 namespace auger::op {
 namespace {
@@ -102,9 +103,9 @@ class SensorFeed {
     }
     std::size_t nl;
     while ((nl = in_.find('\n')) != std::string::npos) {
-      io::SensorMessage m;
-      if (io::parse_sensor(in_.substr(0, nl), m).empty()) {
-        if (m.kind == io::SensorKind::imu) {
+      daemon::SensorMessage m;
+      if (daemon::parse_sensor(in_.substr(0, nl), m).empty()) {
+        if (m.kind == daemon::SensorKind::imu) {
           r_sum_ += m.imu_r_radps;
           ++r_n_;
         } else {
@@ -210,12 +211,12 @@ int check_motion(const std::string& socket, double speed_mps, double seconds) {
   int wrong = 0;
   for (const auto& d : dofs) {
     auto pose = [&] {
-      const auto kv = io::parse_status(c.request("status all"));
+      daemon::Status st;
+      if (const std::string bad = daemon::parse_status(c.request("status all"), st); !bad.empty())
+        throw std::runtime_error("augerd's status all: " + bad);
       // The camera when it is fresh (the truth the estimate is fused from), else the estimate.
-      if (io::status_number(kv, "pose_age_s") < 0.5)
-        return Vec3(io::status_number(kv, "cam_x_m"), io::status_number(kv, "cam_y_m"),
-                    io::status_number(kv, "cam_psi_rad"));
-      return Vec3(io::status_number(kv, "x_m"), io::status_number(kv, "y_m"), io::status_number(kv, "psi_rad"));
+      if (st.pose_age_s < 0.5) return Vec3(st.cam_x_m, st.cam_y_m, st.cam_psi_rad);
+      return Vec3(st.x_m, st.y_m, st.psi_rad);
     };
     const Vec3 p0 = pose();
     char line[96];

@@ -15,18 +15,21 @@
 #include "augerd_client.hpp"
 #include "common.hpp"
 #include "operator.hpp"
+#include "status.hpp"
 
 namespace auger::op {
 namespace {
 
-using Status = std::map<std::string, std::string>;
+using daemon::Status;
 
-std::string field(const Status& kv, const std::string& key, const char* fallback = "?") {
-  const auto it = kv.find(key);
-  return it == kv.end() ? fallback : it->second;
+// A number as augerd's status line writes it (status.cpp), for the columns below.
+std::string num(const char* format, double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, format, v);
+  return b;
 }
 
-void draw(const Status& kv, const std::string& socket, const std::string& error, bool colour) {
+void draw(const Status& st, const std::string& socket, const std::string& error, bool colour) {
   erase();
   int row = 0;
   const int highlight = A_REVERSE | A_BOLD | (colour ? COLOR_PAIR(1) : 0);
@@ -38,50 +41,43 @@ void draw(const Status& kv, const std::string& socket, const std::string& error,
     refresh();
     return;
   }
-  const std::string fault = field(kv, "fault");
-  mvprintw(row, 0, "t=%ss  enabled=%s  mode=%s  arrived=%s  fault=", field(kv, "t_s").c_str(),
-           field(kv, "enabled").c_str(), field(kv, "mode").c_str(), field(kv, "arrived", "-").c_str());
+  const std::string& fault = st.fault;
+  mvprintw(row, 0, "t=%.3fs  enabled=%d  mode=%s  arrived=%d  fault=", st.t_s, st.enabled ? 1 : 0, st.mode.c_str(),
+           st.arrived ? 1 : 0);
   if (fault != "none") attron(highlight);
   printw("%s", fault.c_str());
   if (fault != "none") attroff(highlight);
   ++row;
-  const double dt_ms = 1e3 * io::status_number(kv, "loop_dt_s");
-  const double jit_ms = 1e3 * io::status_number(kv, "loop_jitter_max_s");
-  mvprintw(row++, 0, "loop period %.2f ms, jitter (max |dt-period|, last 1 s) %.2f ms", dt_ms, jit_ms);
-  mvprintw(row++, 0, "pose estimate x=%s m  y=%s m  psi=%s rad    reference x=%s y=%s psi=%s",
-           field(kv, "x_m").c_str(), field(kv, "y_m").c_str(), field(kv, "psi_rad").c_str(),
-           field(kv, "xd_m").c_str(), field(kv, "yd_m").c_str(), field(kv, "psid_rad").c_str());
-  const double imu_age = io::status_number(kv, "imu_age_s"), cam_age = io::status_number(kv, "pose_age_s");
-  if (std::isfinite(imu_age))
-    mvprintw(row++, 0, "imu psi=%s rad r=%s rad/s (%.2f s ago)", field(kv, "imu_psi_rad").c_str(),
-             field(kv, "imu_r_radps").c_str(), imu_age);
+  mvprintw(row++, 0, "loop period %.2f ms, jitter (max |dt-period|, last 1 s) %.2f ms", 1e3 * st.loop_dt_s,
+           1e3 * st.loop_jitter_max_s);
+  mvprintw(row++, 0, "pose estimate x=%.4f m  y=%.4f m  psi=%.4f rad    reference x=%.4f y=%.4f psi=%.4f", st.x_m,
+           st.y_m, st.psi_rad, st.xd_m, st.yd_m, st.psid_rad);
+  if (std::isfinite(st.imu_age_s))
+    mvprintw(row++, 0, "imu psi=%.4f rad r=%.4f rad/s (%.2f s ago)", st.imu_psi_rad, st.imu_r_radps, st.imu_age_s);
   else
     mvprintw(row++, 0, "imu: none received");
-  if (std::isfinite(cam_age))
-    mvprintw(row++, 0, "camera x=%s y=%s psi=%s (%.2f s ago)", field(kv, "cam_x_m").c_str(),
-             field(kv, "cam_y_m").c_str(), field(kv, "cam_psi_rad").c_str(), cam_age);
+  if (std::isfinite(st.pose_age_s))
+    mvprintw(row++, 0, "camera x=%.4f y=%.4f psi=%.4f (%.2f s ago)", st.cam_x_m, st.cam_y_m, st.cam_psi_rad,
+             st.pose_age_s);
   else
     mvprintw(row++, 0, "camera: none received");
   ++row;
   mvprintw(row++, 0, "%-3s %-22s %8s %8s %7s %7s %7s %-6s %-12s %-16s %s", "id", "port", "omega", "setpt",
            "curr_A", "volt_V", "pwm", "status", "state", "faults", "link errors (mod rx, enc, host crc/hdr/skip)");
   for (int i = 0; i < 4; ++i) {
-    const std::string m = "m" + std::to_string(i) + "_";
-    const std::string faults = field(kv, m + "faults");
-    const bool lost = field(kv, m + "lost") == "1";
+    const daemon::ModuleStatus& m = st.modules[std::size_t(i)];
     const bool named = fault.rfind(std::to_string(i) + ":", 0) == 0;  // the module augerd stopped for
-    const bool bad = lost || (faults != "none" && faults != "?") || named;
-    const uint16_t status = uint16_t(std::strtoul(field(kv, m + "status", "0").c_str(), nullptr, 16));
+    const bool bad = m.lost || m.faults != "none" || named;
     if (bad) attron(highlight);
-    std::string port = field(kv, m + "port");
+    std::string port = m.port;
     if (port.size() > 22) port = "..." + port.substr(port.size() - 19);
-    mvprintw(row++, 0, "%-3d %-22s %8s %8s %7s %7s %7s %-6s %-12s %-16s %s %s %s/%s/%s%s", i, port.c_str(),
-             field(kv, m + "omega_rpm").c_str(), field(kv, m + "cmd_rpm").c_str(), field(kv, m + "current_a").c_str(),
-             field(kv, m + "voltage_v").c_str(), field(kv, m + "pwm").c_str(), field(kv, m + "status").c_str() + 2,
-             state_bits_text(status).c_str(), faults.c_str(), field(kv, m + "rx_errors").c_str(),
-             field(kv, m + "encoder_errors").c_str(), field(kv, m + "host_crc_errors").c_str(),
-             field(kv, m + "host_header_errors").c_str(), field(kv, m + "host_bytes_skipped").c_str(),
-             lost ? "  LOST" : "");
+    char status[8];
+    std::snprintf(status, sizeof status, "%04x", unsigned(m.status));
+    mvprintw(row++, 0, "%-3d %-22s %8s %8s %7s %7s %7s %-6s %-12s %-16s %u %u %u/%u/%u%s", i, port.c_str(),
+             num("%.2f", m.omega_rpm).c_str(), num("%.2f", m.cmd_rpm).c_str(), num("%.3f", m.current_a).c_str(),
+             num("%.3f", m.voltage_v).c_str(), num("%.4f", m.pwm).c_str(), status, state_bits_text(m.status).c_str(),
+             m.faults.c_str(), m.rx_errors, m.encoder_errors, m.host_crc_errors, m.host_header_errors,
+             m.host_bytes_skipped, m.lost ? "  LOST" : "");
     if (bad) attroff(highlight);
   }
   ++row;
@@ -134,8 +130,8 @@ int run_monitor(int argc, char** argv) {
     Status kv;
     if (c) {
       try {
-        kv = io::parse_status(c->request("status all", 2000));
-        error.clear();
+        const std::string bad = daemon::parse_status(c->request("status all", 2000), kv);
+        error = bad.empty() ? "" : "augerd's status all: " + bad;
       } catch (const std::exception& e) {
         error = std::string(e.what()) + "; reconnecting";
         c.reset();

@@ -15,11 +15,12 @@
 
 #include "auger/args.hpp"
 #include "auger/controller.hpp"
-#include "auger/daemon_config.hpp"
-#include "auger/daemon_log.hpp"
 #include "auger/log.hpp"
 #include "auger/model_file.hpp"
 #include "common.hpp"
+#include "daemon_config.hpp"
+#include "daemon_lines.hpp"
+#include "daemon_log.hpp"
 #include "operator.hpp"
 
 namespace auger::op {
@@ -28,6 +29,7 @@ namespace {
 using daemon::kEvDisabled;
 using daemon::kEvRebuilt;
 using daemon::kEvWaypoints;
+using daemon::LogRow;
 using daemon::Mode;
 using daemon::mode_code;
 
@@ -137,8 +139,9 @@ int run_replay(int argc, char** argv) {
       r.check_format(kRobotLogFormat);
       const std::string run = r.meta("run").value_or("");
       const std::string dir = path.find('/') == std::string::npos ? "." : path.substr(0, path.rfind('/'));
-      // augerd's replay columns and the standard ones the replay reads.
-      std::vector<std::string> need = daemon::replay_columns();
+      // augerd's replay columns (LogRow) and the standard ones the replay reads.
+      const daemon::LogRowReader rows_of(r);
+      std::vector<std::string> need;
       for (const char* c : {"x_m", "y_m", "psi_rad", "imu_psi_rad", "imu_r_radps", "xd_m", "yd_m", "psid_rad"})
         need.push_back(c);
       for (int i = 0; i < 4; ++i)
@@ -151,76 +154,77 @@ int run_replay(int argc, char** argv) {
         last_t_s = r.t_s();
         ++rows;
         auto v = [&](const std::string& n) { return r.value(col(n)); };
-        const int events = int(v("ctrl_events"));
+        const LogRow row = rows_of.row();
+        const int events = int(row.ctrl_events);
         // The state changes of this cycle, in the order augerd makes them (docs/daemon.md).
         if (events & kEvRebuilt) {
           ControllerConfig c2 = ccfg;
-          c2.allocator.kind = v("alloc_nullspace") == 1 ? AllocatorKind::null_space : AllocatorKind::pseudo_inverse;
+          c2.allocator.kind = row.alloc_nullspace == 1 ? AllocatorKind::null_space : AllocatorKind::pseudo_inverse;
           const Vec3 eta = ctrl->eta_estimate();
           ctrl = std::make_unique<Controller>(*model, c2);
           ctrl->reset(eta);
         } else if (rows == 1) {
           ControllerConfig c2 = ccfg;
-          c2.allocator.kind = v("alloc_nullspace") == 1 ? AllocatorKind::null_space : AllocatorKind::pseudo_inverse;
+          c2.allocator.kind = row.alloc_nullspace == 1 ? AllocatorKind::null_space : AllocatorKind::pseudo_inverse;
           ctrl = std::make_unique<Controller>(*model, c2);
         }
         if (events & kEvDisabled) ctrl->set_enabled(false);
         if (events & kEvWaypoints) {
-          if (!std::isnan(v("goal_x_m"))) {
-            ctrl->set_waypoints({Waypoint{0.0, Vec3(v("goal_x_m"), v("goal_y_m"), v("goal_psi_rad"))}});
-          } else if (!std::isnan(v("traj_n"))) {
-            const std::string traj = dir + "/" + run + "-follow-" + std::to_string(int(v("traj_n"))) + ".waypoints";
+          if (!std::isnan(row.goal_x_m)) {
+            ctrl->set_waypoints({Waypoint{0.0, Vec3(row.goal_x_m, row.goal_y_m, row.goal_psi_rad)}});
+          } else if (!std::isnan(row.traj_n)) {
+            const std::string traj = dir + "/" + run + "-follow-" + std::to_string(int(row.traj_n)) + ".waypoints";
             ctrl->set_waypoints(load_waypoints_csv(traj));
           } else {
             r.fail_at_field(col("ctrl_events"), "new waypoints but neither goal_x_m nor traj_n");
           }
         }
-        if (v("ctrl_enabled") == 1) ctrl->set_enabled(true);
+        if (row.ctrl_enabled == 1) ctrl->set_enabled(true);
         else ctrl->set_enabled(false);
 
+        const double fresh[4] = {row.tm_fresh_0, row.tm_fresh_1, row.tm_fresh_2, row.tm_fresh_3};
         std::array<ScrewTelemetry, 4> tel;
         for (int i = 0; i < 4; ++i) {
           const std::string s = std::to_string(i);
-          tel[std::size_t(i)].valid = v("tm_fresh_" + s) == 1;
+          tel[std::size_t(i)].valid = fresh[i] == 1;
           tel[std::size_t(i)].omega_rpm = tel[std::size_t(i)].valid ? v("omega_rpm_" + s) : 0.0;
           if (tel[std::size_t(i)].valid && std::isnan(tel[std::size_t(i)].omega_rpm))
             r.fail_at_field(col("omega_rpm_" + s), "fresh telemetry without omega_rpm_" + s);
         }
+        // The sensor messages of the row, as augerd turned them into the controller's input.
         SensorInput sin;
         if (!std::isnan(v("x_m"))) {
-          sin.has_pose = true;
-          sin.pose = Vec3(v("x_m"), v("y_m"), v("psi_rad"));
-          const Vec3 sd(v("pose_sx_m"), v("pose_sy_m"), v("pose_spsi_rad"));
-          sin.pose_cov = Vec3(sd[0] * sd[0], sd[1] * sd[1], sd[2] * sd[2]).asDiagonal();
-          sin.pose_t_s = v(daemon::pose_capture_column());
+          daemon::SensorMessage pose;
+          pose.kind = daemon::SensorKind::pose;
+          pose.x_m = v("x_m"), pose.y_m = v("y_m"), pose.psi_rad = v("psi_rad");
+          pose.sx_m = row.pose_sx_m, pose.sy_m = row.pose_sy_m, pose.spsi_rad = row.pose_spsi_rad;
+          daemon::to_sensor_input(pose, row.pose_capture_t_s, sin);
         }
         if (!std::isnan(v("imu_psi_rad"))) {
-          sin.has_imu_psi = sin.has_imu_r = true;
-          sin.imu_psi_rad = v("imu_psi_rad");
-          sin.imu_r_radps = v("imu_r_radps");
+          daemon::SensorMessage imu;
+          imu.kind = daemon::SensorKind::imu;
+          imu.imu_psi_rad = v("imu_psi_rad"), imu.imu_r_radps = v("imu_r_radps");
+          daemon::to_sensor_input(imu, r.t_s(), sin);
         }
         const std::array<double, 4> ctrl_rpm = ctrl->step(r.t_s(), tel, sin);
-        // What augerd sent (Daemon::setpoints, host/augerd/daemon.cpp): the controller in goto/follow/hold, eq. (4)
-        // scaled to omega_max_rpm in vel, one module in spin, else 0.
-        std::array<double, 4> cmd{};
-        const int mode = int(v("mode"));
-        const double lim = ctrl->config().allocator.omega_max_rpm;
-        if (mode == mode_code(Mode::go_to) || mode == mode_code(Mode::follow) || mode == mode_code(Mode::hold)) {
-          cmd = ctrl_rpm;
-        } else if (mode == mode_code(Mode::vel) && !std::isnan(v("vel_u_mps"))) {
-          const Vec4 w = kinematic_screw_speeds_rpm(*model, Vec3(v("vel_u_mps"), v("vel_v_mps"), v("vel_r_radps")));
-          const double peak = w.cwiseAbs().maxCoeff();
-          const double scale = peak > lim ? lim / peak : 1.0;
-          for (int i = 0; i < 4; ++i) cmd[std::size_t(i)] = w[i] * scale;
-        } else if (mode == mode_code(Mode::spin) && !std::isnan(v("spin_module"))) {
-          cmd[std::size_t(v("spin_module"))] = std::clamp(v("spin_rpm"), -lim, lim);
-        }
+        // What augerd sent: the same rule (auger_contract's mode_setpoints) on the logged mode and
+        // its command; a row whose mode lacks its command sent nothing.
+        daemon::MotionInput motion;
+        const int mode = int(row.mode);
+        for (Mode m : {Mode::stopped, Mode::idle, Mode::vel, Mode::go_to, Mode::follow, Mode::hold, Mode::spin})
+          if (mode == mode_code(m)) motion.mode = m;
+        if (motion.mode == Mode::vel && std::isnan(row.vel_u_mps)) motion.mode = Mode::idle;
+        if (motion.mode == Mode::spin && !(row.spin_module >= 0 && row.spin_module <= 3)) motion.mode = Mode::idle;
+        if (motion.mode == Mode::vel) motion.vel = Vec3(row.vel_u_mps, row.vel_v_mps, row.vel_r_radps);
+        if (motion.mode == Mode::spin) motion.spin_module = int(row.spin_module), motion.spin_rpm = row.spin_rpm;
+        const std::array<double, 4> cmd =
+            daemon::mode_setpoints(motion, ctrl_rpm, *model, ctrl->config().allocator.omega_max_rpm);
         const int line = r.line();
         for (int i = 0; i < 4; ++i) cmp[std::size_t(i)].check(r.value(cmp[std::size_t(i)].col), cmd[std::size_t(i)], r.t_s(), line, path);
         const Vec3& eta = ctrl->eta_estimate();
-        cmp[4].check(v("xe_m"), eta[0], r.t_s(), line, path);
-        cmp[5].check(v("ye_m"), eta[1], r.t_s(), line, path);
-        cmp[6].check(v("psie_rad"), eta[2], r.t_s(), line, path, true);
+        cmp[4].check(row.xe_m, eta[0], r.t_s(), line, path);
+        cmp[5].check(row.ye_m, eta[1], r.t_s(), line, path);
+        cmp[6].check(row.psie_rad, eta[2], r.t_s(), line, path, true);
         if (ctrl->enabled()) {
           const Vec3& d = ctrl->reference().eta_d;
           cmp[7].check(v("xd_m"), d[0], r.t_s(), line, path);

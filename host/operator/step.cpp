@@ -17,6 +17,7 @@
 #include "module_adapter.hpp"
 #include "module_link.hpp"
 #include "operator.hpp"
+#include "status.hpp"
 #include "step_metrics.hpp"
 
 namespace auger::op {
@@ -110,7 +111,6 @@ void run_direct(const std::string& port, unsigned baud, int module, double from_
 void run_augerd(const std::string& socket, bool enable, int module, double from_rpm, double to_rpm, double hold_s,
                 Recorder& rec, double& t_step_s) {
   io::AugerdClient c(socket);
-  const std::string m = "m" + std::to_string(module) + "_";
   if (enable) {
     const std::string a = c.request("enable");
     if (a != "ok") throw std::runtime_error("augerd refused enable: " + a);
@@ -131,11 +131,14 @@ void run_augerd(const std::string& socket, bool enable, int module, double from_
     if (!c.read_line(a) || !c.read_line(st)) throw std::runtime_error("augerd did not answer");
     if (a != "ok") throw std::runtime_error("augerd: " + a);
     send_pair();
-    const auto kv = io::parse_status(st);
-    if (kv.count("fault") && kv.at("fault") != "none") throw std::runtime_error("augerd reports fault=" + kv.at("fault"));
-    const double tms = io::status_number(kv, m + "time_ms"), cmd = io::status_number(kv, m + "omega_cmd_rpm");
-    if (std::isnan(tms)) throw std::runtime_error("augerd's status all has no " + m + "time_ms (an older augerd?)");
-    rec.add(uint32_t(tms), io::status_number(kv, m + "omega_rpm"), cmd);
+    daemon::Status status;
+    if (const std::string bad = daemon::parse_status(st, status); !bad.empty())
+      throw std::runtime_error("augerd's status all: " + bad);
+    if (status.fault != "none") throw std::runtime_error("augerd reports fault=" + status.fault);
+    if (!status.all) throw std::runtime_error("augerd's status all has no module fields (an older augerd?)");
+    const daemon::ModuleStatus& ms = status.modules[std::size_t(module)];
+    const double cmd = ms.omega_cmd_rpm;
+    rec.add(ms.time_ms, ms.omega_rpm, cmd);
     if (!stepped && std::fabs(cmd - to_rpm) < 0.01 && !rec.samples.empty()) {
       t_step_s = rec.samples.back().t_s;
       stepped = true;

@@ -18,6 +18,7 @@
 #include "common.hpp"
 #include "joystick.hpp"
 #include "operator.hpp"
+#include "status.hpp"
 
 namespace auger::op {
 namespace {
@@ -130,15 +131,21 @@ int run_teleop(int argc, char** argv) {
       }
       status_at_s = now_s();
     }
-    const auto kv = io::parse_status(status_text);
+    daemon::Status st;
+    const bool known = daemon::parse_status(status_text, st).empty();
+    // As augerd writes them (status.cpp); "?" while no status has been read.
+    auto num = [known](double v) {
+      char b[32];
+      std::snprintf(b, sizeof b, "%.4f", v);
+      return std::string(known ? b : "?");
+    };
     erase();
     mvprintw(0, 0, "auger teleop  %s   joystick: %s", socket.c_str(), js.is_open() ? joystick.c_str() : "none");
     mvprintw(2, 0, "speed step %d/%d: u,v %.2f m/s, r %.2f rad/s", step + 1, kSteps, lin, yaw);
     mvprintw(3, 0, "last command: %s -> %s", last_cmd.c_str(), last_answer.c_str());
-    mvprintw(5, 0, "mode=%s enabled=%s fault=%s", kv.count("mode") ? kv.at("mode").c_str() : "?",
-             kv.count("enabled") ? kv.at("enabled").c_str() : "?", kv.count("fault") ? kv.at("fault").c_str() : "?");
-    mvprintw(6, 0, "pose x=%s m y=%s m psi=%s rad", kv.count("x_m") ? kv.at("x_m").c_str() : "?",
-             kv.count("y_m") ? kv.at("y_m").c_str() : "?", kv.count("psi_rad") ? kv.at("psi_rad").c_str() : "?");
+    mvprintw(5, 0, "mode=%s enabled=%s fault=%s", known ? st.mode.c_str() : "?", known ? (st.enabled ? "1" : "0") : "?",
+             known ? st.fault.c_str() : "?");
+    mvprintw(6, 0, "pose x=%s m y=%s m psi=%s rad", num(st.x_m).c_str(), num(st.y_m).c_str(), num(st.psi_rad).c_str());
     mvprintw(8, 0, "Up/Down w/s: u   Left/Right a/d: v   z/c: r   +/-: speed   e: enable   space: stop   q: quit");
     mvprintw(9, 0, "Hold a key to keep moving; release: augerd stops the screws within 0.5 s (dead-man).");
     refresh();

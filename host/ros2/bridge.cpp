@@ -15,6 +15,7 @@
 
 #include <dds/dds.h>
 
+#include "auger/model.hpp"
 #include "convert.hpp"
 #include "ros2.hpp"
 #include "protocol.h"
@@ -100,7 +101,8 @@ class CycloneBridge final : public Bridge {
   void take_pose(dds_entity_t r);
   void take_pose_cov(dds_entity_t r);
   void take_imu(dds_entity_t r);
-  void pose_in(double t, const geometry_msgs_msg_dds__Pose_& p, double sx, double sy, double spsi);
+  // A pose with its standard deviations and, where the message gave them, its variances (x, y, yaw).
+  void pose_in(double t, const geometry_msgs_msg_dds__Pose_& p, const std::array<double, 3>& sd, const double* variance);
   void refuse(const std::string& why);  // with in_mu_ held
   // The writer thread.
   void run();
@@ -289,28 +291,32 @@ void CycloneBridge::take_twist_stamped(dds_entity_t r) {
   });
 }
 
-void CycloneBridge::pose_in(double t, const geometry_msgs_msg_dds__Pose_& p, double sx, double sy, double spsi) {
+void CycloneBridge::pose_in(double t, const geometry_msgs_msg_dds__Pose_& p, const std::array<double, 3>& sd,
+                            const double* variance) {
   // in_mu_ held by the caller.
   ++in_.received;
   double yaw = 0;
   std::string why;
   if (!yaw_from_quaternion(p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w, yaw, why))
     return refuse("pose: " + why);
+  auger::daemon::SensorMessage& m = in_.pose;
+  m = auger::daemon::SensorMessage{};
+  m.kind = auger::daemon::SensorKind::pose;
+  m.t_unix_s = t;
+  m.x_m = p.position.x;
+  m.y_m = p.position.y;
+  m.psi_rad = yaw;
+  m.sx_m = sd[0];
+  m.sy_m = sd[1];
+  m.spsi_rad = sd[2];
+  if (variance) m.var_x_m2 = variance[0], m.var_y_m2 = variance[1], m.var_psi_rad2 = variance[2];
   in_.has_pose = true;
-  in_.pose_t_unix_s = t;
-  in_.x_m = p.position.x;
-  in_.y_m = p.position.y;
-  in_.psi_rad = yaw;
-  in_.sx_m = sx;
-  in_.sy_m = sy;
-  in_.spsi_rad = spsi;
 }
 
 void CycloneBridge::take_pose(dds_entity_t r) {
   take_all<geometry_msgs_msg_dds__PoseStamped_>(r, [this](const geometry_msgs_msg_dds__PoseStamped_& m) {
     std::lock_guard<std::mutex> lk(in_mu_);
-    const auto& sd = settings_.pose_std;
-    pose_in(stamp_to_unix_s(m.header.stamp.sec, m.header.stamp.nanosec), m.pose, sd[0], sd[1], sd[2]);
+    pose_in(stamp_to_unix_s(m.header.stamp.sec, m.header.stamp.nanosec), m.pose, settings_.pose_std, nullptr);
   });
 }
 
@@ -318,11 +324,13 @@ void CycloneBridge::take_pose_cov(dds_entity_t r) {
   take_all<geometry_msgs_msg_dds__PoseWithCovarianceStamped_>(
       r, [this](const geometry_msgs_msg_dds__PoseWithCovarianceStamped_& m) {
         std::lock_guard<std::mutex> lk(in_mu_);
-        // The diagonal's x, y and rot Z variances; a negative one gives NaN, which augerd's
-        // checks refuse like any non-finite standard deviation.
+        // The diagonal's x, y and rot Z variances go to the estimator as they are; their square
+        // roots to the checks and the log. A negative one gives NaN, which augerd's checks refuse
+        // like any non-finite standard deviation.
         const double* c = m.pose.covariance;
-        pose_in(stamp_to_unix_s(m.header.stamp.sec, m.header.stamp.nanosec), m.pose.pose, std::sqrt(c[0]),
-                std::sqrt(c[7]), std::sqrt(c[35]));
+        const double variance[3] = {c[0], c[7], c[35]};
+        pose_in(stamp_to_unix_s(m.header.stamp.sec, m.header.stamp.nanosec), m.pose.pose,
+                {std::sqrt(c[0]), std::sqrt(c[7]), std::sqrt(c[35])}, variance);
       });
 }
 
@@ -341,9 +349,11 @@ void CycloneBridge::take_imu(dds_entity_t r) {
     if (!yaw_from_quaternion(m.orientation.x, m.orientation.y, m.orientation.z, m.orientation.w, yaw, why))
       return refuse("imu: " + why);
     in_.has_imu = true;
-    in_.imu_t_unix_s = stamp_to_unix_s(m.header.stamp.sec, m.header.stamp.nanosec);
-    in_.imu_psi_rad = yaw;
-    in_.imu_r_radps = m.angular_velocity.z;
+    in_.imu = auger::daemon::SensorMessage{};
+    in_.imu.kind = auger::daemon::SensorKind::imu;
+    in_.imu.t_unix_s = stamp_to_unix_s(m.header.stamp.sec, m.header.stamp.nanosec);
+    in_.imu.imu_psi_rad = yaw;
+    in_.imu.imu_r_radps = m.angular_velocity.z;
   });
 }
 
@@ -441,7 +451,6 @@ void CycloneBridge::write_odometry(const Snapshot& s) {
 }
 
 void CycloneBridge::write_joint_states(const Snapshot& s) {
-  constexpr double kRadpsPerRpm = 2.0 * M_PI / 60.0;
   std::string frame;  // JointState's header frame is empty by convention
   std::array<std::string, 4> names = settings_.joint_names;
   char* name_ptrs[4];
@@ -450,7 +459,7 @@ void CycloneBridge::write_joint_states(const Snapshot& s) {
     name_ptrs[i] = text(names[std::size_t(i)]);
     const ModuleSnapshot& mod = s.module[i];
     // A module not answering has no speed or current to report: NaN, not its last value.
-    velocity_radps[i] = mod.answering ? mod.omega_rpm * kRadpsPerRpm : NAN;
+    velocity_radps[i] = mod.answering ? mod.omega_rpm * auger::kRpmToRadps : NAN;
     effort_a[i] = mod.answering ? mod.current_a : NAN;
   }
   sensor_msgs_msg_dds__JointState_ m{};

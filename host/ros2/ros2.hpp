@@ -3,8 +3,9 @@
 // Bridge::poll and Bridge::publish, which never block: every DDS call happens on the bridge's
 // own thread or in Cyclone's receive thread. This header has no DDS type in it, so augerd and
 // its configuration reader compile the same with or without Cyclone DDS (AUGER_WITH_ROS2). The
-// settings and ROS 2's name rules are in the core (auger/ros2_settings.hpp): the configuration
-// reader there checks them without DDS.
+// settings and ROS 2's name rules are augerd's contract's (host/contract/ros2_settings.hpp): the
+// configuration reader there checks them without DDS; the inputs arrive as the sensors socket's
+// typed messages (host/contract/daemon_lines.hpp).
 #pragma once
 
 #include <array>
@@ -13,7 +14,8 @@
 #include <string>
 #include <vector>
 
-#include "auger/ros2_settings.hpp"
+#include "daemon_lines.hpp"
+#include "ros2_settings.hpp"
 
 namespace auger::ros2 {
 
@@ -49,14 +51,15 @@ struct Snapshot {
 };
 
 // Inputs since the last poll: the newest of each kind (the loop uses one per cycle anyway),
-// converted to the sensors socket's and `vel`'s quantities.
+// converted to `vel`'s quantities and the sensors socket's messages (whose values augerd checks
+// as a line's: daemon_lines.hpp check_command, check_sensor).
 struct Inputs {
   bool has_vel = false;
   double u_mps = 0, v_mps = 0, r_radps = 0;
   bool has_pose = false;
-  double pose_t_unix_s = 0, x_m = 0, y_m = 0, psi_rad = 0, sx_m = 0, sy_m = 0, spsi_rad = 0;
+  auger::daemon::SensorMessage pose;  // PoseWithCovarianceStamped: with its variances
   bool has_imu = false;
-  double imu_t_unix_s = 0, imu_psi_rad = 0, imu_r_radps = 0;
+  auger::daemon::SensorMessage imu;
   long received = 0;   // messages taken, the superseded ones included
   long refused = 0;    // of which the bridge refused (a malformed message; the reason below)
   std::array<char, 200> refusal{};

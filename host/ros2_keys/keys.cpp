@@ -13,7 +13,7 @@
 #include <system_error>
 
 #include "auger/args.hpp"
-#include "auger/daemon_config.hpp"
+#include "daemon_config.hpp"
 #include "process.hpp"
 #include "ros2_keys.hpp"
 

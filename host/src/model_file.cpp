@@ -1,4 +1,5 @@
-// Model file reader and writer (toml++, header-only, used only in this file).
+// Model file reader and writer (toml++, header-only, used only here and in augerd's configuration
+// reader, with the same kit: auger/toml_kit.hpp).
 #include "auger/model_file.hpp"
 
 #include <cmath>
@@ -9,30 +10,18 @@
 
 #include <toml++/toml.h>
 
+#include "auger/toml_kit.hpp"
+
 namespace auger {
 namespace {
 
-int line_of(const toml::node& n) { return static_cast<int>(n.source().begin.line); }
-int col_of(const toml::node& n) { return static_cast<int>(n.source().begin.column); }
-
-[[noreturn]] void fail(const std::string& file, const toml::node& n, const std::string& msg) {
-  throw ConfigError(file, line_of(n), col_of(n), msg);
-}
-
-double number(const std::string& file, const toml::node& n, const std::string& key) {
-  if (!n.is_number()) fail(file, n, "'" + key + "' must be a number");
-  return *n.value<double>();
-}
-
-std::string text(const std::string& file, const toml::node& n, const std::string& key) {
-  if (!n.is_string()) fail(file, n, "'" + key + "' must be a string");
-  return *n.value<std::string>();
-}
-
-const toml::table& as_table(const std::string& file, const toml::node& n, const std::string& key) {
-  if (!n.is_table()) fail(file, n, "'" + key + "' must be a table");
-  return *n.as_table();
-}
+// The TOML kit shared with augerd's configuration reader.
+using toml_kit::as_table;
+using toml_kit::col_of;
+using toml_kit::fail;
+using toml_kit::line_of;
+using toml_kit::number;
+using toml_kit::text;
 
 // Fills named doubles of a table; an unknown key is an error naming its line.
 struct NumberField {
@@ -51,7 +40,7 @@ void read_numbers(const std::string& file, const toml::table& t, const std::stri
     if (it == fields.end()) {
       std::string known;
       for (const auto& f : fields) known += (known.empty() ? "" : ", ") + std::string(f.key);
-      fail(file, v, "unknown key '" + key + "' in " + where + " (known: " + known + ")");
+      toml_kit::unknown_key(file, v, key, where, known);
     }
     *it->target = number(file, v, key) * it->scale;
     seen.insert(key);
@@ -62,10 +51,9 @@ void read_numbers(const std::string& file, const toml::table& t, const std::stri
 }
 
 Vec3 vec3(const std::string& file, const toml::node& n, const std::string& key) {
-  const toml::array* a = n.as_array();
-  if (!a || a->size() != 3) fail(file, n, "'" + key + "' must be an array of 3 numbers (x, y, yaw)");
+  const toml::array& a = toml_kit::vec3_array(file, n, key);
   Vec3 v;
-  for (std::size_t i = 0; i < 3; ++i) v[static_cast<Eigen::Index>(i)] = number(file, *a->get(i), key);
+  for (std::size_t i = 0; i < 3; ++i) v[static_cast<Eigen::Index>(i)] = number(file, *a.get(i), key);
   return v;
 }
 

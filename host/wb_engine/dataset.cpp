@@ -3,7 +3,7 @@
 #include "dataset.hpp"
 #include "simulation.hpp"
 
-#include "auger/daemon_log.hpp"
+#include "daemon_log.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -16,6 +16,7 @@
 
 #include "auger/args.hpp"
 #include "auger/model_file.hpp"
+#include "daemon_log.hpp"
 #include "scheduler.hpp"
 
 namespace {
@@ -192,9 +193,12 @@ int main(int argc, char** argv) {
       Joystick stick(seed);
       s.set_command_source([&](double t_s, Vec4& cmd) {
         if (t_s < boot_s) return false;
-        cmd = kinematic_screw_speeds_rpm(m, stick.at(t_s, sc.control_period_s));
-        const double peak = cmd.cwiseAbs().maxCoeff();
-        if (peak > 22.0) cmd *= 22.0 / peak;
+        // What augerd sends in mode vel (augerd's contract: eq. (4), scaled to 22 rpm as a whole).
+        daemon::MotionInput vel;
+        vel.mode = daemon::Mode::vel;
+        vel.vel = stick.at(t_s, sc.control_period_s);
+        const std::array<double, 4> rpm = daemon::mode_setpoints(vel, {}, m, 22.0);
+        cmd = Vec4(rpm[0], rpm[1], rpm[2], rpm[3]);
         return true;
       });
     } else {

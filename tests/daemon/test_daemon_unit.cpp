@@ -23,6 +23,7 @@
 
 using namespace augerd;
 using namespace auger::io;
+using namespace auger::daemon;
 
 namespace {
 // A string literal with its embedded NUL bytes (without the terminating one).

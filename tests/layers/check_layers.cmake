@@ -7,11 +7,13 @@ set(allowed_dirs host/augerd tests/daemon tests/ros2 tests/interop)  # augerd an
 set(problems "")
 
 # Every folder's floor, bottom up: a target links only targets of its own floor or below.
-# The host: the core, io, then augerd / workbench / operator tools / interop, then the front.
+# The host: the core, io and augerd's contract, then augerd / workbench / operator tools /
+# interop, then the front.
 set(floor_. 0)                # auger_protocol (shared/protocol.c)
 set(floor_firmware 0)         # the firmware's hardware-free logic, on the protocol
 set(floor_host 0)             # auger_core (host/src, host/include)
 set(floor_host/io 1)          # auger_io
+set(floor_host/contract 1)    # auger_contract: augerd's configuration, lines, status, log schema
 set(floor_host/ros2 2)        # auger_ros2, on io
 set(floor_host/ros2_keys 2)   # auger_ros2_keys (auger ros2-keys), on io
 set(floor_host/tools 2)       # auger-module

@@ -8,10 +8,11 @@ set(clean_rows
   "auger_fw_logic|firmware|auger_protocol"
   "auger_core|host|Eigen3::Eigen"
   "auger_io|host/io|auger_core,auger_protocol"
+  "auger_contract|host/contract|auger_core"
   "auger_wb_engine|host/wb_engine|auger_core,nlohmann_json::nlohmann_json"
   "auger_workbench|host/workbench|auger_wb_engine,auger_io"
-  "auger_operator|host/operator|auger_core,auger_io"
-  "augerd_lib|host/augerd|auger_core,auger_io,Threads::Threads"
+  "auger_operator|host/operator|auger_core,auger_contract,auger_io"
+  "augerd_lib|host/augerd|auger_core,auger_contract,auger_io,Threads::Threads"
   "augerd|host/augerd|augerd_lib"
   "auger|host/auger|auger_workbench,auger_operator,auger_io"
   "auger_simmodels|sim|m"
@@ -102,6 +103,9 @@ run_case(bench_includes_tests "" "bench/fw_bench.cpp=// the bench\\n#include \"g
 # The workbench includes the simulated robot's header.
 run_case(host_includes_sim "" "host/workbench/fit.cpp=#include \"auger/model.hpp\"\\n#include \"true_robot.hpp\""
   "host/workbench/fit.cpp:2: includes \"true_robot.hpp\", a header of the simulator, the bench or the tests \\(sim/robot/true_robot.hpp\\)")
+# augerd's contract, below augerd and the tools, on a floor above it (the operator's).
+run_case(contract_floor "auger_contract|host/contract|auger_core,auger_operator" ""
+  "target auger_contract \\(host/contract, floor 1\\) links auger_operator \\(host/operator, floor 3\\)")
 # A folder nobody gave a floor.
 run_case(no_floor "auger_new|host/new|auger_core" ""
   "target auger_new \\(host/new\\): a folder without a floor")

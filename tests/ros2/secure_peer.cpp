@@ -17,7 +17,7 @@
 #include <string>
 #include <thread>
 
-#include "auger/ros2_settings.hpp"
+#include "ros2_settings.hpp"
 #include "ros2_messages.h"
 
 namespace {

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "auger/ros2_settings.hpp"
+#include "ros2_settings.hpp"
 
 namespace auger::ros2 {
 namespace {

@@ -1,12 +1,17 @@
 // augerd's two socket line protocols (docs/daemon-protocol.md), parsed for augerd and for the
 // tools that speak them (auger calib reads the sensors' lines); free of I/O so that the tests can
-// check every malformed input without a running daemon.
+// check every malformed input without a running daemon. The checks of a command's and a sensor
+// message's values work on the structs, so that an input that never was a line (ROS 2, through
+// the bridge) meets the same bounds.
 #pragma once
 
 #include <string>
 #include <vector>
 
-namespace auger::io {
+#include "auger/controller.hpp"
+#include "auger/model.hpp"
+
+namespace auger::daemon {
 
 enum class CommandKind { enable, stop, vel, go_to, follow, allocator, status, spin };
 
@@ -22,8 +27,19 @@ struct SensorMessage {
   SensorKind kind = SensorKind::pose;
   double t_unix_s = 0;
   double x_m = 0, y_m = 0, psi_rad = 0, sx_m = 0, sy_m = 0, spsi_rad = 0;  // pose
+  // The pose's variances where its source gave them (ROS 2's PoseWithCovarianceStamped); NaN:
+  // the squares of the standard deviations above (a `pose` line, PoseStamped's pose_std).
+  double var_x_m2 = NAN, var_y_m2 = NAN, var_psi_rad2 = NAN;
   double imu_psi_rad = 0, imu_r_radps = 0;                                  // imu
 };
+
+// The pose's covariance for the estimator (diagonal): the variances given, else the squares of
+// the standard deviations. The one place a pose's covariance is built (augerd, auger replay).
+Mat3 pose_covariance(const SensorMessage& m);
+
+// A message into the controller's sensor input of this cycle (augerd; `auger replay` from the
+// log's row): t_loop_s is its time on the loop's clock (a pose's capture time).
+void to_sensor_input(const SensorMessage& m, double t_loop_s, SensorInput& in);
 
 // Each returns an empty string on success, else the error text (without "error: "). A line
 // with a control byte, a number that is not the whole field, or a value outside the bounds of
@@ -31,10 +47,14 @@ struct SensorMessage {
 std::string parse_command(const std::string& line, Command& out);
 std::string parse_sensor(const std::string& line, SensorMessage& out);
 
+// The bounds alone (what the parsers check after the numbers): "" or the error text.
+std::string check_command(const Command& c);
+std::string check_sensor(const SensorMessage& m);
+
 // The input as one printable quoted line for an error answer (auger::quote_input, 200 bytes).
 std::string quote_line(const std::string& s);
 
 // Splits at runs of spaces and tabs.
 std::vector<std::string> split_fields(const std::string& line);
 
-}  // namespace auger::io
+}  // namespace auger::daemon

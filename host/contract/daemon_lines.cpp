@@ -4,10 +4,12 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <initializer_list>
+#include <utility>
 
 #include "auger/input_limits.hpp"
 
-namespace auger::io {
+namespace auger::daemon {
 namespace {
 
 using auger::check_goal;
@@ -46,7 +48,70 @@ std::string control_byte(const std::string& line) {
   return "";
 }
 
+// A value as a line would carry it (%.17g: every double exactly).
+std::string number_text(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.17g", v);
+  return quote(b);
+}
+
+// Non-finite values of an input that never was a line (ROS 2) refused as the parser refuses them
+// in a line (number above), naming the first.
+std::string finite(std::initializer_list<std::pair<const char*, double>> values) {
+  for (const auto& [name, v] : values)
+    if (!std::isfinite(v)) return name + std::string(" must be a finite number, got ") + number_text(v);
+  return "";
+}
+
 }  // namespace
+
+std::string check_command(const Command& c) {
+  std::string err;
+  switch (c.kind) {
+    case CommandKind::vel:
+      if (!(err = finite({{"u_mps", c.a}, {"v_mps", c.b}, {"r_radps", c.c}})).empty()) return err;
+      return check_velocity(c.a, c.b, c.c);
+    case CommandKind::go_to:
+      if (!(err = finite({{"x_m", c.a}, {"y_m", c.b}, {"psi_rad", c.c}})).empty()) return err;
+      return check_goal(c.a, c.b, c.c);
+    case CommandKind::spin:
+      if (!(err = finite({{"module", c.a}, {"omega_rpm", c.b}})).empty()) return err;
+      if (c.a != 0 && c.a != 1 && c.a != 2 && c.a != 3) return "module must be 0, 1, 2 or 3, got " + number_text(c.a);
+      return check_screw_speed(c.b);
+    default: return "";
+  }
+}
+
+std::string check_sensor(const SensorMessage& m) {
+  std::string err;
+  if (m.kind == SensorKind::imu) {
+    if (!(err = finite({{"t_unix_s", m.t_unix_s}, {"psi_rad", m.imu_psi_rad}, {"r_radps", m.imu_r_radps}})).empty())
+      return err;
+    return check_imu(m.imu_psi_rad, m.imu_r_radps);
+  }
+  if (!(err = finite({{"t_unix_s", m.t_unix_s}, {"x_m", m.x_m}, {"y_m", m.y_m}, {"psi_rad", m.psi_rad},
+                      {"sx_m", m.sx_m}, {"sy_m", m.sy_m}, {"spsi_rad", m.spsi_rad}})).empty())
+    return err;
+  return check_pose(m.x_m, m.y_m, m.psi_rad, m.sx_m, m.sy_m, m.spsi_rad);
+}
+
+Mat3 pose_covariance(const SensorMessage& m) {
+  auto var = [](double given, double sd) { return std::isnan(given) ? sd * sd : given; };
+  return Vec3(var(m.var_x_m2, m.sx_m), var(m.var_y_m2, m.sy_m), var(m.var_psi_rad2, m.spsi_rad)).asDiagonal();
+}
+
+void to_sensor_input(const SensorMessage& m, double t_loop_s, SensorInput& in) {
+  if (m.kind == SensorKind::pose) {
+    in.has_pose = true;
+    in.pose = Vec3(m.x_m, m.y_m, m.psi_rad);
+    in.pose_cov = pose_covariance(m);
+    in.pose_t_s = t_loop_s;  // the EKF compares it with its prediction for that time
+  } else {
+    in.has_imu_psi = in.has_imu_r = true;
+    in.imu_psi_rad = m.imu_psi_rad;
+    in.imu_r_radps = m.imu_r_radps;
+  }
+}
 
 std::string quote_line(const std::string& s) { return auger::quote_input(s, 200); }
 
@@ -90,13 +155,13 @@ std::string parse_command(const std::string& line, Command& out) {
     if (!number(f[1], vel ? "u_mps" : "x_m", c.a, err) || !number(f[2], vel ? "v_mps" : "y_m", c.b, err) ||
         !number(f[3], vel ? "r_radps" : "psi_rad", c.c, err))
       return err;
-    if (!(err = vel ? check_velocity(c.a, c.b, c.c) : check_goal(c.a, c.b, c.c)).empty()) return err;
+    if (!(err = check_command(c)).empty()) return err;
   } else if (w == "spin") {
     if (!(err = arity(2, "spin <module 0..3> <omega_rpm>")).empty()) return err;
     c.kind = CommandKind::spin;
     if (!number(f[1], "module", c.a, err) || !number(f[2], "omega_rpm", c.b, err)) return err;
     if (c.a != 0 && c.a != 1 && c.a != 2 && c.a != 3) return "module must be 0, 1, 2 or 3, got " + quote(f[1]);
-    if (!(err = check_screw_speed(c.b)).empty()) return err;
+    if (!(err = check_command(c)).empty()) return err;
   } else if (w == "follow") {
     if (!(err = arity(1, "follow <csv_path>")).empty()) return err;
     c.kind = CommandKind::follow;
@@ -128,14 +193,14 @@ std::string parse_sensor(const std::string& line, SensorMessage& out) {
         !number(f[5], "sx_m", m.sx_m, err) || !number(f[6], "sy_m", m.sy_m, err) ||
         !number(f[7], "spsi_rad", m.spsi_rad, err))
       return err;
-    if (!(err = check_pose(m.x_m, m.y_m, m.psi_rad, m.sx_m, m.sy_m, m.spsi_rad)).empty()) return err;
+    if (!(err = check_sensor(m)).empty()) return err;
   } else if (f[0] == "imu") {
     if (f.size() != 4) return "imu takes 3 fields: imu <t_unix_s> <psi_rad> <r_radps>, got " + quote(line);
     m.kind = SensorKind::imu;
     if (!number(f[1], "t_unix_s", m.t_unix_s, err) || !number(f[2], "psi_rad", m.imu_psi_rad, err) ||
         !number(f[3], "r_radps", m.imu_r_radps, err))
       return err;
-    if (!(err = check_imu(m.imu_psi_rad, m.imu_r_radps)).empty()) return err;
+    if (!(err = check_sensor(m)).empty()) return err;
   } else {
     return "unknown sensor message " + quote(f[0]) + " (pose, imu)";
   }
@@ -143,4 +208,4 @@ std::string parse_sensor(const std::string& line, SensorMessage& out) {
   return "";
 }
 
-}  // namespace auger::io
+}  // namespace auger::daemon

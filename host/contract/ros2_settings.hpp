@@ -1,5 +1,5 @@
 // augerd's [ros2] settings and ROS 2's name rules (docs/ros2.md), without any DDS type: the
-// configuration reader (auger/daemon_config.hpp) checks them in every build, and the bridge
+// configuration reader (daemon_config.hpp) checks them in every build, and the bridge
 // (host/ros2) uses them when it is built with Cyclone DDS.
 #pragma once
 

@@ -9,7 +9,7 @@
 
 #include "auger/controller.hpp"
 #include "auger/model.hpp"
-#include "auger/ros2_settings.hpp"
+#include "ros2_settings.hpp"
 
 namespace auger {
 
