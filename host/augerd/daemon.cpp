@@ -20,8 +20,8 @@ namespace augerd {
 namespace {
 
 
-// The reserved connection of the commands socket takes these only (LineServerOptions).
-bool reserved_command(const std::string& line) {
+// What the commands socket answers at once to a connection without a slot (LineServerOptions).
+bool priority_command(const std::string& line) {
   const auto f = split_fields(line);
   return !f.empty() && (f[0] == "stop" || f[0] == "status");
 }
@@ -50,7 +50,7 @@ void Daemon::open_sockets() {
   o.idle_timeout_s = cfg_.idle_timeout_s;
   o.mode = cfg_.commands_mode;
   o.gid = gid(cfg_.commands_group);
-  o.reserved_allows = reserved_command;  // `stop` always gets through (docs/daemon.md)
+  o.priority_allows = priority_command;  // `stop` always gets through (docs/daemon.md)
   commands_ = std::make_unique<LineServer>(cfg_.commands_socket, o);
   LineServerOptions s;
   s.idle_timeout_s = cfg_.idle_timeout_s;

@@ -23,6 +23,8 @@
 #include <poll.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -30,6 +32,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <memory>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -861,6 +864,25 @@ Period log_period(const std::string& log_dir, double t0, double t1) {
   return p;
 }
 
+// `stop` on a fresh connection, timed from the send to the answer "ok"; 1e9 when no "ok" came
+// within a second.
+double timed_stop_ms(const std::string& cmd) {
+  const int fd = connect_to(cmd);
+  if (fd < 0) return 1e9;
+  const double t0 = SimRig::wall_s();
+  send(fd, "stop\n", 5, MSG_NOSIGNAL);
+  std::string got;
+  char buf[256];
+  pollfd p{fd, POLLIN, 0};
+  while (got.find('\n') == std::string::npos && poll(&p, 1, 1000) > 0) {
+    const ssize_t n = recv(fd, buf, sizeof buf, 0);
+    if (n <= 0) break;
+    got.append(buf, std::size_t(n));
+  }
+  close(fd);
+  return got == "ok\n" ? 1e3 * (SimRig::wall_s() - t0) : 1e9;
+}
+
 // The load test (issue 13): augerd drives the robot (vel, kept alive on one connection) while its
 // sockets are abused the ways that froze it before, all at once, for duration_s: more idle
 // connections than the cap on both sockets, clients flooding `status all` (some never reading
@@ -972,21 +994,8 @@ void abuse(double duration_s) {
   // `stop` on fresh connections, timed from the send to the answer, each followed by enable.
   std::vector<double> stop_ms;
   for (int k = 0; k < 10; ++k) {
-    const int fd = connect_to(cmd);
-    REQUIRE(fd >= 0);
-    const double t0 = SimRig::wall_s();
-    send(fd, "stop\n", 5, MSG_NOSIGNAL);
-    std::string got;
-    char buf[256];
-    pollfd p{fd, POLLIN, 0};
-    while (got.find('\n') == std::string::npos && poll(&p, 1, 1000) > 0) {
-      const ssize_t n = recv(fd, buf, sizeof buf, 0);
-      if (n <= 0) break;
-      got.append(buf, std::size_t(n));
-    }
-    stop_ms.push_back(1e3 * (SimRig::wall_s() - t0));
-    close(fd);
-    CHECK(got == "ok\n");
+    stop_ms.push_back(timed_stop_ms(cmd));
+    CHECK(stop_ms.back() < 1e9);
     sleep_s(0.05);
     talk(cmd, "enable\n", 1);
     sleep_s(0.1);
@@ -1033,7 +1042,88 @@ void abuse(double duration_s) {
   CHECK(stop_ms.back() < 40.0);
 }
 
+// `stop` behind a full house (issue 28 point 3): 32 clients that stay active (one keeps `vel`
+// alive, 31 send `status` every 20 ms, so none is ever idle long enough to give way), 100
+// connections queued behind them that send nothing, 100 that send `vel` (no slot will free for
+// them), and four clients reconnecting as fast as they can to keep the queue full. `stop` on
+// fresh connections must be answered within 20 ms (two cycles), and must stop every screw.
+void stop_behind_queue() {
+  const std::string dir = make_dir("stopq");
+  RemoveDir cleanup{dir};
+  SimRig rig(dir, {0, 1, 2, 3}, {0, 1, 2, 3});
+  const std::string cfg = dir + "/augerd.toml";
+  std::ofstream(cfg) << config_text(dir, {rig.port(0), rig.port(1), rig.port(2), rig.port(3)});
+  Daemon d(cfg, dir + "/augerd.err");
+  const std::string cmd = dir + "/cmd.sock";
+  const bool up = wait_until([&] { return access(cmd.c_str(), F_OK) == 0; }, 5.0);
+  INFO(d.stderr_text());
+  REQUIRE(up);
+  REQUIRE(talk(cmd, "enable\n", 1) == "ok");
+  Keeper feeder(cmd, "vel 0.03 0 0", 0.1);
+  REQUIRE(wait_until([&] { return all_driven(rig); }, 2.0));
+  std::vector<std::unique_ptr<Keeper>> active;
+  for (int k = 0; k < 31; ++k) active.push_back(std::make_unique<Keeper>(cmd, "status", 0.02));
+  sleep_s(0.3);
+  const double t0 = status_value(talk(cmd, "status\n", 1), "t_s");
+  std::vector<int> queued;
+  for (int k = 0; k < 200; ++k) {
+    const int fd = connect_to(cmd);
+    if (fd >= 0 && k % 2) send(fd, "vel 0.1 0 0\n", 12, MSG_NOSIGNAL);
+    queued.push_back(fd);
+  }
+  std::atomic<bool> run{true};
+  std::atomic<long> reconnects{0};
+  std::vector<std::thread> threads;
+  for (int k = 0; k < 4; ++k)
+    threads.emplace_back([&] {
+      while (run) {
+        const int fd = connect_to(cmd);
+        if (fd >= 0) close(fd);
+        ++reconnects;
+      }
+    });
+  sleep_s(1.0);
+  const bool driven = all_driven(rig);
+  std::vector<double> stop_ms;
+  bool stopped = false;
+  for (int k = 0; k < 10; ++k) {
+    stop_ms.push_back(timed_stop_ms(cmd));
+    if (k == 0) stopped = wait_until([&] { return all_stopped(rig); }, 0.2);
+    sleep_s(0.05);
+  }
+  const std::string st = talk(cmd, "status\n", 1);
+  const double t1 = status_value(st, "t_s");
+  run = false;
+  for (auto& t : threads) t.join();
+  long active_errors = 0;
+  for (auto& a : active) active_errors += a->errors;
+  active.clear();
+  for (int fd : queued)
+    if (fd >= 0) close(fd);
+  kill(d.pid, SIGTERM);
+  CHECK(d.wait_exit(3.0) == 0);
+  const Period per = log_period(dir + "/log", t0, t1);
+  std::sort(stop_ms.begin(), stop_ms.end());
+  WARN("stop behind 32 active clients and a queue (" << reconnects << " reconnections): stop answered in "
+                                                      << stop_ms.front() << " / " << stop_ms[stop_ms.size() / 2]
+                                                      << " / " << stop_ms.back()
+                                                      << " ms (min / median / max of 10); loop period mean "
+                                                      << per.mean_s * 1e3 << " ms, longest " << per.max_s * 1e3
+                                                      << " ms (" << per.n << " cycles)");
+  INFO(st << "\n" << d.stderr_text());
+  CHECK(driven);
+  CHECK(stopped);
+  CHECK(st.find("mode=stopped") != std::string::npos);
+  CHECK(stop_ms.back() <= 20.0);
+  CHECK(per.max_s < 0.05);
+  CHECK(active_errors == 0);
+}
+
 }  // namespace
+
+TEST_CASE("stop is answered within two cycles behind 32 active clients and a queue", "[load]") {
+  stop_behind_queue();
+}
 
 TEST_CASE("augerd holds its loop while its sockets are abused", "[load]") { abuse(4.0); }
 
