@@ -210,9 +210,11 @@ std::string Daemon::status_line() const {
   const DataLog::Stats ls = log_ ? log_->stats() : DataLog::Stats{};
   std::snprintf(buf, sizeof buf,
                 "status t_s=%.3f enabled=%d mode=%s x_m=%.4f y_m=%.4f psi_rad=%.4f xd_m=%.4f yd_m=%.4f "
-                "psid_rad=%.4f fault=%s loop_dt_s=%.5f loop_jitter_max_s=%.5f arrived=%d log_ok=%d",
+                "psid_rad=%.4f fault=%s loop_dt_s=%.5f loop_jitter_max_s=%.5f arrived=%d log_ok=%d "
+                "poses_rejected=%ld",
                 t_s_, enabled_ ? 1 : 0, mode_name(mode_), eta[0], eta[1], eta[2], eta_d[0], eta_d[1], eta_d[2],
-                fault.c_str(), loop_dt_s_, jitter_max_s_, arrived_ ? 1 : 0, ls.ok ? 1 : 0);
+                fault.c_str(), loop_dt_s_, jitter_max_s_, arrived_ ? 1 : 0, ls.ok ? 1 : 0,
+                poses_rejected_);
   return buf;
 }
 

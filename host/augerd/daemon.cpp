@@ -124,6 +124,29 @@ void Daemon::fault(int module, const std::string& reason_token, const std::strin
   disable_controller();
 }
 
+// The estimator's gate (docs/daemon.md "Safety"): one event when a run of rejected camera poses
+// begins and one when the poses agree again, so a stream of wrong poses cannot flood the log.
+void Daemon::pose_gate_events() {
+  if (!sensors_in_.has_pose) return;
+  char what[240];
+  if (controller_->pose_rejected()) {
+    ++poses_rejected_;
+    if (reject_run_n_++ > 0) return;
+    reject_run_t0_s_ = t_s_;
+    std::snprintf(what, sizeof what,
+                  "camera pose %.3f m %.3f m %.3f rad rejected: %.3g standard deviations from the estimate (gate %.3g); "
+                  "estimate kept; a fault follows if every pose disagrees for %.3g s",
+                  sensors_in_.pose[0], sensors_in_.pose[1], sensors_in_.pose[2], controller_->pose_distance(),
+                  std::sqrt(ctrl_cfg_.ekf.pose_gate_d2), ctrl_cfg_.ekf.pose_reject_fault_s);
+    event(-1, "pose-rejected", what);
+  } else if (reject_run_n_ > 0) {
+    std::snprintf(what, sizeof what, "camera poses agree with the estimate again after %ld rejected over %.2f s",
+                  reject_run_n_, t_s_ - reject_run_t0_s_);
+    event(-1, "pose-accepted", what);
+    reject_run_n_ = 0;
+  }
+}
+
 // What each mode sends (docs/daemon.md "The loop").
 std::array<double, 4> Daemon::setpoints(const std::array<double, 4>& ctrl_rpm) {
   std::array<double, 4> cmd_rpm{};
@@ -266,6 +289,7 @@ void Daemon::run(volatile const std::sig_atomic_t* stop) {
     std::array<auger::ScrewTelemetry, 4> tel;
     for (int i = 0; i < 4; ++i) tel[std::size_t(i)] = bus_.module(i).tm.controller_input();
     const std::array<double, 4>& ctrl_rpm = controller_->step(t_s_, tel, sensors_in_);
+    pose_gate_events();
     // The controller refused its own state (an estimate that diverged): a fault like a module's.
     if (!controller_->fault().empty() && !estimator_fault_reported_) {
       estimator_fault_reported_ = true;

@@ -358,6 +358,56 @@ TEST_CASE("augerd runs four simulated modules in real time and stops safely", "[
     WARN(d.stderr_text().substr(d.stderr_text().find("cycles;")));
   }
 
+  SECTION("one wild camera pose is rejected and counted; a stream of shifted poses faults after 1 s") {
+    // Issue 28 point 7: one pose 10 m away at 3 mm latched fault=estimator and stopped the robot.
+    auto pose = [&](double x_m) {
+      return talk(sens, "pose " + now_unix() + " " + std::to_string(x_m) + " 0 0 0.003 0.003 0.003\n", -1);
+    };
+    REQUIRE(talk(cmd, "enable\n", 1) == "ok");
+    REQUIRE(talk(cmd, "goto 0 0 0\n", 1) == "ok");
+    for (int k = 0; k < 5; ++k) {  // the estimator's fix
+      CHECK(pose(0.0).empty());
+      sleep_s(0.1);
+    }
+    CHECK(pose(10.0).empty());
+    sleep_s(0.1);
+    for (int k = 0; k < 3; ++k) {
+      CHECK(pose(0.0).empty());
+      sleep_s(0.1);
+    }
+    std::string st = talk(cmd, "status\n", 1);
+    INFO(st << "\n" << d.stderr_text());
+    CHECK(st.find("fault=none") != std::string::npos);
+    CHECK(st.find("enabled=1") != std::string::npos);
+    CHECK(status_value(st, "poses_rejected") == 1);
+    CHECK(std::fabs(status_value(st, "x_m")) < 0.05);
+    // A stream 10 m off, every 0.1 s: rejected, then the fault 1 s after the first.
+    const double t0 = SimRig::wall_s();
+    double fault_s = -1;
+    while (SimRig::wall_s() - t0 < 3.0 && fault_s < 0) {
+      CHECK(pose(10.0).empty());
+      if (talk(cmd, "status\n", 1).find("fault=estimator") != std::string::npos) fault_s = SimRig::wall_s() - t0;
+      sleep_s(0.1);
+    }
+    st = talk(cmd, "status\n", 1);
+    CHECK(fault_s >= 0.95);
+    CHECK(fault_s < 1.6);
+    CHECK(st.find("enabled=0") != std::string::npos);
+    CHECK(status_value(st, "poses_rejected") >= 11);
+    CHECK(wait_until([&] { return all_stopped(rig); }, 0.5));
+    CHECK(d.stderr_text().find("camera poses disagree with the estimate") != std::string::npos);
+    FILE* p = popen(("cat " + dir + "/log/*-events.log").c_str(), "r");
+    std::string events;
+    char b[512];
+    while (p && fgets(b, sizeof b, p)) events += b;
+    if (p) pclose(p);
+    CHECK(events.find("event=pose-rejected action=\"camera pose 10.000 m 0.000 m 0.000 rad rejected") !=
+          std::string::npos);
+    CHECK(events.find("event=pose-accepted action=\"camera poses agree with the estimate again after 1 rejected") !=
+          std::string::npos);
+    CHECK(events.find("event=estimator") != std::string::npos);
+  }
+
   SECTION("velocity, dead-man, silent / corrupt / closed module, re-enable, kill -9") {
     REQUIRE(talk(cmd, "enable\n", 1) == "ok");
     // Each module turns as eq. (4) asks of its screw index: the id mapping is right.
