@@ -126,6 +126,7 @@ class Daemon {
   void pose_gate_events();
   std::uint64_t follow_client_ = 0;  // the client waiting for its `follow` answer
   int follow_traj_n_ = -1;           // the copy's number for that request
+  bool follow_copy_said_ = false;    // a follow past the copies' budget is in the event log
   std::string follow_peer_;          // and who sent it (the source's event)
   // Counts commands that change the motion, and faults: a `follow` whose file arrives after
   // another such event is refused (the later command wins).
