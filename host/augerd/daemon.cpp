@@ -34,7 +34,13 @@ Daemon::Daemon(const DaemonConfig& cfg, auger::Model model)
       ctrl_cfg_(cfg.controller),
       bus_(cfg.ports, cfg.baud, cfg.identity_timeout_s, cfg.telemetry_timeout_s,
            [this](int m, const std::string& reason, const std::string& detail) { fault(m, reason, detail); },
-           [this](int m, const std::string& what, const std::string& action) { event(m, what, action); }) {
+           [this](int m, const std::string& what, const std::string& action) {
+             // The module whose fault stopped the robot answers again (same id, valid telemetry):
+             // `status` no longer names a fault that has passed; the robot stays stopped until
+             // `enable`, and the event log keeps both.
+             if (what == "answers-again" && m == fault_module_) fault_module_ = -1, fault_reason_ = "none";
+             event(m, what, action);
+           }) {
   controller_ = std::make_unique<auger::Controller>(model_, ctrl_cfg_);
 }
 
@@ -104,7 +110,9 @@ void Daemon::event(int module, const std::string& what, const std::string& actio
 
 void Daemon::fault(int module, const std::string& reason_token, const std::string& detail) {
   const bool first = fault_module_ < 0 && fault_reason_ == "none";
-  if (first || enabled_) {
+  // A later fault of the module that stopped the robot says what it is now (a port that failed,
+  // then a module of another id on it: `wrong-id`, not the old `port-error`).
+  if (first || enabled_ || (module >= 0 && module == fault_module_)) {
     fault_module_ = module;
     fault_reason_ = reason_token;
   }

@@ -473,6 +473,11 @@ TEST_CASE("augerd runs four simulated modules in real time and stops safely", "[
       if (std::string(f.name) == "close") rig.reopen_port(f.port);
       sleep_s(std::string(f.name) == "close" ? 1.6 : 0.4);
       CHECK(all_stopped(rig));
+      // Issue 28 point 8: status kept naming the fault while the module answered again.
+      std::string back;
+      CHECK(wait_until([&] { return (back = talk(cmd, "status\n", 1)).find("fault=none") != std::string::npos; }, 1.5));
+      INFO(back);
+      CHECK(back.find("enabled=0") != std::string::npos);
       CHECK(talk(cmd, "vel 0.03 0 0\n", 1).rfind("error:", 0) == 0);
       std::string en;
       wait_until([&] { return (en = talk(cmd, "enable\n", 1)) == "ok"; }, 3.0);
