@@ -132,6 +132,7 @@ void DataLog::start_mcap() {
                                                       auger::RobotLogMcapWriter::RobotColumnsAnd{replay_columns()});
   mcap_->flush();
   if (!mcap_write(false)) end_mcap(false);  // complete from the start: header, schemas, channels, summary
+  mcap_checkpoint_s_ = synced_at_s_;
 }
 
 bool DataLog::mcap_write(bool final) {
@@ -290,8 +291,14 @@ void DataLog::write_chunk(const std::string& rows, std::size_t n_rows, const Sam
   size_ += rows.size();
   if (mcap_ && samples) {
     for (std::size_t k = 0; k < n_rows; ++k) mcap_->write(samples[k].sample, samples[k].extra);
-    mcap_->flush();  // a chunk per flush interval: what a crash may lose, as for the CSV file
-    if (!mcap_write(false)) end_mcap(false);
+    // A chunk and a new summary every fsync interval (what a crash may lose of the MCAP file;
+    // the CSV file, the record, loses at most a flush interval): the summary grows with the
+    // chunks, and writing it every second would write more than the rows on an SD card.
+    if (now_s - mcap_checkpoint_s_ >= cfg_.fsync_interval_s) {
+      mcap_checkpoint_s_ = now_s;
+      mcap_->flush();
+      if (!mcap_write(false)) end_mcap(false);
+    }
   }
   {
     std::lock_guard<std::mutex> lock(mutex_);

@@ -11,8 +11,8 @@
 //   with the time each took;
 // - optionally an MCAP file beside each CSV file (same rows, same name with .mcap; docs/formats.md
 //   "MCAP"), written by the same thread after the CSV file, complete (summary and footer) after
-//   every flush: each flush's chunk goes where the last summary began, followed by the new
-//   summary, so a kill leaves a file every reader opens; a write that fails (a full disk) is
+//   every fsync interval: the interval's chunk goes where the last summary began, followed by
+//   the new summary, so a kill leaves a file every reader opens; a write that fails (a full disk) is
 //   undone (the file cut back and its last summary written again) and the MCAP file ends there;
 //   and it gives way to the CSV file: below mcap_reserve_bytes free it ends (the CSV goes on).
 #pragma once
@@ -129,6 +129,7 @@ class DataLog {
   int mcap_fd_ = -1;
   std::ostringstream mcap_sink_;     // what the MCAP writer wrote since the last mcap_write
   std::uint64_t mcap_data_end_ = 0;  // where the file's summary (mcap_tail_) begins
+  double mcap_checkpoint_s_ = 0;     // when the last chunk and summary were written
   std::string mcap_tail_;
   std::unique_ptr<auger::RobotLogMcapWriter> mcap_;
   std::string mcap_path_;

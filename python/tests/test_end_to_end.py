@@ -255,9 +255,10 @@ def test_augerd_writes_mcap_beside_each_csv_file(tmp_path):
 @pytest.mark.parametrize("kind", ["kill", "reserve", "enospc"])
 def test_augerd_mcap_opens_after_a_kill_or_a_full_disk(tmp_path, kind):
     """Issue 28 point 5: after a full disk augerd's MCAP file was cut mid-record and no reader
-    opened it. Now it is complete after every flush: killed without closing, it holds every row
-    its CSV file holds; when the disk fills (its writes fail, or less than the reserve is free) it
-    ends complete at its last flush while the CSV file goes on to the last row."""
+    opened it. Now it is complete after every sync (here every flush, 10 ms): killed without
+    closing, it holds every row its CSV file holds; when the disk fills (its writes fail, or less
+    than the reserve is free) it ends complete at its last sync while the CSV file goes on to the
+    last row."""
     run(binary("MCAP_SAMPLES_BIN"), "--augerd-cut", tmp_path, kind)
     (csv_path,) = tmp_path.glob("augerd-*.csv")
     _, cols = read_log(csv_path)

@@ -104,6 +104,7 @@ int augerd_cut(const char* dir, const std::string& kind) {
   c.run = "augerd-test";
   c.metadata = kMeta;
   c.flush_interval_s = 0.01;
+  c.fsync_interval_s = 0.01;  // the MCAP file's chunk and summary with every flush
   c.mcap = true;
   std::atomic<int> mcap_writes{0}, free_calls{0};
   if (kind == "reserve")  // plenty of space for the first 8 flushes, then less than the reserve
