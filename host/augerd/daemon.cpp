@@ -36,9 +36,12 @@ Daemon::Daemon(const DaemonConfig& cfg, auger::Model model)
            [this](int m, const std::string& reason, const std::string& detail) { fault(m, reason, detail); },
            [this](int m, const std::string& what, const std::string& action) {
              // The module whose fault stopped the robot answers again (same id, valid telemetry):
-             // `status` no longer names a fault that has passed; the robot stays stopped until
-             // `enable`, and the event log keeps both.
-             if (what == "answers-again" && m == fault_module_) fault_module_ = -1, fault_reason_ = "none";
+             // `status` no longer names a fault that has passed (another module still silent is
+             // named instead); the robot stays stopped until `enable`, the event log keeps both.
+             if (what == "answers-again" && m == fault_module_) {
+               fault_module_ = bus_.first_not_answering();
+               fault_reason_ = fault_module_ >= 0 ? "not-answering" : "none";
+             }
              event(m, what, action);
            }) {
   controller_ = std::make_unique<auger::Controller>(model_, ctrl_cfg_);
