@@ -16,6 +16,8 @@ packages=(
   simavr libsimavr-dev libelf-dev arduino-core-avr
   # host; augerd's ROS 2 interface: Eclipse Cyclone DDS and its IDL compiler idlc
   libeigen3-dev libtomlplusplus-dev nlohmann-json3-dev libserial-dev catch2 cyclonedds-dev cyclonedds-tools
+  # the MCAP files' chunk compression
+  libzstd-dev
   # the DDS Security keystore of that interface (auger ros2-keys runs the openssl program)
   openssl
   # fuzzing (libFuzzer) and sanitizers
@@ -46,6 +48,8 @@ multiarch=()
 if [[ ${1:-} == board ]]; then
   packages=(build-essential cmake ninja-build pkg-config libeigen3-dev libtomlplusplus-dev nlohmann-json3-dev catch2 avrdude)
   [[ $(dpkg --print-architecture) == arm64 ]] || packages+=(g++-aarch64-linux-gnu qemu-user)
+  # augerd's MCAP log is zstd-compressed: the arm64 library
+  if [[ $(dpkg --print-architecture) == arm64 ]]; then packages+=(libzstd-dev); else multiarch+=(libzstd-dev:arm64); fi
   # `make board ROS2=1`: augerd with its ROS 2 interface, against Cyclone DDS for arm64; idlc
   # (cyclonedds-tools) runs on the build machine.
   if [[ ${ROS2:-0} == 1 ]]; then

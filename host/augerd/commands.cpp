@@ -99,7 +99,7 @@ std::optional<std::string> Daemon::command(const Command& c, const std::string& 
       follow_traj_n_ = traj_n_++;
       const std::string copy =
           cfg_.log_dir + "/" + run_name_ + "-follow-" + std::to_string(follow_traj_n_) + ".waypoints";
-      loader_.start(c.text, copy, t_s_);
+      loader_.start(c.text, copy, follow_traj_n_, t_s_);
       follow_client_ = commands_->current_client();
       follow_peer_ = commands_->current_peer();
       follow_epoch_ = motion_epoch_;
@@ -139,7 +139,12 @@ void Daemon::follow_loaded() {
   take_source(Source::local, "local follow by " + follow_peer_);
   controller_->set_enabled(true);
   ctrl_events_ |= kEvWaypoints;
-  traj_logged_ = r->copied ? follow_traj_n_ : -1;
+  traj_logged_ = r->copy_n;
+  if (!r->copy_skipped.empty() && !follow_copy_said_) {
+    follow_copy_said_ = true;  // once per run: a client repeating follow must not flood the event log
+    std::fprintf(stderr, "augerd: t=%.3f s: %s\n", t_s_, r->copy_skipped.c_str());
+    event(-1, "follow-not-copied", r->copy_skipped);
+  }
   motion_t0_s_ = t_s_;
   arrived_ = false;
   enter(Mode::follow);
@@ -206,6 +211,7 @@ auger::daemon::Status Daemon::status(bool all) const {
   s.loop_jitter_max_s = jitter_max_s_;
   s.arrived = arrived_;
   s.log_ok = log_ ? log_->stats().ok : DataLog::Stats{}.ok;
+  s.poses_rejected = poses_rejected_;
   s.all = all;
   if (!all) return s;
   bus_.status_fields(t_s_, s.modules);

@@ -20,8 +20,8 @@ namespace augerd {
 namespace {
 
 
-// The reserved connection of the commands socket takes these only (LineServerOptions).
-bool reserved_command(const std::string& line) {
+// What the commands socket answers at once to a connection without a slot (LineServerOptions).
+bool priority_command(const std::string& line) {
   const auto f = auger::daemon::split_fields(line);
   return !f.empty() && (f[0] == "stop" || f[0] == "status");
 }
@@ -34,7 +34,16 @@ Daemon::Daemon(const DaemonConfig& cfg, auger::Model model)
       ctrl_cfg_(cfg.controller),
       bus_(cfg.ports, cfg.baud, cfg.identity_timeout_s, cfg.telemetry_timeout_s,
            [this](int m, const std::string& reason, const std::string& detail) { fault(m, reason, detail); },
-           [this](int m, const std::string& what, const std::string& action) { event(m, what, action); }) {
+           [this](int m, const std::string& what, const std::string& action) {
+             // The module whose fault stopped the robot answers again (same id, valid telemetry):
+             // `status` no longer names a fault that has passed (another module still silent is
+             // named instead); the robot stays stopped until `enable`, the event log keeps both.
+             if (what == "answers-again" && m == fault_module_) {
+               fault_module_ = bus_.first_not_answering();
+               fault_reason_ = fault_module_ >= 0 ? "not-answering" : "none";
+             }
+             event(m, what, action);
+           }) {
   controller_ = std::make_unique<auger::Controller>(model_, ctrl_cfg_);
 }
 
@@ -50,7 +59,7 @@ void Daemon::open_sockets() {
   o.idle_timeout_s = cfg_.idle_timeout_s;
   o.mode = cfg_.commands_mode;
   o.gid = gid(cfg_.commands_group);
-  o.reserved_allows = reserved_command;  // `stop` always gets through (docs/daemon.md)
+  o.priority_allows = priority_command;  // `stop` always gets through (docs/daemon.md)
   commands_ = std::make_unique<LineServer>(cfg_.commands_socket, o);
   LineServerOptions s;
   s.idle_timeout_s = cfg_.idle_timeout_s;
@@ -104,7 +113,9 @@ void Daemon::event(int module, const std::string& what, const std::string& actio
 
 void Daemon::fault(int module, const std::string& reason_token, const std::string& detail) {
   const bool first = fault_module_ < 0 && fault_reason_ == "none";
-  if (first || enabled_) {
+  // A later fault of the module that stopped the robot says what it is now (a port that failed,
+  // then a module of another id on it: `wrong-id`, not the old `port-error`).
+  if (first || enabled_ || (module >= 0 && module == fault_module_)) {
     fault_module_ = module;
     fault_reason_ = reason_token;
   }
@@ -122,6 +133,29 @@ void Daemon::fault(int module, const std::string& reason_token, const std::strin
   ++motion_epoch_;
   enter(Mode::stopped);
   disable_controller();
+}
+
+// The estimator's gate (docs/daemon.md "Safety"): one event when a run of rejected camera poses
+// begins and one when the poses agree again, so a stream of wrong poses cannot flood the log.
+void Daemon::pose_gate_events() {
+  if (!sensors_in_.has_pose) return;
+  char what[240];
+  if (controller_->pose_rejected()) {
+    ++poses_rejected_;
+    if (reject_run_n_++ > 0) return;
+    reject_run_t0_s_ = t_s_;
+    std::snprintf(what, sizeof what,
+                  "camera pose %.3f m %.3f m %.3f rad rejected: %.3g standard deviations from the estimate (gate %.3g); "
+                  "estimate kept; a fault follows if every pose disagrees for %.3g s",
+                  sensors_in_.pose[0], sensors_in_.pose[1], sensors_in_.pose[2], controller_->pose_distance(),
+                  std::sqrt(ctrl_cfg_.ekf.pose_gate_d2), ctrl_cfg_.ekf.pose_reject_fault_s);
+    event(-1, "pose-rejected", what);
+  } else if (reject_run_n_ > 0) {
+    std::snprintf(what, sizeof what, "camera poses agree with the estimate again after %ld rejected over %.2f s",
+                  reject_run_n_, t_s_ - reject_run_t0_s_);
+    event(-1, "pose-accepted", what);
+    reject_run_n_ = 0;
+  }
 }
 
 // What each mode sends (docs/daemon.md "The loop"; the rule is auger_contract's, which `auger
@@ -247,6 +281,7 @@ void Daemon::run(volatile const std::sig_atomic_t* stop) {
     std::array<auger::ScrewTelemetry, 4> tel;
     for (int i = 0; i < 4; ++i) tel[std::size_t(i)] = bus_.module(i).tm.controller_input();
     const std::array<double, 4>& ctrl_rpm = controller_->step(t_s_, tel, sensors_in_);
+    pose_gate_events();
     // The controller refused its own state (an estimate that diverged): a fault like a module's.
     if (!controller_->fault().empty() && !estimator_fault_reported_) {
       estimator_fault_reported_ = true;

@@ -139,8 +139,15 @@ class Daemon {
   int fault_module_ = -1;     // -1 with fault_reason_ != "none": the estimator
   std::string fault_reason_ = "none";
   bool estimator_fault_reported_ = false;  // the controller's latched fault, until `enable`
+  // A run of camera poses the estimator's gate rejected (docs/daemon.md "Safety"): its first in
+  // the event log, and its end with the count.
+  long poses_rejected_ = 0;  // over the run (status)
+  long reject_run_n_ = 0;
+  double reject_run_t0_s_ = 0;
+  void pose_gate_events();
   std::uint64_t follow_client_ = 0;  // the client waiting for its `follow` answer
   int follow_traj_n_ = -1;           // the copy's number for that request
+  bool follow_copy_said_ = false;    // a follow past the copies' budget is in the event log
   std::string follow_peer_;          // and who sent it (the source's event)
   // Counts commands that change the motion, and faults: a `follow` whose file arrives after
   // another such event is refused (the later command wins).

@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include <fcntl.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include "clock.hpp"
@@ -23,6 +24,11 @@ constexpr mode_t kFileMode = 0640;
 
 DataLog::DataLog(DataLogConfig config) : cfg_(std::move(config)) {
   if (!cfg_.write) cfg_.write = [](int fd, const void* b, std::size_t n) { return ::write(fd, b, n); };
+  if (!cfg_.free_bytes)
+    cfg_.free_bytes = [](int fd) -> std::uint64_t {
+      struct statvfs v;
+      return ::fstatvfs(fd, &v) == 0 ? std::uint64_t(v.f_bavail) * v.f_frsize : ~std::uint64_t(0);
+    };
 }
 
 DataLog::~DataLog() { close(); }
@@ -108,26 +114,68 @@ bool DataLog::write_all(int fd, const std::string& data, std::size_t& written) {
 void DataLog::start_mcap() {
   // The CSV file is the record; an MCAP file that cannot be written is reported and skipped.
   mcap_path_ = path_.substr(0, path_.size() - 4) + ".mcap";
-  // Created with the CSV file's mode before the stream opens it (no moment readable by others).
-  const int fd = ::open(mcap_path_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, kFileMode);
-  if (fd >= 0) ::close(fd), mcap_file_.open(mcap_path_, std::ios::binary | std::ios::trunc);
-  if (fd < 0 || !mcap_file_) {
-    std::fprintf(stderr, "augerd: cannot create %s (%s); this CSV file has no MCAP file beside it\n",
-                 mcap_path_.c_str(), std::strerror(errno));
-    mcap_file_.clear();
+  if (cfg_.free_bytes(fd_) < cfg_.mcap_reserve_bytes) {
+    std::fprintf(stderr, "augerd: less than %llu MiB free: no MCAP file beside %s (the CSV file goes first)\n",
+                 static_cast<unsigned long long>(cfg_.mcap_reserve_bytes >> 20), path_.c_str());
     return;
   }
-  mcap_ = std::make_unique<auger::RobotLogMcapWriter>(mcap_file_, cfg_.metadata,
+  mcap_fd_ = ::open(mcap_path_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, kFileMode);
+  if (mcap_fd_ < 0) {
+    std::fprintf(stderr, "augerd: cannot create %s (%s); this CSV file has no MCAP file beside it\n",
+                 mcap_path_.c_str(), std::strerror(errno));
+    return;
+  }
+  mcap_sink_.str("");
+  mcap_data_end_ = 0;
+  mcap_tail_.clear();
+  mcap_ = std::make_unique<auger::RobotLogMcapWriter>(mcap_sink_, cfg_.metadata,
                                                       auger::RobotLogMcapWriter::RobotColumnsAnd{replay_columns()});
+  mcap_->flush();
+  if (!mcap_write(false)) end_mcap(false);  // complete from the start: header, schemas, channels, summary
+  mcap_checkpoint_s_ = synced_at_s_;
 }
 
-void DataLog::end_mcap() {
+bool DataLog::mcap_write(bool final) {
+  std::string bytes = mcap_sink_.str();
+  mcap_sink_.str("");
+  const std::size_t data = bytes.size();
+  if (!final) bytes += mcap_->tail();
+  // The CSV file goes first: the MCAP file ends (as its last summary left it) before it could
+  // take the space the CSV rows need.
+  if (!final && cfg_.free_bytes(mcap_fd_) < cfg_.mcap_reserve_bytes + bytes.size()) {
+    std::fprintf(stderr,
+                 "augerd: less than %llu MiB free: the MCAP file %s ends here, complete; the CSV file goes on\n",
+                 static_cast<unsigned long long>(cfg_.mcap_reserve_bytes >> 20), mcap_path_.c_str());
+    return false;
+  }
+  std::size_t written = 0;
+  if (::lseek(mcap_fd_, off_t(mcap_data_end_), SEEK_SET) >= 0 && write_all(mcap_fd_, bytes, written) &&
+      ::ftruncate(mcap_fd_, off_t(mcap_data_end_ + bytes.size())) == 0) {
+    mcap_data_end_ += data;
+    mcap_tail_ = bytes.substr(data);
+    return true;
+  }
+  // Undo: the file as the last flush left it (cutting it back frees what the new bytes took).
+  const int err = errno;
+  std::size_t w = 0;
+  const bool undone = ::ftruncate(mcap_fd_, off_t(mcap_data_end_)) == 0 &&
+                      ::lseek(mcap_fd_, off_t(mcap_data_end_), SEEK_SET) >= 0 && write_all(mcap_fd_, mcap_tail_, w);
+  std::fprintf(stderr, "augerd: %s: writing failed (%s); %s; the CSV file goes on\n", mcap_path_.c_str(),
+               std::strerror(err),
+               undone ? "the MCAP file ends at its last flush, complete" : "the MCAP file may be cut short");
+  return false;
+}
+
+void DataLog::end_mcap(bool finish) {
   if (!mcap_) return;
-  mcap_->finish();
+  if (finish) {
+    mcap_->finish();  // the last chunk and the summary, into the sink
+    mcap_write(true);
+  }
   mcap_.reset();
-  mcap_file_.close();
-  if (!mcap_file_) std::fprintf(stderr, "augerd: %s: writing failed; the file may be cut short\n", mcap_path_.c_str());
-  mcap_file_.clear();
+  mcap_sink_.str("");
+  ::close(mcap_fd_);
+  mcap_fd_ = -1;
 }
 
 bool DataLog::start_file(double now_s) {
@@ -160,7 +208,7 @@ bool DataLog::start_file(double now_s) {
 }
 
 void DataLog::fail(const char* what, int err, double now_s) {
-  end_mcap();
+  end_mcap(false);  // complete as the last flush left it; no more bytes for a disk that is full
   if (fd_ >= 0) ::close(fd_);
   fd_ = -1;
   retry_at_s_ = now_s + cfg_.retry_s;
@@ -180,6 +228,7 @@ void DataLog::sync(double now_s) {
   if (fd_ < 0) return;
   const double t0 = clock_s(CLOCK_MONOTONIC);
   ::fdatasync(fd_);
+  if (mcap_fd_ >= 0) ::fdatasync(mcap_fd_);
   const double dt = clock_s(CLOCK_MONOTONIC) - t0;
   synced_at_s_ = now_s;
   std::lock_guard<std::mutex> lock(mutex_);
@@ -231,8 +280,6 @@ void DataLog::write_chunk(const std::string& rows, std::size_t n_rows, const Sam
     if (written != keep && ::ftruncate(fd_, off_t(size_ + keep)) != 0)
       std::fprintf(stderr, "augerd: log %s: cannot cut the last row back (%s)\n", path_.c_str(), std::strerror(errno));
     const auto kept_rows = std::uint64_t(std::count(rows.begin(), rows.begin() + std::ptrdiff_t(keep), '\n'));
-    if (mcap_ && samples)
-      for (std::uint64_t k = 0; k < kept_rows; ++k) mcap_->write(samples[k].sample, samples[k].extra);
     {
       std::lock_guard<std::mutex> lock(mutex_);
       stats_.rows_written += kept_rows;
@@ -244,7 +291,14 @@ void DataLog::write_chunk(const std::string& rows, std::size_t n_rows, const Sam
   size_ += rows.size();
   if (mcap_ && samples) {
     for (std::size_t k = 0; k < n_rows; ++k) mcap_->write(samples[k].sample, samples[k].extra);
-    mcap_->flush();  // a chunk per flush interval: what a crash may lose, as for the CSV file
+    // A chunk and a new summary every fsync interval (what a crash may lose of the MCAP file;
+    // the CSV file, the record, loses at most a flush interval): the summary grows with the
+    // chunks, and writing it every second would write more than the rows on an SD card.
+    if (now_s - mcap_checkpoint_s_ >= cfg_.fsync_interval_s) {
+      mcap_checkpoint_s_ = now_s;
+      mcap_->flush();
+      if (!mcap_write(false)) end_mcap(false);
+    }
   }
   {
     std::lock_guard<std::mutex> lock(mutex_);

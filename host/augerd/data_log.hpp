@@ -10,8 +10,11 @@
 // - fdatasync every fsync_interval_s, at rotation and at the end (what a power cut may lose),
 //   with the time each took;
 // - optionally an MCAP file beside each CSV file (same rows, same name with .mcap; docs/formats.md
-//   "MCAP"), written by the same thread; it is complete (summary and footer) at rotation and at
-//   exit, and after a crash a recovering reader gets every flush interval but the last.
+//   "MCAP"), written by the same thread after the CSV file, complete (summary and footer) after
+//   every fsync interval: the interval's chunk goes where the last summary began, followed by
+//   the new summary, so a kill leaves a file every reader opens; a write that fails (a full disk) is
+//   undone (the file cut back and its last summary written again) and the MCAP file ends there;
+//   and it gives way to the CSV file: below mcap_reserve_bytes free it ends (the CSV goes on).
 #pragma once
 
 #include <sys/types.h>
@@ -48,6 +51,10 @@ struct DataLogConfig {
   bool mcap = false;                         // an MCAP file beside each CSV file
   // The system call that writes (tests inject a full disk here).
   std::function<ssize_t(int fd, const void* buf, std::size_t n)> write = nullptr;
+  // The MCAP file is written only while the file system keeps this much free for the CSV file
+  // (64 MiB: half an hour of CSV rows at 100 Hz); free_bytes tells (tests inject a full disk).
+  std::uint64_t mcap_reserve_bytes = 64ull << 20;
+  std::function<std::uint64_t(int fd)> free_bytes = nullptr;
 };
 
 class DataLog {
@@ -90,7 +97,9 @@ class DataLog {
   void write_rows(const std::string& rows, const std::vector<Sample>& samples, double now_s);
   void write_chunk(const std::string& rows, std::size_t n_rows, const Sample* samples, double now_s);
   void start_mcap();
-  void end_mcap();
+  // finish: write the last chunk and the summary; else the file stays as its last flush left it.
+  void end_mcap(bool finish = true);
+  bool mcap_write(bool final);  // the sink's bytes and (unless final) a new summary, at the data's end
   void fail(const char* what, int err, double now_s);
   bool write_all(int fd, const std::string& data, std::size_t& written);
   void sync(double now_s);
@@ -117,7 +126,11 @@ class DataLog {
   double retry_at_s_ = 0, synced_at_s_ = 0;
   std::uint64_t lost_since_failure_ = 0;
   std::string first_path_, events_path_, path_;
-  std::ofstream mcap_file_;
+  int mcap_fd_ = -1;
+  std::ostringstream mcap_sink_;     // what the MCAP writer wrote since the last mcap_write
+  std::uint64_t mcap_data_end_ = 0;  // where the file's summary (mcap_tail_) begins
+  double mcap_checkpoint_s_ = 0;     // when the last chunk and summary were written
+  std::string mcap_tail_;
   std::unique_ptr<auger::RobotLogMcapWriter> mcap_;
   std::string mcap_path_;
 };

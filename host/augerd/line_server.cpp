@@ -6,7 +6,6 @@
 #include <stdexcept>
 
 #include <fcntl.h>
-#include <poll.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
@@ -60,13 +59,16 @@ LineServer::LineServer(const std::string& path, LineServerOptions options) : pat
     give_up("cannot give it group " + std::to_string(opt_.gid) + ": " + std::strerror(errno));
   if (::chmod(path.c_str(), static_cast<mode_t>(opt_.mode)) != 0)
     give_up("cannot set its mode: " + std::string(std::strerror(errno)));
-  // A burst of connections waits in the kernel's queue (capped by net.core.somaxconn) rather
-  // than being refused; serve() takes them as slots free.
-  if (::listen(fd_, SOMAXCONN) != 0) give_up(std::strerror(errno));
+  // The kernel's queue holds no more than one serve() takes: whatever is in it is taken in the
+  // next cycle, so a `stop` never waits behind thousands of queued connections. Beyond it, a
+  // blocking connect waits until the next cycle makes room (woken with every other waiting
+  // client, not behind them); a burst is served, none refused.
+  if (::listen(fd_, int(opt_.accepts_per_cycle)) != 0) give_up(std::strerror(errno));
 }
 
 LineServer::~LineServer() {
   for (auto& c : clients_) ::close(c.fd);
+  for (auto& c : waiting_) ::close(c.fd);
   if (fd_ >= 0) {
     ::close(fd_);
     ::unlink(path_.c_str());
@@ -86,76 +88,107 @@ void LineServer::drop(std::size_t i) {
   clients_.erase(clients_.begin() + static_cast<std::ptrdiff_t>(i));
 }
 
-bool LineServer::take_slot(double now_s, bool& reserved) {
-  std::size_t general = 0;
-  for (const auto& c : clients_) general += !c.reserved;
-  reserved = false;
-  if (general < opt_.max_clients) return true;
+bool LineServer::take_slot(double now_s) {
+  if (clients_.size() < opt_.max_clients) return true;
   // Full: the client idle the longest gives way, if it has been idle a while.
-  auto longest_idle = [&](bool among_reserved) {
-    std::size_t best = clients_.size();
-    double idle = opt_.evict_idle_s;
-    for (std::size_t i = 0; i < clients_.size(); ++i) {
-      const Client& c = clients_[i];
-      if (c.reserved != among_reserved || c.deferred) continue;
-      if (now_s - c.last_line_s >= idle) idle = now_s - c.last_line_s, best = i;
-    }
-    return best;
-  };
-  std::size_t victim = longest_idle(false);
-  if (victim < clients_.size()) {
-    drop(victim);
-    ++stats_.evicted;
-    return true;
+  std::size_t victim = clients_.size();
+  double idle = opt_.evict_idle_s;
+  for (std::size_t i = 0; i < clients_.size(); ++i) {
+    const Client& c = clients_[i];
+    if (!c.deferred && now_s - c.last_line_s >= idle) idle = now_s - c.last_line_s, victim = i;
   }
-  if (!opt_.reserved_allows) return false;
-  bool occupied = false;
-  for (const auto& c : clients_) occupied |= c.reserved;
-  if (occupied) {
-    victim = longest_idle(true);
-    if (victim >= clients_.size()) return false;
-    drop(victim);
-    ++stats_.evicted;
-  }
-  reserved = true;
+  if (victim == clients_.size()) return false;
+  drop(victim);
+  ++stats_.evicted;
   return true;
 }
 
-void LineServer::accept_new(double now_s) {
+void LineServer::accept_new(double now_s, const Handler& handle) {
+  // Everything the kernel holds is taken each cycle: a connection waiting in the kernel's queue
+  // could not be looked at, and one queued behind many would wait for all of them.
   for (std::size_t k = 0; k < opt_.accepts_per_cycle; ++k) {
-    pollfd p{fd_, POLLIN, 0};
-    if (::poll(&p, 1, 0) <= 0 || !(p.revents & POLLIN)) return;  // nobody waiting
-    bool reserved = false;
-    if (!take_slot(now_s, reserved)) return;  // every slot busy: the rest waits in the backlog
     const int fd = ::accept4(fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
-    if (fd < 0) return;  // EAGAIN: the client gave up meanwhile (other errors: next cycle)
+    if (fd < 0) return;  // EAGAIN: nobody waiting (EMFILE and the like: the rest next cycle)
     Client c;
     c.fd = fd;
     c.id = next_id_++;
-    c.reserved = reserved;
     c.last_line_s = now_s;
     ucred cred{};
     socklen_t len = sizeof cred;
     if (::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) == 0) c.pid = cred.pid, c.uid = cred.uid;
-    clients_.push_back(std::move(c));
     ++stats_.accepted;
-    stats_.reserved += reserved;
+    if (waiting_.size() >= opt_.max_waiting) {
+      // A full room makes way for the newest: the oldest is answered if it asked for `stop`,
+      // else told that augerd is busy.
+      serve_waiting(waiting_.front(), now_s, handle, true);
+      ::close(waiting_.front().fd);
+      waiting_.pop_front();
+    }
+    waiting_.push_back(std::move(c));
+  }
+}
+
+bool LineServer::serve_waiting(Client& c, double now_s, const Handler& handle, bool force) {
+  // Only the first line is looked at, and left in the kernel's buffer unless it is answered
+  // here: a priority line is short, so a peek of 256 bytes shows it.
+  char buf[256];
+  const ssize_t n = ::recv(c.fd, buf, sizeof buf, MSG_PEEK | MSG_DONTWAIT);
+  if (n == 0) return true;  // gone before it said anything
+  if (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) return true;
+  const char* nl = n > 0 ? static_cast<const char*>(std::memchr(buf, '\n', std::size_t(n))) : nullptr;
+  if (nl && opt_.priority_allows) {
+    const std::string line(buf, std::size_t(nl - buf));
+    if (opt_.priority_allows(line)) {
+      ::recv(c.fd, buf, std::size_t(nl - buf) + 1, MSG_DONTWAIT);
+      current_ = &c;
+      const std::optional<std::string> a = handle(line);  // a priority line is never deferred
+      current_ = nullptr;
+      if (a && !a->empty()) c.out = *a + "\n";
+      bool gone = false;
+      flush(c, gone);  // a short answer into an empty socket buffer: all of it
+      ++stats_.priority;
+      return true;
+    }
+  }
+  const bool said = n > 0;
+  if (force || (said && now_s - c.last_line_s >= opt_.wait_slot_s)) {
+    c.out = "error: augerd serves " + std::to_string(opt_.max_clients) +
+            " clients and all are busy; try again later (stop and status are answered at once)\n";
+    bool gone = false;
+    flush(c, gone);
+    ++stats_.busy;
+    return true;
+  }
+  if (!said && now_s - c.last_line_s > opt_.idle_timeout_s) {
+    ++stats_.idle_closed;
+    return true;
+  }
+  return false;
+}
+
+void LineServer::serve_waiting_room(double now_s, const Handler& handle) {
+  // Oldest first into the slots that are free (or freed by an idle client).
+  while (!waiting_.empty() && take_slot(now_s)) {
+    clients_.push_back(std::move(waiting_.front()));
+    clients_.back().last_line_s = now_s;
+    waiting_.pop_front();
+  }
+  for (auto it = waiting_.begin(); it != waiting_.end();) {
+    if (serve_waiting(*it, now_s, handle, false)) {
+      ::close(it->fd);
+      it = waiting_.erase(it);
+    } else {
+      ++it;
+    }
   }
 }
 
 void LineServer::handle_lines(Client& c, const Handler& handle, std::size_t budget) {
   current_ = &c;
   auto answer = [&](const std::string& line) {
-    if (c.reserved && !opt_.reserved_allows(line)) {
-      c.out += "error: augerd serves " + std::to_string(opt_.max_clients) +
-               " clients and all are busy: this connection takes only stop and status\n";
-      c.closing = true;
-      return;
-    }
     const std::optional<std::string> a = handle(line);
     if (!a) c.deferred = true;
     else if (!a->empty()) c.out += *a + "\n";
-    if (c.reserved) c.closing = true;  // one answer on the reserved connection
   };
   for (std::size_t n = 0; n < budget && !c.deferred && !c.closing && c.out.size() < opt_.pause_out; ++n) {
     const std::size_t nl = c.in.find('\n');
@@ -192,7 +225,8 @@ void LineServer::flush(Client& c, bool& gone) {
 }
 
 void LineServer::serve(double now_s, const Handler& handle) {
-  accept_new(now_s);
+  accept_new(now_s, handle);
+  serve_waiting_room(now_s, handle);
   char buf[4096];
   for (std::size_t i = 0; i < clients_.size();) {
     Client& c = clients_[i];
@@ -236,7 +270,6 @@ void LineServer::reply(std::uint64_t client, const std::string& answer) {
     if (c.id != client) continue;
     c.deferred = false;
     if (!answer.empty()) c.out += answer + "\n";
-    if (c.reserved) c.closing = true;
     bool gone = false;
     flush(c, gone);  // a failure shows in the next serve()
     return;

@@ -33,7 +33,15 @@ WaypointLoader::Result failed(const std::string& path, const std::string& why) {
 
 }  // namespace
 
-WaypointLoader::Result WaypointLoader::load(const std::string& path, const std::string& copy_path) {
+// FNV-1a, 64 bits: tells a trajectory followed again from a new one.
+std::uint64_t fnv1a(const std::string& s) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : s) h = (h ^ c) * 1099511628211ull;
+  return h;
+}
+
+WaypointLoader::Result WaypointLoader::load(const std::string& path, const std::string& copy_path, int copy_n,
+                                            CopyBook* book) {
   using auger::limits::kMaxWaypointFileBytes;
   using auger::limits::kMaxWaypoints;
   // O_NONBLOCK: opening a FIFO with no writer returns at once (then refused as not regular).
@@ -83,23 +91,51 @@ WaypointLoader::Result WaypointLoader::load(const std::string& path, const std::
     const std::string e = auger::check_waypoint(i, w.t_s, w.eta_p[0], w.eta_p[1], w.eta_p[2]);
     if (!e.empty()) return failed(path, e);
   }
-  if (!copy_path.empty()) {
-    if (std::FILE* f = std::fopen(copy_path.c_str(), "w")) {
-      std::fprintf(f, "t_s,x_m,y_m,psi_rad\n");
-      for (const auto& w : r.waypoints)
-        std::fprintf(f, "%.17g,%.17g,%.17g,%.17g\n", w.t_s, w.eta_p[0], w.eta_p[1], w.eta_p[2]);
-      r.copied = std::fclose(f) == 0;
+  if (copy_path.empty()) return r;
+  std::string copy = "t_s,x_m,y_m,psi_rad\n";
+  char row[128];
+  for (const auto& w : r.waypoints) {
+    std::snprintf(row, sizeof row, "%.17g,%.17g,%.17g,%.17g\n", w.t_s, w.eta_p[0], w.eta_p[1], w.eta_p[2]);
+    copy += row;
+  }
+  const auto key = std::make_pair(fnv1a(copy), copy.size());
+  std::unique_lock<std::mutex> lock;
+  if (book) {
+    lock = std::unique_lock<std::mutex>(book->mutex);
+    const auto same = book->by_contents.find(key);
+    if (same != book->by_contents.end()) {
+      r.copy_n = same->second;
+      return r;
     }
+    if (book->files >= kMaxCopies || book->bytes + copy.size() > kMaxCopyBytes) {
+      r.copy_skipped = "the follow files of this run already take " + std::to_string(book->files) + " copies, " +
+                       std::to_string(book->bytes >> 10) + " KiB beside the log (at most " +
+                       std::to_string(kMaxCopies) + " and " + std::to_string(kMaxCopyBytes >> 20) +
+                       " MiB): no copy, auger replay cannot rerun this follow";
+      return r;
+    }
+  }
+  if (std::FILE* f = std::fopen(copy_path.c_str(), "w")) {
+    const bool ok = std::fwrite(copy.data(), 1, copy.size(), f) == copy.size();
+    if (std::fclose(f) == 0 && ok) r.copy_n = copy_n;
+  }
+  if (r.copy_n < 0) {
+    r.copy_skipped = "the copy " + copy_path + " could not be written";
+    std::remove(copy_path.c_str());
+  } else if (book) {
+    book->by_contents[key] = copy_n;
+    ++book->files;
+    book->bytes += copy.size();
   }
   return r;
 }
 
-void WaypointLoader::start(const std::string& path, const std::string& copy_path, double now_s) {
+void WaypointLoader::start(const std::string& path, const std::string& copy_path, int copy_n, double now_s) {
   auto job = std::make_shared<Job>();
   job_ = job;
   started_s_ = now_s;
-  std::thread([job, path, copy_path] {
-    Result r = load(path, copy_path);
+  std::thread([job, path, copy_path, copy_n, book = book_] {
+    Result r = load(path, copy_path, copy_n, book.get());
     std::lock_guard<std::mutex> lock(job->mutex);
     job->result = std::move(r);
     job->done = true;

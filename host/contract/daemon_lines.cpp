@@ -7,6 +7,7 @@
 #include <initializer_list>
 #include <utility>
 
+#include "auger/args.hpp"
 #include "auger/input_limits.hpp"
 
 namespace auger::daemon {
@@ -20,18 +21,13 @@ using auger::check_velocity;
 
 std::string quote(const std::string& s) { return quote_line(s); }
 
-// A finite number over the whole field (a NUL or trailing bytes are not part of a number);
-// else an error naming the field.
+// A finite decimal number over the whole field (auger::decimal_number: a NUL, trailing bytes,
+// hexadecimal such as `0x1`, `inf` and `nan` are not numbers); else an error naming the field.
 bool number(const std::string& field, const char* name, double& out, std::string& err) {
-  const char* s = field.c_str();
-  char* end = nullptr;
-  errno = 0;
-  const double v = std::strtod(s, &end);
-  if (end == s || end != s + field.size() || errno == ERANGE || !std::isfinite(v)) {
-    err = name + std::string(" must be a finite number, got ") + quote(field);
+  if (!auger::decimal_number(field, out)) {
+    err = name + std::string(" must be a finite decimal number, got ") + quote(field);
     return false;
   }
-  out = v;
   return true;
 }
 

@@ -42,7 +42,8 @@ const std::vector<Field<Status>>& line_fields() {
       {"loop_dt_s", "%.5f", &Status::loop_dt_s},
       {"loop_jitter_max_s", "%.5f", &Status::loop_jitter_max_s},
       {"arrived", "%d", &Status::arrived},
-      {"log_ok", "%d", &Status::log_ok}};
+      {"log_ok", "%d", &Status::log_ok},
+      {"poses_rejected", "%ld", &Status::poses_rejected}};
   return f;
 }
 

@@ -34,6 +34,7 @@ struct Status {
   std::string fault = "none";        // "none", "<module>:<reason>" or the estimator's reason
   double loop_dt_s = 0, loop_jitter_max_s = 0;
   bool arrived = false, log_ok = true;
+  long poses_rejected = 0;  // camera poses the estimator's gate rejected (docs/daemon.md "Safety")
   // `status all` adds the modules, the latest sensor values and, with ROS 2, its counters.
   bool all = false;
   std::array<ModuleStatus, 4> modules;

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 namespace auger {
 
@@ -22,6 +23,9 @@ void Controller::restart_estimator(const Vec3& eta) {
   dr_.dyn.reset(model_);
   ekf_reset(config_.ekf, ekf_, eta);
   pose_history_.clear();
+  pose_taken_ = false;
+  pose_distance_ = NAN;
+  reject_run_n_ = 0;
   eta_ = eta;
   zeta_.setZero();
   last_good_eta_ = eta;
@@ -63,6 +67,41 @@ void Controller::set_enabled(bool enabled) {
   enabled_ = enabled;
 }
 
+// A pose through the EKF's gate: one wild pose is rejected and counted; poses that all disagree
+// for pose_reject_fault_s latch a fault (a camera that is wrong, or a robot carried away): the
+// estimator then restarts at its estimate and takes the next pose as it comes.
+void Controller::pose_update(double t_s, const SensorInput& sensors) {
+  const EkfConfig& e = config_.ekf;
+  double d2 = NAN;
+  const double t_capture_s = (std::isnan(sensors.pose_t_s) ? t_s : sensors.pose_t_s) - pose_delay_s_;
+  const PoseUpdate u = ekf_update_pose_delayed(model_, ekf_, pose_history_, sensors.pose, sensors.pose_cov,
+                                               t_capture_s, pose_taken_ ? e.pose_gate_d2 : 0.0, &d2);
+  pose_distance_ = pose_taken_ ? std::sqrt(d2) : NAN;
+  switch (u) {
+    case PoseUpdate::stale:
+      ++stale_poses_;
+      return;
+    case PoseUpdate::applied:
+      pose_taken_ = true;
+      reject_run_n_ = 0;
+      return;
+    case PoseUpdate::rejected:
+      break;
+  }
+  ++rejected_poses_;
+  pose_rejected_ = true;
+  if (reject_run_n_++ == 0) reject_run_t0_s_ = t_s;
+  const double run_s = t_s - reject_run_t0_s_;
+  if (reject_run_n_ < e.pose_reject_fault_n || run_s < e.pose_reject_fault_s) return;
+  char what[200];
+  std::snprintf(what, sizeof what,
+                "camera poses disagree with the estimate: %d poses in %.2f s beyond the gate (the last at "
+                "Mahalanobis distance %.3g, gate %.3g)",
+                reject_run_n_, run_s, std::sqrt(d2), std::sqrt(e.pose_gate_d2));
+  latch_fault(what);
+  restart_estimator(ekf_.x.head<3>());
+}
+
 const std::array<double, 4>& Controller::step(double t_s, const std::array<ScrewTelemetry, 4>& tel,
                                               const SensorInput& sensors) {
   double dt = started_ ? t_s - t_prev_s_ : 0.0;
@@ -98,10 +137,9 @@ const std::array<double, 4>& Controller::step(double t_s, const std::array<Screw
       pose_history_.push(t_s, ekf_h_pose(model_, ekf_.x, nullptr));
       // A pose without a capture time is taken as of now (the history's newest entry: the same
       // update as without a history).
-      if (sensors.has_pose &&
-          !ekf_update_pose_delayed(model_, ekf_, pose_history_, sensors.pose, sensors.pose_cov,
-                                   (std::isnan(sensors.pose_t_s) ? t_s : sensors.pose_t_s) - pose_delay_s_))
-        ++stale_poses_;
+      pose_rejected_ = false;
+      pose_distance_ = NAN;
+      if (sensors.has_pose) pose_update(t_s, sensors);
       eta_ = ekf_.x.head<3>();
       zeta_ = ekf_.x.tail<3>();
       break;

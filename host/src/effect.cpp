@@ -4,13 +4,31 @@
 #include <algorithm>
 #include <cmath>
 
+#include "auger/input_limits.hpp"
 #include "effects/effects.hpp"
 
 namespace auger {
 
+namespace {
+// A message that quotes what the file holds (a key, a string value) could be megabytes long: it
+// is cut, control bytes and bytes that are not UTF-8 escaped, and the place named instead.
+std::string bounded(const std::string& message, int line, int column) {
+  constexpr std::size_t kMax = 300;
+  bool plain = message.size() <= kMax;
+  for (unsigned char c : message) plain = plain && c >= 0x20 && c < 0x7f;
+  if (plain) return message;
+  std::string q = quote_input(message, kMax);  // 'text'... (N bytes)
+  q = q.substr(1, q.rfind('\'') - 1);
+  if (message.size() > kMax)
+    q += "... (a message of " + std::to_string(message.size()) + " bytes, cut: see the file at line " +
+         std::to_string(line) + ", column " + std::to_string(column) + ")";
+  return q;
+}
+}  // namespace
+
 ConfigError::ConfigError(std::string file, int line, int column, const std::string& message)
     : std::runtime_error(file + ":" + std::to_string(line) + ":" + std::to_string(column) + ": " +
-                         message),
+                         bounded(message, line, column)),
       file_(std::move(file)),
       line_(line),
       column_(column) {}

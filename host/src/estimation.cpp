@@ -191,20 +191,26 @@ void PoseHistory::shift(const Vec3& delta) {
   }
 }
 
-bool ekf_update_pose_delayed(const Model& model, Ekf& ekf, PoseHistory& history, const Vec3& pose,
-                             const Mat3& covariance, double t_capture_s) {
+PoseUpdate ekf_update_pose_delayed(const Model& model, Ekf& ekf, PoseHistory& history, const Vec3& pose,
+                                   const Mat3& covariance, double t_capture_s, double gate_d2, double* d2) {
   Vec3 h_then;
-  if (!history.at(t_capture_s, h_then)) return false;
+  if (!history.at(t_capture_s, h_then)) return PoseUpdate::stale;
   Eigen::Matrix<double, 3, 6> H;
   ekf_h_pose(model, ekf.x, &H);
   Vec3 nu = pose - h_then;
   nu.z() = wrap_angle(nu.z());
+  // The innovation's squared Mahalanobis distance (NaN with a non-finite covariance: applied,
+  // and the controller's state check catches what follows).
+  const Mat3 S = H * ekf.P * H.transpose() + covariance;
+  const double m2 = nu.dot(S.inverse() * nu);
+  if (d2) *d2 = m2;
+  if (gate_d2 > 0 && m2 > gate_d2) return PoseUpdate::rejected;
   const Vec3 before = ekf.x.head<3>();
   ekf_update<3>(ekf, nu, H, covariance);
   Vec3 delta = ekf.x.head<3>() - before;
   delta.z() = wrap_angle(delta.z());
   history.shift(delta);
-  return true;
+  return PoseUpdate::applied;
 }
 
 }  // namespace auger

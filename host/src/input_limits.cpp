@@ -22,17 +22,41 @@ std::string first(std::initializer_list<std::string> messages) {
 
 }  // namespace
 
+namespace {
+// The length of the well-formed UTF-8 sequence starting at s[i] within n bytes (RFC 3629: no
+// overlong forms, no surrogates, at most U+10FFFF); 0 when there is none.
+std::size_t utf8_sequence(const std::string& s, std::size_t i, std::size_t n) {
+  const auto b = [&](std::size_t k) { return static_cast<unsigned char>(s[i + k]); };
+  const unsigned char c = b(0);
+  std::size_t len = 0;
+  unsigned char lo = 0x80, hi = 0xbf;  // the second byte's range
+  if (c >= 0xc2 && c <= 0xdf) len = 2;
+  else if (c >= 0xe0 && c <= 0xef) len = 3, lo = c == 0xe0 ? 0xa0 : 0x80, hi = c == 0xed ? 0x9f : 0xbf;
+  else if (c >= 0xf0 && c <= 0xf4) len = 4, lo = c == 0xf0 ? 0x90 : 0x80, hi = c == 0xf4 ? 0x8f : 0xbf;
+  else return 0;
+  if (i + len > n || b(1) < lo || b(1) > hi) return 0;
+  for (std::size_t k = 2; k < len; ++k)
+    if (b(k) < 0x80 || b(k) > 0xbf) return 0;
+  return len;
+}
+}  // namespace
+
 std::string quote_input(const std::string& s, std::size_t max_bytes) {
+  // Printable: control bytes and bytes that are not UTF-8 text (a terminal or a log reader
+  // would misread them) become \xNN.
   std::string q = "'";
   const std::size_t n = std::min(s.size(), max_bytes);
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::size_t i = 0; i < n;) {
     const auto ch = static_cast<unsigned char>(s[i]);
-    if (ch < 0x20 || ch == 0x7f) {
+    const std::size_t len = ch < 0x80 ? (ch < 0x20 || ch == 0x7f ? 0 : 1) : utf8_sequence(s, i, n);
+    if (len == 0) {
       char b[8];
       std::snprintf(b, sizeof b, "\\x%02x", ch);
       q += b;
+      ++i;
     } else {
-      q += static_cast<char>(ch);
+      q.append(s, i, len);
+      i += len;
     }
   }
   q += "'";

@@ -5,6 +5,8 @@
 #include <array>
 #include <stdexcept>
 
+#include <zstd.h>
+
 namespace auger {
 
 namespace {
@@ -164,14 +166,21 @@ void McapWriter::close_chunk() {
   ci.end_ns = chunk_end_ns_;
   ci.offset = offset_;
   ci.size = chunk_.size();
+  // zstd at its fastest level: JSON rows shrink about tenfold (augerd's MCAP file was 3.5 times
+  // its CSV file), at a few ms of CPU per second of log on the board.
+  std::string packed(ZSTD_compressBound(chunk_.size()), '\0');
+  const std::size_t n = ZSTD_compress(packed.data(), packed.size(), chunk_.data(), chunk_.size(), 1);
+  if (ZSTD_isError(n)) throw std::runtime_error(std::string("McapWriter: zstd: ") + ZSTD_getErrorName(n));
+  packed.resize(n);
+  ci.compressed_size = n;
   std::string b;
   u64(b, chunk_start_ns_);
   u64(b, chunk_end_ns_);
   u64(b, chunk_.size());
   u32(b, crc32_update(0, chunk_.data(), chunk_.size()));
-  str(b, "");  // no compression: the robot's board should not spend its CPU on it
-  u64(b, chunk_.size());
-  b += chunk_;
+  str(b, "zstd");
+  u64(b, packed.size());
+  b += packed;
   write_record(kChunk, b);
   ci.length = offset_ - ci.offset;
   const std::uint64_t index_start = offset_;
@@ -202,27 +211,38 @@ void McapWriter::finish() {
   if (finished_) return;
   close_chunk();
   finished_ = true;
+  const std::string t = tail();
+  out_->write(t.data(), static_cast<std::streamsize>(t.size()));
+  offset_ += t.size();
+  out_->flush();
+}
+
+std::string McapWriter::tail() const {
+  if (!chunk_.empty()) throw std::logic_error("McapWriter: tail with an open chunk (flush first)");
+  std::string out;
+  std::uint64_t offset = offset_;
   std::string de;
   u32(de, data_crc_);
-  write_record(kDataEnd, de);
+  out += record(kDataEnd, de);
+  offset += out.size();
 
   // The summary: each group of records, then an offset record per group, then the footer.
-  const std::uint64_t summary_start = offset_;
+  const std::uint64_t summary_start = offset;
   std::uint32_t crc = 0;
   std::vector<std::string> offsets;
+  auto emit = [&](const std::string& r) {
+    out += r;
+    crc = crc32_update(crc, r.data(), r.size());
+    offset += r.size();
+  };
   auto group = [&](std::uint8_t opcode, const std::vector<std::string>& bodies) {
     if (bodies.empty()) return;
-    const std::uint64_t start = offset_;
-    for (const auto& body : bodies) {
-      const std::string r = record(opcode, body);
-      out_->write(r.data(), static_cast<std::streamsize>(r.size()));
-      crc = crc32_update(crc, r.data(), r.size());
-      offset_ += r.size();
-    }
+    const std::uint64_t start = offset;
+    for (const auto& body : bodies) emit(record(opcode, body));
     std::string so;
     u8(so, opcode);
     u64(so, start);
-    u64(so, offset_ - start);
+    u64(so, offset - start);
     offsets.push_back(so);
   };
   group(kSchema, schemas_);
@@ -241,8 +261,8 @@ void McapWriter::finish() {
     }
     str(b, m);
     u64(b, c.index_length);
-    str(b, "");
-    u64(b, c.size);  // compressed size = uncompressed size
+    str(b, "zstd");
+    u64(b, c.compressed_size);
     u64(b, c.size);
     cis.push_back(b);
   }
@@ -273,13 +293,8 @@ void McapWriter::finish() {
   str(st, counts);
   group(kStatistics, {st});
 
-  const std::uint64_t summary_offset_start = offset_;
-  for (const auto& so : offsets) {
-    const std::string r = record(kSummaryOffset, so);
-    out_->write(r.data(), static_cast<std::streamsize>(r.size()));
-    crc = crc32_update(crc, r.data(), r.size());
-    offset_ += r.size();
-  }
+  const std::uint64_t summary_offset_start = offset;
+  for (const auto& so : offsets) emit(record(kSummaryOffset, so));
   // The footer's CRC covers the summary through the footer's summary_offset_start field.
   std::string f;
   u8(f, kFooter);
@@ -288,10 +303,9 @@ void McapWriter::finish() {
   u64(f, summary_offset_start);
   crc = crc32_update(crc, f.data(), f.size());
   u32(f, crc);
-  out_->write(f.data(), static_cast<std::streamsize>(f.size()));
-  out_->write(kMagic, 8);
-  offset_ += f.size() + 8;
-  out_->flush();
+  out += f;
+  out.append(kMagic, 8);
+  return out;
 }
 
 }  // namespace auger

@@ -39,6 +39,10 @@ Dataset load_dataset(const std::string& path) {
       if (!finite(w[i])) w[i] = finite(last[i]) ? last[i] : 0.0;
   };
   Vec4 last = Vec4::Constant(kNaN);
+  std::array<bool, 4> measured_screw{};
+  auto note_measured = [&](const Vec4& w) {
+    for (int i = 0; i < 4; ++i) measured_screw[static_cast<std::size_t>(i)] |= finite(w[i]);
+  };
   if (format == kGantryLogFormat) {
     GantryLogReader r(path);
     d.gantry = true;
@@ -51,6 +55,7 @@ Dataset load_dataset(const std::string& path) {
     while (r.next(s)) {
       d.t_s.push_back(s.t_s);
       Vec4 w(s.omega_rpm[0], s.omega_rpm[1], 0.0, 0.0);
+      note_measured(w);
       fill_gap(w, last);
       last = w;
       d.omega_rpm.push_back(w);
@@ -81,6 +86,7 @@ Dataset load_dataset(const std::string& path) {
       }
       d.t_s.push_back(s.t_s);
       Vec4 w(s.omega_rpm[0], s.omega_rpm[1], s.omega_rpm[2], s.omega_rpm[3]);
+      note_measured(w);
       fill_gap(w, last);
       last = w;
       d.omega_rpm.push_back(w);
@@ -89,6 +95,16 @@ Dataset load_dataset(const std::string& path) {
     }
   }
   if (d.t_s.size() < 3) throw LogError(path, 1, 1, "the log has fewer than 3 samples");
+  // A screw whose speed is measured in no row would run the model on the gaps' fill (0 rpm): a
+  // wrong answer given with confidence. Refused, naming the columns.
+  std::string empty;
+  for (int i = 0; i < (d.gantry ? 2 : 4); ++i)
+    if (!measured_screw[static_cast<std::size_t>(i)]) empty += (empty.empty() ? "omega_rpm_" : ", omega_rpm_") + std::to_string(i);
+  if (!empty.empty())
+    throw LogError(path, 1, 1,
+                   "no row has a screw speed in " + empty +
+                       ": the model runs on the measured screw speeds (docs/log-format.md); a log of poses alone "
+                       "can be merged with the screws' log (auger merge) or exported (auger export), not compared");
   std::array<std::size_t, kChannels> count{};
   for (const auto& m : d.meas)
     for (int c = 0; c < kChannels; ++c) count[static_cast<std::size_t>(c)] += finite(m[static_cast<std::size_t>(c)]);

@@ -131,10 +131,13 @@ def yaw(q):
     return math.atan2(2 * (q["w"] * q["z"] + q["x"] * q["y"]), 1 - 2 * (q["y"] ** 2 + q["z"] ** 2))
 
 
-def assert_mcap_matches_log(mcap_path, log_path, t0_ns, min_chunks=2):
-    """Every value of the log in its channel of the MCAP file (and nothing else there), the pose
-    as foxglove.PoseInFrame and on /tf; CRCs checked. Returns {topic: [(log_time, message)]}."""
+def assert_mcap_matches_log(mcap_path, log_path, t0_ns, min_chunks=2, rows=None):
+    """Every value of the log (its first `rows` rows) in its channel of the MCAP file (and nothing
+    else there), the pose as foxglove.PoseInFrame and on /tf; CRCs checked. Returns {topic:
+    [(log_time, message)]}."""
     meta, cols = read_log(log_path)
+    if rows is not None:
+        cols = {c: v[:rows] for c, v in cols.items()}
     by_topic = {}
     with open(mcap_path, "rb") as f:
         reader = make_reader(f, validate_crcs=True)
@@ -247,3 +250,28 @@ def test_augerd_writes_mcap_beside_each_csv_file(tmp_path):
         assert {"goal_x_m", "psie_rad", "mode"} <= set().union(*(m.keys() for _, m in by_topic["/other"]))
     assert rows == 500
     assert len(list(tmp_path.glob("*.mcap"))) == len(csvs)
+
+
+@pytest.mark.parametrize("kind", ["kill", "reserve", "enospc"])
+def test_augerd_mcap_opens_after_a_kill_or_a_full_disk(tmp_path, kind):
+    """Issue 28 point 5: after a full disk augerd's MCAP file was cut mid-record and no reader
+    opened it. Now it is complete after every sync (here every flush, 10 ms): killed without
+    closing, it holds every row its CSV file holds; when the disk fills (its writes fail, or less
+    than the reserve is free) it ends complete at its last sync while the CSV file goes on to the
+    last row."""
+    run(binary("MCAP_SAMPLES_BIN"), "--augerd-cut", tmp_path, kind)
+    (csv_path,) = tmp_path.glob("augerd-*.csv")
+    _, cols = read_log(csv_path)
+    assert len(cols["t_s"]) == 500  # the CSV file has priority: every row
+    mcap_path = csv_path.with_suffix(".mcap")
+    with open(mcap_path, "rb") as f:
+        n = make_reader(f).get_summary().statistics.channel_message_counts
+    with open(mcap_path, "rb") as f:
+        rows = sum(1 for _, ch, _ in make_reader(f).iter_messages() if ch.topic == "/status")
+    assert (rows == 500) == (kind == "kill"), rows
+    assert rows >= 20 and n
+    by_topic = assert_mcap_matches_log(mcap_path, csv_path, 1767225600000250000, min_chunks=1, rows=rows)
+    assert len(by_topic["/status"]) == rows
+    with open(mcap_path, "rb") as f:
+        chunks = make_reader(f).get_summary().chunk_indexes
+    assert chunks and all(c.compression == "zstd" and c.compressed_size < c.uncompressed_size for c in chunks)

@@ -89,6 +89,14 @@ TEST_CASE("command and sensor values are whole numbers within physical bounds", 
   CHECK(parse_command("vel 1e308 0 0", c).find("u_mps = 1e+308 m/s is outside -10..10 m/s") != std::string::npos);
   CHECK(parse_command(raw("vel 0.01\0garbage 0 0"), c).find("control byte 0x00 at byte 9") !=
         std::string::npos);
+  // Issue 28 point 8: hexadecimal floats were numbers (`spin 0x1 1` drove module 1).
+  for (const char* hex : {"spin 0x1 1", "spin 1 0x10", "vel 0x1p-3 0 0", "goto 0X1 0 0", "vel inf 0 0",
+                                 "vel nan 0 0"}) {
+    INFO(hex);
+    CHECK(parse_command(hex, c).find("must be a finite decimal number") != std::string::npos);
+  }
+  SensorMessage hm;
+  CHECK(parse_sensor("imu 0x1 0 0", hm).find("t_unix_s must be a finite decimal number") != std::string::npos);
   CHECK(parse_command("goto 1e6 -1e6 3", c).empty());  // a projected frame's coordinates are places
   CHECK(parse_command("vel 0.2 0 -0.5", c).empty());
   CHECK(parse_command("spin 3 -327.67", c).empty());
@@ -117,6 +125,18 @@ TEST_CASE("error answers quote the input as one printable, bounded line", "[daem
   CHECK(q.find("(10485760 bytes)") != std::string::npos);
   Command c;
   CHECK(parse_command("vel " + huge + " 0 0", c).size() < 400);
+  // Issue 28 point 8: bytes that are not UTF-8 were echoed raw; UTF-8 text stays as it is,
+  // a sequence cut by the 200-byte bound too is escaped.
+  CHECK(quote_line("stop \xff\xfe") == "'stop \\xff\\xfe'");
+  CHECK(quote_line("caf\xc3\xa9") == "'caf\xc3\xa9'");
+  CHECK(quote_line("a\xc3") == "'a\\xc3'");                 // a sequence cut short
+  CHECK(quote_line("\xed\xa0\x80") == "'\\xed\\xa0\\x80'");  // a UTF-16 surrogate
+  CHECK(quote_line("\xc0\xaf") == "'\\xc0\\xaf'");          // an overlong '/'
+  CHECK(quote_line(std::string(199, 'x') + "\xc3\xa9").find("x\\xc3'") != std::string::npos);
+  const std::string answer = parse_command("st\x80op", c);
+  INFO(answer);
+  CHECK(answer.find("\\x80") != std::string::npos);
+  for (unsigned char ch : answer) CHECK(ch < 0x80);
 }
 
 TEST_CASE("setpoint encoding saturates and never converts a NaN", "[daemon][unit]") {
@@ -245,6 +265,27 @@ const std::string kGood =
     "[sockets]\ncommands = \"c.sock\"\nsensors = \"/run/s.sock\"\n"
     "[log]\ndir = \"/tmp\"\n";
 }  // namespace
+
+TEST_CASE("configuration errors never quote megabytes of the file", "[daemon][unit]") {
+  // Issue 28 point 8: a 5 MB key or string came back whole in the error message.
+  const std::string big(5u << 20, 'k');
+  for (const std::string& text : {kGood + big + " = 1\n", kGood + "[ros2]\ncmd_vel_topic = \"/" + big + "\"\n",
+                                  kGood + "extra\xff\xfe = 1\n"}) {
+    const std::string p = write_tmp(text);
+    try {
+      load_daemon_config(p);
+      FAIL("accepted");
+    } catch (const auger::ConfigError& e) {
+      const std::string what = e.what();
+      INFO(what.substr(0, 600));
+      CHECK(what.size() < 600);
+      CHECK(what.rfind(p + ":1", 0) == 0);
+      for (unsigned char ch : what) CHECK((ch >= 0x20 && ch < 0x7f));
+      if (text.size() > big.size()) CHECK(what.find("bytes, cut: see the file at line") != std::string::npos);
+    }
+    unlink(p.c_str());
+  }
+}
 
 TEST_CASE("configuration file", "[daemon][unit]") {
   const std::string p = write_tmp(kGood);

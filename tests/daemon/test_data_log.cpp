@@ -218,15 +218,54 @@ TEST_CASE("follow files: nothing blocks, big or absurd files are refused", "[dae
   {
     const std::string p = dir.path + "/ok.csv", copy = dir.path + "/copy.waypoints";
     std::ofstream(p) << "# a square\nt_s,x_m,y_m,psi_rad\n0,0,0,0\n5,0.5,0,0\n10,0.5,0.5,1.57\n";
-    r = WaypointLoader::load(p, copy);
+    r = WaypointLoader::load(p, copy, 7);
     CHECK(r.error.empty());
     CHECK(r.waypoints.size() == 3);
-    CHECK(r.copied);
+    CHECK(r.copy_n == 7);
     CHECK(slurp(copy).rfind("t_s,x_m,y_m,psi_rad\n0,0,0,0\n5,0.5,0,0\n", 0) == 0);
+  }
+  {  // issue 28 point 4: a client repeating follow filled the disk with copies (394 MB in 10 s)
+    WaypointLoader::CopyBook book;
+    const std::string a = dir.path + "/a.csv", b = dir.path + "/b.csv";
+    std::ofstream(a) << "t_s,x_m,y_m,psi_rad\n0,0,0,0\n5,0.5,0,0\n";
+    {
+      std::ofstream f(b);
+      f << "t_s,x_m,y_m,psi_rad\n";
+      for (int k = 0; k < 100000; ++k) f << k * 0.01 << ",0.123456789,0.987654321,0.5\n";
+    }
+    auto copy_of = [&](int n) { return dir.path + "/c-" + std::to_string(n) + ".waypoints"; };
+    int n = 0;
+    CHECK(WaypointLoader::load(a, copy_of(n), n, &book).copy_n == 0);
+    ++n;
+    // The same trajectory again: the earlier copy, no new file.
+    CHECK(WaypointLoader::load(a, copy_of(n), n, &book).copy_n == 0);
+    CHECK(access(copy_of(n).c_str(), F_OK) != 0);
+    // Distinct large trajectories until the budget is spent: then followed, not copied.
+    std::string skipped;
+    for (int k = 0; k < 40 && skipped.empty(); ++k) {
+      std::ofstream f(b);
+      f << "t_s,x_m,y_m,psi_rad\n";
+      for (int i = 0; i < 100000; ++i) f << i * 0.01 + k << ",0.123456789,0.987654321,0.5\n";
+      f.close();
+      ++n;
+      const auto got = WaypointLoader::load(b, copy_of(n), n, &book);
+      CHECK(got.error.empty());
+      CHECK(got.waypoints.size() == 100000);
+      skipped = got.copy_skipped;
+      if (skipped.empty()) CHECK(got.copy_n == n);
+      else CHECK(got.copy_n == -1);
+    }
+    INFO(skipped);
+    CHECK(skipped.find("no copy, auger replay cannot rerun this follow") != std::string::npos);
+    CHECK(book.bytes <= WaypointLoader::kMaxCopyBytes);
+    std::uint64_t on_disk = 0;
+    for (const auto& e : std::filesystem::directory_iterator(dir.path))
+      if (e.path().extension() == ".waypoints") on_disk += e.file_size();
+    CHECK(on_disk <= WaypointLoader::kMaxCopyBytes + 4096);
   }
   {  // through the thread: poll() never blocks, the FIFO's answer comes
     WaypointLoader l;
-    l.start(fifo, "", 0.0);
+    l.start(fifo, "", 0, 0.0);
     std::optional<WaypointLoader::Result> got;
     for (int k = 0; k < 200 && !got; ++k) {
       got = l.poll(0.01 * k);

@@ -1,5 +1,5 @@
 // augerd's sockets without augerd (line_server.hpp): the per-cycle budgets, idle timeouts, the
-// cap with eviction and the reserved connection for `stop`, bursts of connections, deferred
+// cap with eviction, the waiting room that answers `stop` at once, bursts of connections, deferred
 // answers, clients that never read, and the socket files' modes whatever the umask. Clients are
 // plain sockets in this process; serve() is called as the loop would, with an injected clock.
 #include <catch2/catch.hpp>
@@ -99,32 +99,38 @@ TEST_CASE("each client gets a budget of lines per cycle; a flood delays nobody e
   close(lone);
 }
 
-TEST_CASE("at the cap an idle client gives way, and one reserved connection takes stop and status",
+TEST_CASE("at the cap an idle client gives way; a waiting connection gets stop and status answered at once",
           "[daemon][unit]") {
   LineServerOptions o;
   o.max_clients = 4;
-  o.reserved_allows = [](const std::string& l) { return l == "stop" || l == "status"; };
+  o.wait_slot_s = 0.5;
+  o.priority_allows = [](const std::string& l) { return l == "stop" || l == "status"; };
   LineServer s(sock_path("cap"), o);
   Counting h;
   std::vector<int> idle;
   for (int k = 0; k < 4; ++k) idle.push_back(connect_to(s.path()));
   s.serve(0.0, h.handler());
   REQUIRE(s.clients() == 4);
-  // Every slot taken by clients idle for less than evict_idle_s: the reserved connection.
+  // Every slot taken by clients idle for less than evict_idle_s: a line that needs a slot waits
+  // up to wait_slot_s, then is told that augerd is busy.
   int c = connect_to(s.path());
   send_text(c, "vel 1 2 3\n");
   s.serve(0.1, h.handler());
   s.serve(0.11, h.handler());
   bool closed = false;
+  CHECK(received(c, &closed).empty());
+  CHECK(s.waiting() == 1);
+  s.serve(0.1 + o.wait_slot_s * 0.9, h.handler());
+  CHECK(received(c, &closed).empty());
+  s.serve(0.1 + o.wait_slot_s * 1.01, h.handler());
   CHECK(received(c, &closed).find("error: augerd serves 4 clients and all are busy") == 0);
   CHECK(closed);
   close(c);
   c = connect_to(s.path());
   send_text(c, "stop\n");
-  s.serve(0.2, h.handler());
-  s.serve(0.21, h.handler());
-  CHECK(received(c, &closed) == "ok stop\n");
-  CHECK(closed);  // one answer, then the reserved connection is free again
+  s.serve(0.7, h.handler());
+  CHECK(received(c, &closed) == "ok stop\n");  // in its first cycle
+  CHECK(closed);  // one answer, then closed
   close(c);
   // A second later the idle clients give way to newcomers, whatever they send.
   c = connect_to(s.path());
@@ -135,6 +141,55 @@ TEST_CASE("at the cap an idle client gives way, and one reserved connection take
   CHECK(s.stats().evicted == 1);
   close(c);
   for (int fd : idle) close(fd);
+}
+
+TEST_CASE("stop is answered in its first cycle behind busy clients and a queue that reconnects", "[daemon][unit]") {
+  // Issue 28 point 3: 32 active clients and connections queued behind them held `stop` off for
+  // 30-100 s: it waited in the kernel's listen queue behind every other connection.
+  LineServerOptions o;
+  o.priority_allows = [](const std::string& l) { return l == "stop" || l == "status"; };
+  LineServer s(sock_path("queue"), o);
+  Counting h;
+  std::vector<int> active, queued;
+  for (int k = 0; k < 32; ++k) active.push_back(connect_to(s.path()));
+  s.serve(0.0, h.handler());
+  REQUIRE(s.clients() == 32);
+  double t = 0;
+  auto cycle = [&] {
+    t += 0.01;
+    for (int fd : active) send_text(fd, "status\n"), received(fd);  // never idle
+    s.serve(t, h.handler());
+  };
+  // 400 connections behind them, more than the waiting room holds: half say nothing, half ask
+  // for a slot; then stop.
+  for (int k = 0; k < 400; ++k) {
+    const int fd = connect_to(s.path());
+    REQUIRE(fd >= 0);
+    if (k % 2) send_text(fd, "vel 1 2 3\n");
+    queued.push_back(fd);
+  }
+  const int stopper = connect_to(s.path());
+  send_text(stopper, "stop\n");
+  cycle();
+  bool closed = false;
+  CHECK(received(stopper, &closed) == "ok stop\n");
+  CHECK(s.clients() == 32);
+  CHECK(s.waiting() <= o.max_waiting);
+  // Reconnecting clients keep the room full; stop still gets through in its cycle.
+  for (int round = 0; round < 20; ++round) {
+    for (int k = 0; k < 100; ++k) {
+      const int fd = connect_to(s.path());
+      if (fd >= 0) close(fd);
+    }
+    const int st = connect_to(s.path());
+    send_text(st, "stop\n");
+    cycle();
+    CHECK(received(st, &closed) == "ok stop\n");
+    close(st);
+  }
+  close(stopper);
+  for (int fd : active) close(fd);
+  for (int fd : queued) close(fd);
 }
 
 TEST_CASE("idle clients are closed, long lines refused, clients that never read never stall a cycle",

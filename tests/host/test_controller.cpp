@@ -279,3 +279,52 @@ TEST_CASE("an absurd sensor value latches an estimator fault instead of poisonin
     CHECK(loop.c.eta_estimate().allFinite());
   }
 }
+
+TEST_CASE("one wild pose is rejected and counted; poses that disagree for a second latch a fault") {
+  // Issue 28 point 7: a single camera pose 10 m away at 3 mm latched fault=estimator; wrong but
+  // valid poses faulted every few seconds. The EKF's gate rejects what disagrees beyond the
+  // chi-square tail of 1e-6 and faults only when every pose has disagreed for 1 s.
+  const Model m = make_model(RobotParams{}, kSand);
+  Loop loop(m, ControllerConfig{});
+  loop.run(0.0, 200);  // at rest at the origin, a pose every 0.1 s: the estimator has its fix
+  REQUIRE(loop.c.fault().empty());
+  auto camera = [&](double t_s, const Vec3& pose) {
+    SensorInput s;
+    s.has_pose = true;
+    s.pose = pose;
+    s.pose_cov = Vec3(9e-6, 9e-6, 9e-6).asDiagonal();  // 3 mm, 3 mrad
+    s.pose_t_s = t_s;
+    return loop.c.step(t_s, loop.tel, s);
+  };
+  camera(2.0, Vec3(10.0, 0.0, 0.0));
+  CHECK(loop.c.fault().empty());
+  CHECK(loop.c.rejected_poses() == 1);
+  CHECK(loop.c.pose_rejected());
+  CHECK(loop.c.eta_estimate().norm() < 0.01);
+  // The camera agrees again: taken, no fault, nothing more rejected.
+  for (int k = 1; k <= 30; ++k) {
+    if (k % 10 == 0) camera(2.0 + 0.01 * k, Vec3::Zero());
+    else loop.c.step(2.0 + 0.01 * k, loop.tel, SensorInput{});
+  }
+  CHECK_FALSE(loop.c.pose_rejected());
+  CHECK(loop.c.rejected_poses() == 1);
+  CHECK(loop.c.fault().empty());
+
+  // A stream shifted by 5 m at 10 Hz: rejected, and the fault comes 1 s after the first.
+  double fault_s = -1;
+  for (int k = 0; k < 300 && fault_s < 0; ++k) {
+    const double t = 2.4 + 0.01 * k;
+    if (k % 10 == 0) camera(t, Vec3(5.0, 0.0, 0.0));
+    else loop.c.step(t, loop.tel, SensorInput{});
+    if (!loop.c.fault().empty()) fault_s = t - 2.4;
+  }
+  INFO(loop.c.fault());
+  CHECK(fault_s == Approx(1.0).margin(1e-6));  // the eleventh pose, 1.0 s after the first
+  CHECK(loop.c.rejected_poses() == 12);
+  CHECK(loop.c.fault().find("camera poses disagree with the estimate: 11 poses in 1.00 s") == 0);
+  // The estimator restarted at its estimate; after `enable` it takes the camera's next pose.
+  CHECK(loop.c.eta_estimate().norm() < 0.01);
+  loop.c.clear_fault();
+  camera(3.5, Vec3(5.0, 0.0, 0.0));
+  CHECK(loop.c.eta_estimate().x() == Approx(5.0).margin(0.1));
+}

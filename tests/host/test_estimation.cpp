@@ -183,7 +183,7 @@ TEST_CASE("EKF: a camera pose compared with the prediction for its capture time 
         const Frame f = in_flight.front();
         in_flight.erase(in_flight.begin());
         if (timestamped)
-          REQUIRE(ekf_update_pose_delayed(model, ekf, history, f.pose, pose_cov, f.t_capture_s));
+          REQUIRE(ekf_update_pose_delayed(model, ekf, history, f.pose, pose_cov, f.t_capture_s) == PoseUpdate::applied);
         else
           ekf_update_pose(model, ekf, f.pose, pose_cov);
       }

@@ -73,6 +73,13 @@ class Controller {
   // Timestamped poses the EKF could not use: captured before the kept history (2.56 s) or
   // after the step they arrived in.
   long stale_poses() const { return stale_poses_; }
+  // Poses the EKF's gate refused (EkfConfig::pose_gate_d2), since construction, and whether
+  // this step's pose was one of them (augerd's status and log).
+  long rejected_poses() const { return rejected_poses_; }
+  bool pose_rejected() const { return pose_rejected_; }
+  // This step's pose: its innovation's Mahalanobis distance (NaN without a pose, or before the
+  // estimator's first pose, which is taken as it is).
+  double pose_distance() const { return pose_distance_; }
   bool enabled() const { return enabled_; }
 
   // A step whose estimate is not finite or leaves the bounds of input_limits.hpp (the EKF has
@@ -85,6 +92,7 @@ class Controller {
  private:
   void restart_estimator(const Vec3& eta);
   void latch_fault(const std::string& what);
+  void pose_update(double t_s, const SensorInput& sensors);
 
   const Model& model_;
   ControllerConfig config_;
@@ -92,6 +100,14 @@ class Controller {
   Ekf ekf_;
   PoseHistory pose_history_;
   long stale_poses_ = 0;
+  long rejected_poses_ = 0;
+  bool pose_rejected_ = false;
+  double pose_distance_ = 0;
+  // The gate applies once the estimator has taken a pose since its (re)start: until then its
+  // position is a guess, and the first pose is how it learns where the robot is.
+  bool pose_taken_ = false;
+  int reject_run_n_ = 0;        // poses rejected in a row
+  double reject_run_t0_s_ = 0;  // when that run began
   double pose_delay_s_ = 0;  // the model's pose_time_offset effect: poses show the robot this much earlier
   ReferenceState ref_;
   PidState pid_;

@@ -38,6 +38,15 @@ struct EkfConfig {
   double imu_psi_std_rad = 0.02;
   double imu_r_std_radps = 0.01;
   Vec6 initial_std = (Vec6() << 0.05, 0.05, 0.05, 0.05, 0.05, 0.05).finished();
+  // The gate on a pose's innovation nu (docs/daemon.md "Safety"): a pose whose squared
+  // Mahalanobis distance nu' S^-1 nu (S = H P H' + R) exceeds this is rejected, not applied.
+  // 30.66 is the chi-square quantile with 3 degrees of freedom whose tail is 1e-6: a pose that
+  // agrees with the estimate is refused about once in a million. 0: no gate.
+  double pose_gate_d2 = 30.66;
+  // A fault only on sustained disagreement: every pose for this long rejected, and at least
+  // this many of them (the controller's fault, docs/daemon.md "Safety").
+  double pose_reject_fault_s = 1.0;
+  int pose_reject_fault_n = 3;
 };
 
 struct Ekf {
@@ -90,9 +99,12 @@ struct PoseHistory {
 
 // A pose captured at t_capture_s: the innovation against the prediction for its capture time,
 // applied to the current state with the current gain (the usual latency compensation when the
-// latency is short against the dynamics' error growth). false (nothing changed) when the
-// capture time lies outside the history.
-bool ekf_update_pose_delayed(const Model& model, Ekf& ekf, PoseHistory& history, const Vec3& pose,
-                             const Mat3& covariance, double t_capture_s);
+// latency is short against the dynamics' error growth). stale (nothing changed) when the
+// capture time lies outside the history; rejected (nothing changed) when gate_d2 > 0 and the
+// innovation's squared Mahalanobis distance, written to *d2, exceeds it.
+enum class PoseUpdate { applied, stale, rejected };
+PoseUpdate ekf_update_pose_delayed(const Model& model, Ekf& ekf, PoseHistory& history, const Vec3& pose,
+                                   const Mat3& covariance, double t_capture_s, double gate_d2 = 0,
+                                   double* d2 = nullptr);
 
 }  // namespace auger

@@ -67,9 +67,9 @@ inline constexpr InputBound kEstimateYawRate{"estimated yaw rate", "rad/s", -35,
                                              "the gyro's full scale: the estimate has diverged"};
 }  // namespace limits
 
-// Input for an error message: quoted, control bytes as \xNN, cut after max_bytes with the full
-// length named (a 10 MB field or a NUL byte must not come back raw). Used by every reader and
-// by augerd's answers.
+// Input for an error message: quoted, control bytes and bytes that are not UTF-8 text as \xNN,
+// cut after max_bytes with the full length named (a 10 MB field, a NUL byte or a stray byte
+// must not come back raw). Used by every reader and by augerd's answers.
 std::string quote_input(const std::string& text, std::size_t max_bytes = 60);
 
 // v is finite and within b (no allocation: for the 100 Hz path).

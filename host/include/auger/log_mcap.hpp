@@ -39,6 +39,7 @@ class RobotLogMcapWriter {
   // /model/pose and the frame base_link_model on /tf.
   void write_prediction(double t_s, double x_m, double y_m, double psi_rad, double imu_psi_rad);
   void flush() { mcap_.flush(); }
+  std::string tail() const { return mcap_.tail(); }  // McapWriter::tail
   void finish() { mcap_.finish(); }
   std::uint64_t message_count() const { return mcap_.message_count(); }
 

@@ -1,7 +1,9 @@
 // A streaming writer of MCAP files (the container Foxglove and PlotJuggler open; record layout
-// of the MCAP specification, version 0): schemas, channels, messages in uncompressed chunks
+// of the MCAP specification, version 0): schemas, channels, messages in zstd-compressed chunks
 // with message indexes, metadata, and a summary (schemas, channels, chunk and metadata indexes,
 // statistics) so readers can seek. CRC-32 over every chunk, the data section and the summary.
+// tail() gives the summary of what is written so far, so that a file can be complete after
+// every flush (augerd's log: a kill or a full disk leaves a file every reader opens).
 // Written here because no MCAP library for C++ is packaged in Debian 12 (docs/design.md: no
 // vendored code); `auger export` and augerd use it, and the tests read its files back with the
 // independent Python reader (PyPI `mcap`). log_mcap.hpp maps robot-log rows onto channels.
@@ -38,11 +40,14 @@ class McapWriter {
   void flush();
   // Closes the data section, writes the summary and the footer. Nothing can be written after.
   void finish();
+  // What finish() would write now (after flush()), without writing it: written after the data
+  // so far, it makes a complete file; the next data then goes where it began.
+  std::string tail() const;
   std::uint64_t message_count() const { return message_count_; }
 
  private:
   struct ChunkIndex {
-    std::uint64_t start_ns, end_ns, offset, length, index_length, size;
+    std::uint64_t start_ns, end_ns, offset, length, index_length, size, compressed_size;
     std::map<std::uint16_t, std::uint64_t> index_offsets;
   };
   void write_record(std::uint8_t opcode, const std::string& body);  // to the file, CRC updated

@@ -119,6 +119,34 @@ TEST_CASE("robot-log commands refuse broken logs naming file, line and column (e
   }
 }
 
+TEST_CASE("a log whose screw-speed columns are empty in every row is refused, not run on 0 rpm (exit 2)") {
+  // Issue 28 point 8: compare exited 0 on such a log (the gaps' fill, 0 rpm, as the screws).
+  const tools_test::TempDir tmp("noscrews");
+  const std::string dir = tmp.path;
+  auto lines = split_lines(tools_test::good_robot_log());
+  const std::string header = lines[2];  // the header is line 3
+  auto field_of = [&](const std::string& name) {
+    int f = 0;
+    for (std::size_t p = 0; p < header.find(name); ++p) f += header[p] == ',';
+    return f;
+  };
+  for (const std::vector<int>& blank : {std::vector<int>{0, 1, 2, 3}, std::vector<int>{2}}) {
+    auto l = lines;
+    for (std::size_t r = 3; r < l.size(); ++r)
+      for (int i : blank) l[r] = replace_field(l[r], field_of("omega_rpm_" + std::to_string(i)), "");
+    const std::string path = dir + "/blank" + std::to_string(blank.size()) + ".csv";
+    tools_test::write_text(path, join_lines(l));
+    std::string names;
+    for (int i : blank) names += (names.empty() ? "omega_rpm_" : ", omega_rpm_") + std::to_string(i);
+    for (const char* cmd : {"compare", "diagnose"}) {
+      const auto r = tools_test::run_auger(dir, std::string(cmd) + " " + path);
+      INFO(cmd << " " << path << "\nstderr: " << r.err);
+      CHECK(r.code == 2);
+      CHECK_THAT(r.err, Catch::Contains(path + ":1:1: no row has a screw speed in " + names + ":"));
+    }
+  }
+}
+
 TEST_CASE("identify refuses broken gantry logs and a log without its axis (exit 2)") {
   const tools_test::TempDir tmp("badg");
   const std::string dir = tmp.path;
