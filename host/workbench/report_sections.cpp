@@ -149,7 +149,8 @@ Section summary_section(const Findings& f, const Gnuplot& gp, const ChartSet& ch
   h << "<table><tr><th class=l>log</th><td class=l>" << esc(d.path) << "</td></tr>"
     << "<tr><th class=l>kind</th><td class=l>" << (d.gantry ? "gantry (" + esc(d.axis) + ")" : "robot") << "</td></tr>"
     << "<tr><th class=l>duration</th><td class=l>" << fixed(d.duration_s(), 1) << " s, " << d.size() << " samples</td></tr>"
-    << "<tr><th class=l>model</th><td class=l>" << esc(cmp.model.source) << ", terrain " << esc(cmp.model.terrain) << "</td></tr>"
+    << "<tr><th class=l>model</th><td class=l>" << esc(cmp.model.source) << "</td></tr>"
+    << "<tr><th class=l>terrain</th><td class=l id=terrain>" << esc(f.terrain) << "</td></tr>"
     << "<tr><th class=l>plots</th><td class=l>time plots: dygraphs (" << esc(charts.source()) << "), others: "
     << esc(gp.version()) << "</td></tr></table>\n";
   h << "<p>Noise floor estimated from the data (every error below is also given as a multiple of it; 1 = only noise "
