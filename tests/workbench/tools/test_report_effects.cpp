@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <string>
 
+#include "report.hpp"
 #include "tools_fixtures.hpp"
 
 namespace {
@@ -109,4 +110,26 @@ TEST_CASE("report: screw blocking drawn as the resistance against one screw's sp
   // Not drawn as a dry friction of the body's speed (with the screws still every screw blocks).
   CHECK_THAT(tools_test::json_eval(dir, b, "d['eval']['friction_title']"),
              Catch::Contains("screw blocking: its own chart") || Catch::Equals(""));
+}
+
+TEST_CASE("report: a flagged value of an explain step is named, with its value and why") {
+  auger::wb::Dataset d;
+  auger::wb::Findings f(d);
+  auger::wb::ExplainStep s0, s1;
+  s1.index = 1;
+  s1.added = "force_lag";
+  s1.flagged = true;
+  auger::wb::FittedEffect paper, lag;
+  paper.effect = "paper_params";
+  paper.params = {{"D_x", 560.0, 3.0, "N/(m/s)", ""}};
+  lag.effect = "force_lag";
+  lag.params = {{"tau_s", 0.004, 0.01, "s", "not identified by this log"}, {"delay_s", 0.0, 0.001, "s", ""}};
+  s1.fitted = {paper, lag};
+  f.ex.steps = {s0, s1};
+  f.ex.active = {true, false, false, false};
+  auger::wb::ChartSet charts;
+  const std::string html = auger::wb::explain_section(f, charts).html;
+  CHECK_THAT(html, Catch::Contains("flagged: <span class=flagged-param>force_lag: tau_s = 0.004 +- 0.01 s "
+                                   "(not identified by this log)</span>"));
+  CHECK_THAT(html, !Catch::Contains("delay_s = 0 +-") && !Catch::Contains("D_x = 560"));
 }
