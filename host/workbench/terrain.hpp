@@ -16,7 +16,8 @@ namespace auger::wb {
 inline const OptionDoc kTerrainOption{
     "--terrain", "NAME|auto",
     "the terrain's parameters to use: NAME instead of the log's `# terrain:`;\n"
-    "auto: the table terrain whose nominal model fits the log best (docs/workbench.md \"Terrain\")"};
+    "auto: the table terrain whose nominal model fits the log best\n"
+    "(docs/workbench.md \"Terrain\")"};
 
 // A table terrain's nominal model on the log: its error over segments of 25 s (compare's
 // headline), the RMS over channels of the multiples of the noise floor.
