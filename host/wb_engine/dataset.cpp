@@ -23,6 +23,30 @@ namespace {
 
 bool finite(double v) { return std::isfinite(v); }
 
+// The screw speeds between measured samples (docs/workbench.md "Inputs"): a module that reports
+// at 5 Hz leaves 19 empty rows of 20. Held, the speed lagged the truth by half a report period
+// on average (0.1 s: what a force lag or a pose time offset would be fitted to); linear between
+// two reports less than kOmegaInterpolateS apart it is the truth to second order in the speed's
+// change. A longer silence (a module that dropped out) is held from its last value, and before
+// the first report the speed is 0.
+void fill_screw_speeds(Dataset& d) {
+  for (int i = 0; i < 4; ++i) {
+    std::size_t last = d.size();  // the last measured row
+    for (std::size_t k = 0; k < d.size(); ++k) {
+      double& w = d.omega_rpm[k][i];
+      if (finite(w)) {
+        if (last < d.size() && k > last + 1 && d.t_s[k] - d.t_s[last] <= kOmegaInterpolateS) {
+          const double w0 = d.omega_rpm[last][i], span = d.t_s[k] - d.t_s[last];
+          for (std::size_t j = last + 1; j < k; ++j) d.omega_rpm[j][i] = w0 + (w - w0) * (d.t_s[j] - d.t_s[last]) / span;
+        }
+        last = k;
+      } else {
+        w = last < d.size() ? d.omega_rpm[last][i] : 0.0;  // held (replaced above if the next report is close)
+      }
+    }
+  }
+}
+
 }  // namespace
 
 // ------------------------------------------------------------------------------- dataset
@@ -34,15 +58,6 @@ Dataset load_dataset(const std::string& path) {
     CsvLogReader probe(path);  // throws LogError if it cannot be opened or has no header
     format = probe.meta("format").value_or("");
   }
-  auto fill_gap = [&](Vec4& w, const Vec4& last) {
-    for (int i = 0; i < 4; ++i)
-      if (!finite(w[i])) w[i] = finite(last[i]) ? last[i] : 0.0;
-  };
-  Vec4 last = Vec4::Constant(kNaN);
-  std::array<bool, 4> measured_screw{};
-  auto note_measured = [&](const Vec4& w) {
-    for (int i = 0; i < 4; ++i) measured_screw[static_cast<std::size_t>(i)] |= finite(w[i]);
-  };
   if (format == kGantryLogFormat) {
     GantryLogReader r(path);
     d.gantry = true;
@@ -54,11 +69,7 @@ Dataset load_dataset(const std::string& path) {
     GantrySample s;
     while (r.next(s)) {
       d.t_s.push_back(s.t_s);
-      Vec4 w(s.omega_rpm[0], s.omega_rpm[1], 0.0, 0.0);
-      note_measured(w);
-      fill_gap(w, last);
-      last = w;
-      d.omega_rpm.push_back(w);
+      d.omega_rpm.push_back(Vec4(s.omega_rpm[0], s.omega_rpm[1], 0.0, 0.0));
       ChannelValues m{kNaN, kNaN, kNaN, kNaN};
       if (finite(s.position_m)) {
         m[static_cast<std::size_t>(ch)] = s.position_m;
@@ -85,11 +96,7 @@ Dataset load_dataset(const std::string& path) {
         d.pose_t_s.push_back(finite(tc) && finite(s.x_m) ? tc : kNaN);
       }
       d.t_s.push_back(s.t_s);
-      Vec4 w(s.omega_rpm[0], s.omega_rpm[1], s.omega_rpm[2], s.omega_rpm[3]);
-      note_measured(w);
-      fill_gap(w, last);
-      last = w;
-      d.omega_rpm.push_back(w);
+      d.omega_rpm.push_back(Vec4(s.omega_rpm[0], s.omega_rpm[1], s.omega_rpm[2], s.omega_rpm[3]));
       d.meas.push_back({s.x_m, s.y_m, s.psi_rad, s.imu_psi_rad});
       d.imu_r_radps.push_back(s.imu_r_radps);
     }
@@ -98,13 +105,17 @@ Dataset load_dataset(const std::string& path) {
   // A screw whose speed is measured in no row would run the model on the gaps' fill (0 rpm): a
   // wrong answer given with confidence. Refused, naming the columns.
   std::string empty;
-  for (int i = 0; i < (d.gantry ? 2 : 4); ++i)
-    if (!measured_screw[static_cast<std::size_t>(i)]) empty += (empty.empty() ? "omega_rpm_" : ", omega_rpm_") + std::to_string(i);
+  for (int i = 0; i < (d.gantry ? 2 : 4); ++i) {
+    bool measured = false;
+    for (const Vec4& w : d.omega_rpm) measured = measured || finite(w[i]);
+    if (!measured) empty += (empty.empty() ? "omega_rpm_" : ", omega_rpm_") + std::to_string(i);
+  }
   if (!empty.empty())
     throw LogError(path, 1, 1,
                    "no row has a screw speed in " + empty +
                        ": the model runs on the measured screw speeds (docs/log-format.md); a log of poses alone "
                        "can be merged with the screws' log (auger merge) or exported (auger export), not compared");
+  fill_screw_speeds(d);
   std::array<std::size_t, kChannels> count{};
   for (const auto& m : d.meas)
     for (int c = 0; c < kChannels; ++c) count[static_cast<std::size_t>(c)] += finite(m[static_cast<std::size_t>(c)]);
@@ -113,9 +124,24 @@ Dataset load_dataset(const std::string& path) {
     d.active = {false, false, false, false};
     d.active[d.axis == "longitudinal" ? kX : kY] = true;
   }
-  if (!d.active[kX] && !d.active[kY])
-    throw LogError(path, 1, 1, "the log has (almost) no pose measurements (x_m, y_m, psi_rad)");
+  // (A gantry's channel is active whatever it holds: the rail is its pose.)
+  if (!d.has_pose() && !d.active[kImuPsi])
+    throw LogError(path, 1, 1,
+                   "the log has (almost) no pose measurements (x_m, y_m, psi_rad) and no IMU heading (imu_psi_rad): "
+                   "nothing to compare the model with (auger merge brings a pose recorded elsewhere, "
+                   "docs/workbench-tools.md)");
   return d;
+}
+
+bool is_start_row(const Dataset& d, std::size_t k) {
+  const auto& m = d.meas[k];
+  if (d.has_pose()) return finite(m[kX]) && finite(m[kY]) && finite(m[kPsi]);
+  return finite(m[kImuPsi]);
+}
+
+Vec3 start_pose(const Dataset& d, std::size_t k) {
+  const auto& m = d.meas[k];
+  return d.has_pose() ? Vec3(m[kX], m[kY], m[kPsi]) : Vec3(0.0, 0.0, m[kImuPsi]);
 }
 
 // ------------------------------------------------------------------------------- noise floor
@@ -276,29 +302,35 @@ NoiseColour camera_noise_colour(const Dataset& d, const ChannelValues& white) {
   // would take away much of a slow noise's variance).
   for (std::size_t k = 0; k < d.size(); ++k) {
     const auto& m = d.meas[k];
-    if (!finite(m[kPsi]) || !finite(m[kImuPsi])) continue;
+    if (!finite(m[kPsi])) continue;
+    // The IMU's mean heading over the frame's neighbourhood (angles relative to this row's, or to
+    // the first within half a frame where an IMU slower than the log left this row empty), and
+    // its yaw rate at this row or the nearest one measured.
+    const double ref = finite(m[kImuPsi]) ? m[kImuPsi] : kNaN;
+    double acc = 0, first = ref, rate = have_r ? d.imu_r_radps[k] : kNaN, rate_dt = 0;
+    int in = 0;
+    auto add = [&](std::size_t j) {
+      const double dt = std::fabs(d.t_s[j] - d.t_s[k]);
+      if (have_r && finite(d.imu_r_radps[j]) && (!finite(rate) || dt < rate_dt)) rate = d.imu_r_radps[j], rate_dt = dt;
+      if (!finite(d.meas[j][kImuPsi])) return;
+      if (!finite(first)) first = d.meas[j][kImuPsi];
+      acc += wrap_angle(d.meas[j][kImuPsi] - first);
+      ++in;
+    };
+    for (std::size_t j = k; j-- > 0 && d.t_s[k] - d.t_s[j] <= half_frame_s;) add(j);
+    for (std::size_t j = k; j < d.size() && d.t_s[j] - d.t_s[k] <= half_frame_s; ++j) add(j);
+    if (!in) continue;
     // Not turning: the IMU's rate below 0.01 rad/s (or, without it, the screws' yaw pattern, their
     // mean speed, below 0.5 rpm: eq. (10)'s yaw row is the same for every screw).
-    const bool still = have_r && finite(d.imu_r_radps[k]) ? std::fabs(d.imu_r_radps[k]) < 0.01
-                                                          : std::fabs(d.omega_rpm[k].mean()) < 0.5;
+    const bool still = finite(rate) ? std::fabs(rate) < 0.01 : std::fabs(d.omega_rpm[k].mean()) < 0.5;
     if (!still) continue;
     const long g = static_cast<long>(std::floor((d.t_s[k] - d.t_s.front()) / 60.0));
     if (g != group) {
       flush();
       group = g;
     }
-    // The IMU's mean heading over the frame's neighbourhood (angles relative to this row's).
-    double acc = 0;
-    int in = 0;
-    auto add = [&](std::size_t j) {
-      if (!finite(d.meas[j][kImuPsi])) return;
-      acc += wrap_angle(d.meas[j][kImuPsi] - m[kImuPsi]);
-      ++in;
-    };
-    for (std::size_t j = k; j-- > 0 && d.t_s[k] - d.t_s[j] <= half_frame_s;) add(j);
-    for (std::size_t j = k; j < d.size() && d.t_s[j] - d.t_s[k] <= half_frame_s; ++j) add(j);
     t.push_back(d.t_s[k]);
-    diff.push_back(wrap_angle(m[kPsi] - m[kImuPsi] - acc / in));
+    diff.push_back(wrap_angle(m[kPsi] - first - acc / in));
     stretch_share.push_back(1.0 / in);
   }
   flush();

@@ -33,7 +33,9 @@ struct Dataset {
   std::string terrain;   // metadata `terrain`, "" if absent
   double gantry_mass_kg = 16.0;
   std::vector<double> t_s;
-  std::vector<Vec4> omega_rpm;        // a gap is filled with the last measured value
+  // Between two measured speeds of a screw less than kOmegaInterpolateS apart (a module that
+  // reports at 5 Hz), linear; across a longer gap, held from the last measured value.
+  std::vector<Vec4> omega_rpm;
   std::vector<ChannelValues> meas;    // x_m, y_m, psi_rad, imu_psi_rad; NaN = not measured
   std::array<bool, kChannels> active{};  // channels with at least a few measurements
   std::vector<double> force_n;        // gantry: the measured traction force along the rail (else empty)
@@ -43,7 +45,18 @@ struct Dataset {
   std::vector<double> pose_t_s;
   std::size_t size() const { return t_s.size(); }
   double duration_s() const { return t_s.empty() ? 0 : t_s.back() - t_s.front(); }
+  // A pose from external tracking (x, y); a robot log without one is compared in its IMU heading
+  // alone (docs/workbench.md "A log without pose").
+  bool has_pose() const { return active[kX] || active[kY]; }
 };
+
+constexpr double kOmegaInterpolateS = 1.0;
+
+// A row a simulation can start from: a measured pose (x, y, psi); in a log without pose, a
+// measured IMU heading (x and y start at 0 and are not compared).
+bool is_start_row(const Dataset& data, std::size_t k);
+// The pose a simulation starts from at such a row.
+Vec3 start_pose(const Dataset& data, std::size_t k);
 
 
 // Reads a robot or gantry log (by its `# format:`; a log without one is read as a robot log).

@@ -53,6 +53,21 @@ std::vector<ParamSpec> paper_specs(const Model& m, const Dataset& d) {
   return s;
 }
 
+// Without a pose only the IMU heading is compared (docs/workbench.md "A log without pose"): these
+// parameters act on x and y alone (or are the IMU heading's offset, which each segment's start
+// on the IMU heading takes up) and are held at their defaults.
+bool acts_only_without_yaw(const std::string& id, const std::string& param) {
+  static const std::vector<std::pair<std::string, std::vector<std::string>>> held = {
+      {kPaperParams, {"sigma_long", "sigma_lat", "D_x", "D_y"}},
+      {"coulomb_friction", {"force_x_n", "force_y_n"}},
+      {"stick_slip_friction", {"force_x_n", "force_y_n"}},
+      {"quadratic_drag", {"c_x_nspm2", "c_y_nspm2"}},
+      {"imu_heading_drift", {"bias_rad"}}};
+  for (const auto& [effect, params] : held)
+    if (effect == id) return std::find(params.begin(), params.end(), param) != params.end();
+  return false;
+}
+
 bool applies(const Part& p, const LogTerm& t) {
   if (p.log >= 0 && p.log != t.log) return false;
   return p.entry || p.terrain.empty() || p.terrain == t.base->terrain.name;
@@ -79,7 +94,8 @@ Part make_part(const std::string& id, const Model& base, const Dataset& d) {
     const ParamSpec& s = p.specs[i];
     p.values.push_back(s.default_value);
     const int dof = param_dof(s.name);
-    const bool usable = !d.gantry || dof < 0 || dof == active_dof;
+    const bool usable = (!d.gantry || dof < 0 || dof == active_dof) &&
+                        (d.gantry || d.has_pose() || !acts_only_without_yaw(id, s.name));
     if (s.fitted && !s.integer && usable) p.free.push_back(static_cast<int>(i));
   }
   return p;
@@ -269,7 +285,7 @@ Dataset decimate_for_search(const Dataset& d, double max_dt_s) {
     acc += dt * d.omega_rpm[k];
     acc_t += dt;
     const auto& m = d.meas[k];
-    const bool pose = std::isfinite(m[kX]) && std::isfinite(m[kY]) && std::isfinite(m[kPsi]);
+    const bool pose = is_start_row(d, k);
     const bool due = c.t_s.empty() || k + 1 == d.size() || (k + 1 < d.size() && d.t_s[k + 1] - c.t_s.back() > max_dt_s + 1e-9);
     // Dense poses (a 100 Hz gantry encoder) are thinned to the same max_dt_s; sparser ones are all
     // kept, whatever their phase against the rows kept in between.
@@ -299,12 +315,18 @@ std::vector<LibraryEffect> effect_library() {
     p.params = search::make_part(search::kPaperParams, make_model(rp, {"sand", 0.812, 0.247, 560.33, 320.08, 11.46}),
                                  Dataset{})
                    .specs;
-    for (const auto& s : p.params) p.units.push_back(s.unit);
+    for (const auto& s : p.params) {
+      p.units.push_back(s.unit);
+      if (search::acts_only_without_yaw(p.id, s.name)) p.held_without_pose.push_back(s.name);
+    }
     out.push_back(p);
   }
   // Effects a rail (one module, yaw held) cannot show: the centre of resistance, the yaw
   // inertia, turning couplings, a blocked screw's moment.
   static const char* yaw_only[] = {"resistance_offset", "yaw_time_constant", "rigid_body_coupling", "screw_blocking"};
+  // Effects the IMU heading alone cannot show: forces along x and y only, the pose's own timing,
+  // and the IMU's offset (each segment starts on the IMU heading).
+  static const char* needs_pose[] = {"terrain_slope", "rigid_body_coupling", "pose_time_offset", "imu_heading_bias"};
   for (const auto& [id, e] : EffectRegistry::builtin().entries()) {
     if (!e.text_params.empty()) continue;  // a discovered term: proposed by explain, not a candidate
     LibraryEffect le;
@@ -314,6 +336,9 @@ std::vector<LibraryEffect> effect_library() {
     for (const auto& s : e.params) le.units.push_back(s.unit);
     le.needs_imu = e.needs_imu;
     le.yaw_only = std::find(std::begin(yaw_only), std::end(yaw_only), id) != std::end(yaw_only);
+    le.needs_pose = std::find(std::begin(needs_pose), std::end(needs_pose), id) != std::end(needs_pose);
+    for (const auto& ps : e.params)
+      if (search::acts_only_without_yaw(id, ps.name)) le.held_without_pose.push_back(ps.name);
     out.push_back(le);
   }
   return out;

@@ -97,6 +97,10 @@ struct LibraryEffect {
   std::vector<std::string> units;
   bool needs_imu = false;
   bool yaw_only = false;  // shows only with the robot's yaw and several screws (not on a gantry rail)
+  // A robot log without pose (only the IMU heading compared): the effect cannot be seen at all,
+  // or these of its parameters (along x and y only) are held at their defaults.
+  bool needs_pose = false;
+  std::vector<std::string> held_without_pose;
 };
 std::vector<LibraryEffect> effect_library();
 

@@ -52,9 +52,7 @@ Segments make_segments(const Dataset& d, double segment_s) {
   Segments s;
   std::size_t b = d.size();
   for (std::size_t k = 0; k < d.size(); ++k) {
-    const auto& m = d.meas[k];
-    const bool pose = std::isfinite(m[kX]) && std::isfinite(m[kY]) && std::isfinite(m[kPsi]);
-    if (!pose) continue;
+    if (!is_start_row(d, k)) continue;
     if (b == d.size()) b = k;
     else if (d.t_s[k] - d.t_s[b] >= segment_s) {
       s.push_back({b, k});
@@ -241,6 +239,7 @@ std::vector<std::string> candidate_ids(const Dataset& d, const std::vector<std::
     if (!only.empty() && std::find(only.begin(), only.end(), le.id) == only.end()) continue;
     if (le.needs_imu && !d.active[kImuPsi]) continue;
     if (d.gantry && (le.needs_imu || le.yaw_only)) continue;
+    if (!d.gantry && !d.has_pose() && le.needs_pose) continue;
     ids.push_back(le.id);
   }
   return ids;

@@ -57,9 +57,14 @@ RobotParams gantry_robot(double mass_kg) {
 
 }  // namespace
 
-ModelChoice choose_model(const Dataset& data, const std::string& model_path) {
+std::vector<std::string> table_terrains(bool gantry) {
+  return gantry ? std::vector<std::string>{"sand", "gravel"} : std::vector<std::string>{"sand", "frozen_grass"};
+}
+
+ModelChoice choose_model(const Dataset& data, const std::string& model_path, const std::string& terrain) {
   ModelChoice mc;
-  const std::string wanted = data.terrain.empty() ? "sand" : data.terrain;
+  const std::string named = terrain.empty() ? data.terrain : terrain;
+  const std::string wanted = named.empty() ? "sand" : named;
   if (model_path.empty()) {
     bool known = false;
     TerrainParams t = data.gantry ? gantry_terrain(wanted, &known) : robot_terrain(wanted, &known);
@@ -77,10 +82,12 @@ ModelChoice choose_model(const Dataset& data, const std::string& model_path) {
     // the model's one terrain.
     std::string have;
     for (const auto& t : f.terrains) have += (have.empty() ? "" : ", ") + t.params.name;
-    if (!data.terrain.empty() || f.terrains.size() > 1)
+    if (!named.empty() || f.terrains.size() > 1)
       throw ConfigError(model_path, 1, 1,
                         "no [terrain." + wanted + "] for the log " + data.path +
-                            (data.terrain.empty() ? " (it names no terrain: sand is assumed)" : " (its `# terrain:`)") +
+                            (named.empty()             ? " (it names no terrain: sand is assumed)"
+                             : terrain.empty()         ? " (its `# terrain:`)"
+                                                       : " (--terrain)") +
                             "; the model file has " + have);
     te = &f.terrains.front();
   }
@@ -235,7 +242,7 @@ void simulate_range(const Model& model, const Dataset& data, const SimOptions& o
   for (std::size_t k = begin; k < end; ++k) {
     const double t = data.t_s[k];
     const bool boundary = !started || (o.segment_s > 0 && t - seg_t0 >= o.segment_s);
-    if (boundary && pose_measured(data, k)) {
+    if (boundary && is_start_row(data, k)) {
       if (started) anchor(seg_begin, k);
       started = true;
       seg_t0 = t;
@@ -266,8 +273,7 @@ void simulate_range(const Model& model, const Dataset& data, const SimOptions& o
         dyn.t_s = data.t_s[i];
         dynamics_step(model, dyn, eta_w, zeta, w, std::min(dt, 0.1), o.n_sub);
       }
-      const auto& m = data.meas[k];
-      eta = Vec3(m[kX], m[kY], m[kPsi]);
+      eta = start_pose(data, k);
       // Warm-up poses into the segment's frame: the warm-up's end is the start pose.
       const double dpsi = eta.z() - eta_w.z(), c = std::cos(dpsi), sn = std::sin(dpsi);
       for (Vec3& q : warm_pose) {
@@ -400,9 +406,33 @@ const char* const kKindName[kKinds] = {"motion", "speed", "phase", "direction", 
 const char* const* const kTables[kKinds] = {kMotion, kSpeed, kPhase, kDirection, kHeading};
 constexpr int kTableSize[kKinds] = {5, 3, 3, 7, 4};
 
-// mean_speed[k] = mean |omega| of row k; rate from its change over +-0.25 s.
+// The heading of every row for its regime: the camera's (or, in a log without one, the IMU's)
+// nearest measured heading within 1 s. Labelled from camera rows alone, a 20 Hz camera's log of
+// 150 s counted 30 s of headings.
+std::vector<double> row_headings(const Dataset& data) {
+  const int c = data.active[kPsi] ? kPsi : kImuPsi;
+  std::vector<double> h(data.size(), kNaN);
+  if (data.gantry) return h;
+  std::vector<double> age(data.size(), kNaN);
+  for (std::size_t k = 0, last = data.size(); k < data.size(); ++k) {  // the last one measured
+    if (finite(data.meas[k][static_cast<std::size_t>(c)])) last = k;
+    if (last < data.size() && data.t_s[k] - data.t_s[last] <= 1.0) {
+      h[k] = data.meas[last][static_cast<std::size_t>(c)];
+      age[k] = data.t_s[k] - data.t_s[last];
+    }
+  }
+  for (std::size_t k = data.size(), next = data.size(); k-- > 0;) {  // the next one, where nearer
+    if (finite(data.meas[k][static_cast<std::size_t>(c)])) next = k;
+    const double dt = next < data.size() ? data.t_s[next] - data.t_s[k] : kNaN;
+    if (dt <= 1.0 && !(age[k] <= dt)) h[k] = data.meas[next][static_cast<std::size_t>(c)];
+  }
+  return h;
+}
+
+// mean_speed[k] = mean |omega| of row k; rate from its change over +-0.25 s; heading[k] from row_headings.
 std::array<int, kKinds> classify_codes(const Model& model, const Dataset& data, std::size_t k,
-                                       const std::vector<double>& mean_speed, std::size_t& a, std::size_t& b) {
+                                       const std::vector<double>& mean_speed, const std::vector<double>& heading,
+                                       std::size_t& a, std::size_t& b) {
   std::array<int, kKinds> c{};
   const Vec4& w = data.omega_rpm[k];
   const Vec3 z = steady_velocity(model, w);  // eq. (6) at rest: what the screws ask for
@@ -424,7 +454,7 @@ std::array<int, kKinds> classify_codes(const Model& model, const Dataset& data, 
   const double nz[3] = {std::fabs(z[0]), std::fabs(z[1]), std::fabs(z[2])};
   const int dom = static_cast<int>(std::max_element(nz, nz + 3) - nz);
   c[3] = count == 0 ? 0 : dom == 0 ? (z[0] > 0 ? 1 : 2) : dom == 1 ? (z[1] > 0 ? 3 : 4) : (z[2] > 0 ? 5 : 6);
-  const double psi = data.meas[k][kPsi];
+  const double psi = heading[k];
   if (data.gantry || !finite(psi)) c[4] = -1;
   else {
     const double deg = psi * 180 / kPi;
@@ -442,9 +472,9 @@ std::vector<double> mean_speeds(const Dataset& data) {
 }  // namespace
 
 RegimeLabels classify_sample(const Model& model, const Dataset& data, std::size_t k) {
-  const std::vector<double> ms = mean_speeds(data);
+  const std::vector<double> ms = mean_speeds(data), heading = row_headings(data);
   std::size_t a = k, b = k;
-  const auto c = classify_codes(model, data, k, ms, a, b);
+  const auto c = classify_codes(model, data, k, ms, heading, a, b);
   RegimeLabels L;
   L.motion = kMotion[c[0]];
   L.speed = kSpeed[c[1]];
@@ -462,10 +492,10 @@ std::vector<RegimeRow> error_by_regime(const Model& model, const Dataset& data, 
     std::array<std::size_t, kChannels> n{};
   };
   std::array<std::array<Acc, 7>, kKinds> acc{};
-  const std::vector<double> ms = mean_speeds(data);
+  const std::vector<double> ms = mean_speeds(data), heading = row_headings(data);
   std::size_t a = 0, b = 0;
   for (std::size_t k = 0; k < data.size(); ++k) {
-    const auto codes = classify_codes(model, data, k, ms, a, b);
+    const auto codes = classify_codes(model, data, k, ms, heading, a, b);
     const double dt = k + 1 < data.size() ? data.t_s[k + 1] - data.t_s[k] : 0;
     std::array<double, kChannels> e2{};
     std::array<bool, kChannels> has{};
@@ -527,7 +557,7 @@ CompareResult compare(const Dataset& data, ModelChoice mc) {
   r.open_loop_err = error_stats(data, r.open_loop, r.segment_floor);
   simulate(m, data, o, r.segments);
   r.segments_err = error_stats(data, r.segments, r.segment_floor);
-  if (data.active[kImuPsi]) {
+  if (data.active[kImuPsi] && data.has_pose()) {  // without a pose nothing is left to compare
     SimOptions oi = o;
     oi.imu_heading = true;
     simulate(m, data, oi, r.imu_heading);

@@ -15,16 +15,18 @@
 
 namespace auger::wb {
 
-// The model to compare with: model_path (a model file) or, if empty, the shipped models
-// (models/robot.toml, models/gantry.toml, found via AUGER_MODELS_DIR or next to the binary)
-// or else the paper's tables compiled in. Terrain from the log's metadata (sand by default).
-// A gantry model locks yaw (I_z huge) and takes the mass from `mass_kg` (default 16).
+// The model to compare with: model_path (a model file) or, if empty, the paper's tables compiled
+// in. Terrain `terrain`, else the log's metadata (sand if neither names one; the subcommands say
+// so: host/workbench/terrain.hpp). A gantry model locks yaw (I_z huge) and takes the mass from
+// `mass_kg` (default 16).
 struct ModelChoice {
   Model model;
   std::string source;   // what was loaded, for reports
   std::string terrain;  // the terrain set used
 };
-ModelChoice choose_model(const Dataset& data, const std::string& model_path = "");
+ModelChoice choose_model(const Dataset& data, const std::string& model_path = "", const std::string& terrain = "");
+// The terrains of the paper's tables: robot (Table 3) sand, frozen_grass; gantry (Table 2) sand, gravel.
+std::vector<std::string> table_terrains(bool gantry);
 
 // How the model is run against the log.
 struct SimOptions {
@@ -93,7 +95,8 @@ struct RegimeRow {
   ChannelValues rms{kNaN, kNaN, kNaN, kNaN};
   ChannelValues ratio_to_noise{kNaN, kNaN, kNaN, kNaN};
 };
-// Per-sample labels (exposed for tests): motion, speed band, phase, direction, heading.
+// Per-sample labels (exposed for tests): motion, speed band, phase, direction, heading (the
+// nearest measured camera heading within 1 s, in a log without one the IMU's; "" if none).
 struct RegimeLabels {
   std::string motion, speed, phase, direction, heading;
 };
@@ -107,7 +110,7 @@ struct CompareResult {
   ChannelValues noise_floor{};
   NoiseColour noise_colour;  // the camera noise's colour, found against the IMU heading
   ChannelValues segment_floor{};  // the reference of the ratios (segment_floor(): the noise the anchor keeps)
-  Prediction open_loop, segments, imu_heading;  // imu_heading empty without IMU heading data
+  Prediction open_loop, segments, imu_heading;  // imu_heading empty without IMU heading or pose
   ErrorStats open_loop_err, segments_err, imu_heading_err, one_step_err;
   std::vector<Window> windows;  // 5 s windows
   std::vector<Window> worst;

@@ -15,6 +15,10 @@ constexpr double kMinFitSeconds = 15.0;
 constexpr int kMinFitPoses = 30;
 void require_fit_data(const Dataset& data, const char* command);
 
+// A robot log without pose: what the commands compare it in, and what they cannot check (a
+// warning for stderr and the JSON's `warnings`); "" for a log with a pose.
+std::string unchecked_warning(const Dataset& data);
+
 // Every active channel's error is finite and covers at least half of its measurements (a model
 // that predicts NaN, e.g. D_x = 0 through eq. (6), gave "null" or a perfect 0 before); and the
 // noise floor, which every "x noise" figure divides by, is a number.

@@ -6,6 +6,7 @@
 #include "checks.hpp"
 #include "cli_text.hpp"
 #include "commands.hpp"
+#include "terrain.hpp"
 #include "workbench.hpp"
 
 namespace auger::wb {
@@ -56,11 +57,12 @@ bool beyond_noise(const ErrorStats& e) {
 
 const CommandLine kCli{
     "auger compare",
-    "LOG [--model FILE] [--json]",
+    "LOG [--model FILE] [--terrain NAME|auto] [--json]",
     "The model run from the log's screw speeds: open loop (Table 4), re-initialised every 25 s\n"
     "(the headline), IMU heading (Fig. 9), one step ahead; errors per DOF and as multiples of the\n"
     "noise floor estimated from the log; worst 5 s windows; error by regime; the next command to run.\n",
     {kModelOption,
+     kTerrainOption,
      {"--json", "", "one JSON object on stdout"}},
     ""};
 
@@ -71,16 +73,19 @@ int run_compare(int argc, char** argv) {
   if (const int rc = kCli.parse_or_answer(argc, argv, a); rc >= 0) return rc;
   if (a.positional.size() != 1) return kCli.print_usage(stderr), 2;
   try {
-    const Dataset d = load_dataset(a.positional[0]);
-    const CompareResult r = compare(d, choose_model(d, a.get("--model")));
+    Dataset d = load_dataset(a.positional[0]);
+    const std::string model_arg = a.has("--model") ? " --model " + typed(a.get("--model")) : "";
+    const TerrainChoice tc = choose_terrain(d, a.get("--model"), a.get("--terrain"), "compare", model_arg);
+    const CompareResult r = compare(d, tc.model);
     require_noise_floor(d, r.noise_floor);
     require_finite(d, r.open_loop_err, r.model, "the open-loop run");
     require_finite(d, r.segments_err, r.model, "segments of 25 s");
-    std::vector<std::string> warnings;
-    if (const std::string w = terrain_warning(d, r.model); !w.empty()) warnings.push_back(w);
-    const std::string model_arg = a.has("--model") ? " --model " + typed(a.get("--model")) : "";
+    std::vector<std::string> warnings = tc.warnings;
+    if (const std::string w = unchecked_warning(d); !w.empty()) warnings.push_back(w);
+    const std::string better = terrain_next(d, tc, "compare", model_arg);
     const std::string next =
-        beyond_noise(r.segments_err)
+        !better.empty() ? better
+        : beyond_noise(r.segments_err)
             ? "auger diagnose " + typed(d.path) + model_arg + " (which effect is missing), or auger explain " +
                   typed(d.path) + model_arg + " (effects added until only noise is left)"
             : "auger report " + typed(d.path) + model_arg +
@@ -89,7 +94,7 @@ int run_compare(int argc, char** argv) {
       Json j;
       j.begin_object();
       j.str("log", d.path).str("kind", d.gantry ? "gantry" : "robot").str("model", r.model.source);
-      j.str("terrain", r.model.terrain);
+      json_terrain(j, tc);
       j.num("duration_s", d.duration_s()).num("samples", static_cast<double>(d.size()));
       j.channels("noise_floor", r.noise_floor, d.active);
       j.channels("segment_floor", r.segment_floor, d.active);
@@ -122,8 +127,8 @@ int run_compare(int argc, char** argv) {
       return 0;
     }
     print_warnings("compare", warnings);
-    std::printf("log %s: %s, %.1f s, %zu samples\nmodel: %s\n", d.path.c_str(), d.gantry ? "gantry" : "robot",
-                d.duration_s(), d.size(), r.model.source.c_str());
+    std::printf("log %s: %s, %.1f s, %zu samples\nmodel: %s\n%s\n", d.path.c_str(), d.gantry ? "gantry" : "robot",
+                d.duration_s(), d.size(), r.model.source.c_str(), terrain_text(tc).c_str());
     std::printf("noise floor (estimated from the data):");
     for (int c = 0; c < kChannels; ++c)
       if (d.active[static_cast<std::size_t>(c)])

@@ -9,6 +9,7 @@
 #include "checks.hpp"
 #include "cli_text.hpp"
 #include "commands.hpp"
+#include "terrain.hpp"
 #include "workbench.hpp"
 
 namespace auger::wb {
@@ -32,11 +33,12 @@ std::string next_command(const Dataset& d, const DiagnoseResult& r, const std::s
 
 const CommandLine kCli{
     "auger diagnose",
-    "LOG [--model FILE] [--only ID,...] [--threads N] [--json]",
+    "LOG [--model FILE] [--terrain NAME|auto] [--only ID,...] [--threads N] [--json]",
     "Fits every library effect (auger effects) by simulation error over training segments, judges\n"
     "it on held-out segments, ranks by BIC with an effective sample size; says whether anything is\n"
     "missing, what, and where the model fails. Progress on stderr for long logs.\n",
     {kModelOption,
+     kTerrainOption,
      {"--only", "ID,...", "fit only these effects"},
      {"--threads", "N", "threads for the fits (default 2; 1 .. 256)"},
      {"--json", "", "one JSON object on stdout"},
@@ -51,8 +53,10 @@ int run_diagnose(int argc, char** argv) {
   if (const int rc = kCli.parse_or_answer(argc, argv, a); rc >= 0) return rc;
   if (a.positional.size() != 1) return kCli.print_usage(stderr), 2;
   try {
-    const Dataset d = load_dataset(a.positional[0]);
+    Dataset d = load_dataset(a.positional[0]);
     require_fit_data(d, "diagnose");
+    const std::string model_arg = a.has("--model") ? " --model " + typed(a.get("--model")) : "";
+    const TerrainChoice tc = choose_terrain(d, a.get("--model"), a.get("--terrain"), "diagnose", model_arg);
     DiagnoseOptions o;
     o.only = split_ids(a.get("--only"));
     long threads = 0;
@@ -60,17 +64,18 @@ int run_diagnose(int argc, char** argv) {
       return 2;
     o.threads = static_cast<int>(threads);
     o.progress = a.has("--progress") || (!a.has("--quiet") && d.duration_s() > 300);
-    const DiagnoseResult r = diagnose(d, choose_model(d, a.get("--model")), o);
+    const DiagnoseResult r = diagnose(d, tc.model, o);
     require_noise_floor(d, r.noise_floor);
     require_finite(d, r.nominal, r.model, "segments (the nominal model)");
-    std::vector<std::string> warnings;
-    if (const std::string w = terrain_warning(d, r.model); !w.empty()) warnings.push_back(w);
-    const std::string next = next_command(d, r, a.get("--model"));
+    std::vector<std::string> warnings = tc.warnings;
+    if (const std::string w = unchecked_warning(d); !w.empty()) warnings.push_back(w);
+    const std::string better = terrain_next(d, tc, "diagnose", model_arg);
+    const std::string next = (better.empty() ? "" : better + "; or ") + next_command(d, r, a.get("--model"));
     if (a.has("--json")) {
       Json j;
       j.begin_object();
       j.str("log", d.path).str("kind", d.gantry ? "gantry" : "robot").str("model", r.model.source);
-      j.str("terrain", r.model.terrain);
+      json_terrain(j, tc);
       j.channels("noise_floor", r.noise_floor, d.active);
       j.channels("segment_floor", r.segment_floor, d.active);
       j.channels("nominal_rms", r.nominal.rms, d.active);
@@ -115,8 +120,8 @@ int run_diagnose(int argc, char** argv) {
       return 0;
     }
     print_warnings("diagnose", warnings);
-    std::printf("log %s: %s, %.1f s; model: %s\n", d.path.c_str(), d.gantry ? "gantry" : "robot", d.duration_s(),
-                r.model.source.c_str());
+    std::printf("log %s: %s, %.1f s; model: %s\n%s\n", d.path.c_str(), d.gantry ? "gantry" : "robot", d.duration_s(),
+                r.model.source.c_str(), terrain_text(tc).c_str());
     std::printf("noise floor (estimated from the data):");
     for (int c = 0; c < kChannels; ++c)
       if (d.active[static_cast<std::size_t>(c)])
@@ -130,6 +135,10 @@ int run_diagnose(int argc, char** argv) {
     std::printf("held-out error (the segments the fits never see, RMS over channels): %.3f times the noise floor\n",
                 r.nominal_heldout_ratio);
     std::printf("\n%s\n", r.verdict.c_str());
+    if (!tc.better.empty())
+      std::printf("  but the paper's parameters for terrain '%s' explain this log clearly better than those of '%s': "
+                  "the candidates below may stand in for the terrain (%s)\n",
+                  tc.better.c_str(), tc.model.terrain.c_str(), better.c_str());
     std::string rule = kRankingRule;
     rule.replace(rule.find("; ") + 1, 1, "\n  ");
     std::printf("\nranking: %s.\n  delta BIC: the change of the Bayesian information criterion against the %s\n"

@@ -12,6 +12,7 @@
 #include "cli_text.hpp"
 #include "commands.hpp"
 #include "explain_out.hpp"
+#include "terrain.hpp"
 #include "workbench.hpp"
 
 namespace auger::wb {
@@ -20,7 +21,7 @@ namespace {
 
 const CommandLine kCli{
     "auger explain",
-    "LOG... [--model FILE] [--out MODEL] [--max-effects N] [--beam N]\n"
+    "LOG... [--model FILE] [--terrain NAME|auto] [--out MODEL] [--max-effects N] [--beam N]\n"
     "                     [--only ID,...] [--threads N] [--json] [--progress | --quiet]",
     "The loop compare -> diagnose -> fit --add -> diagnose ... in one command: at every step each\n"
     "library effect is fitted jointly with the effects chosen so far and the paper's parameters;\n"
@@ -30,6 +31,7 @@ const CommandLine kCli{
     "Several logs of one robot are explained together (effects shared, the paper's parameters\n"
     "per terrain).\n",
     {kModelOption,
+     kTerrainOption,
      {"--out", "MODEL", "write the final model file there"},
      {"--max-effects", "N", "at most N effects added (default 4; 1 .. 10)"},
      {"--beam", "N", "near ties carried along (default 2; 1 .. 6)"},
@@ -67,15 +69,20 @@ int run_explain(int argc, char** argv) {
       seconds += logs.back().duration_s();
     }
     std::vector<std::string> warnings;
-    for (const auto& d : logs) {
-      models.push_back(choose_model(d, a.get("--model")));
+    std::vector<TerrainChoice> terrains;
+    for (auto& d : logs) {
+      const TerrainChoice tc = choose_terrain(d, a.get("--model"), a.get("--terrain"), "explain",
+                                              a.has("--model") ? " --model " + typed(a.get("--model")) : "");
+      models.push_back(tc.model);
+      terrains.push_back(tc);
       // The model as given must predict numbers before minutes of search start from it (a
       // model of NaN scores a "perfect" 0).
       const CompareResult given = compare(d, models.back());
       require_noise_floor(d, given.noise_floor);
       require_finite(d, given.segments_err, models.back(), "segments of 25 s (the model as given)");
-      const std::string w = terrain_warning(d, models.back());
-      if (!w.empty()) warnings.push_back(logs.size() > 1 ? d.path + ": " + w : w);
+      std::vector<std::string> ws = tc.warnings;
+      if (const std::string w = unchecked_warning(d); !w.empty()) ws.push_back(w);
+      for (const auto& w : ws) warnings.push_back(logs.size() > 1 ? d.path + ": " + w : w);
     }
     print_warnings("explain", warnings);
     o.progress = a.has("--progress") || (!a.has("--quiet") && !a.has("--json"));
@@ -113,14 +120,17 @@ int run_explain(int argc, char** argv) {
     }
     std::string logs_arg;
     for (const auto& p : a.positional) logs_arg += " " + p;
-    const std::string next = out.empty() ? "auger explain" + logs_arg + " --out MODEL.toml, then auger compare" +
+    std::string better;
+    for (std::size_t i = 0; i < logs.size(); ++i)
+      if (const std::string b = terrain_next(logs[i], terrains[i], "explain", ""); !b.empty() && better.empty()) better = b;
+    const std::string next = (better.empty() ? "" : better + "; or ") + (out.empty() ? "auger explain" + logs_arg + " --out MODEL.toml, then auger compare" +
                                                logs_arg.substr(0, logs_arg.find(' ', 1)) + " --model MODEL.toml"
-                                         : "auger compare" + std::string(" ") + a.positional.front() + " --model " + out;
+                                         : "auger compare" + std::string(" ") + a.positional.front() + " --model " + out);
     if (a.has("--json")) {
-      print_explain_json(r, logs, models, out, next, warnings);
+      print_explain_json(r, logs, terrains, out, next, warnings);
       return 0;
     }
-    print_explain_text(r, logs, models, seconds);
+    print_explain_text(r, logs, terrains, seconds);
     if (!out.empty()) std::printf("model file written: %s\n", out.c_str());
     std::printf("next: %s\n", next.c_str());
     return 0;

@@ -22,13 +22,14 @@ std::string cell(double v) {
 }  // namespace
 
 
-void print_explain_json(const ExplainResult& r, const std::vector<Dataset>& logs, const std::vector<ModelChoice>& models,
+void print_explain_json(const ExplainResult& r, const std::vector<Dataset>& logs, const std::vector<TerrainChoice>& models,
                         const std::string& out, const std::string& next, const std::vector<std::string>& warnings) {
   Json j;
   j.begin_object();
   j.begin_array("logs");
   for (std::size_t i = 0; i < r.logs.size(); ++i) {
-    j.begin_object().str("log", r.logs[i]).str("model", models[i].source).str("terrain", models[i].terrain);
+    j.begin_object().str("log", r.logs[i]).str("model", models[i].model.source);
+    json_terrain(j, models[i]);
     j.channels("noise_floor", r.noise_floor[i], logs[i].active);
     j.channels("segment_floor", r.segment_floor[i], logs[i].active).end_object();
   }
@@ -111,16 +112,16 @@ void print_explain_json(const ExplainResult& r, const std::vector<Dataset>& logs
   std::printf("%s\n", j.text().c_str());
 }
 
-void print_explain_text(const ExplainResult& r, const std::vector<Dataset>& logs, const std::vector<ModelChoice>& models,
+void print_explain_text(const ExplainResult& r, const std::vector<Dataset>& logs, const std::vector<TerrainChoice>& models,
                         double seconds) {
 std::printf("explain: %zu log%s, %.1f s in all\n", logs.size(), logs.size() > 1 ? "s" : "", seconds);
 for (std::size_t i = 0; i < logs.size(); ++i) {
   std::printf("  %s: %s, %.1f s; model: %s; noise floor", logs[i].path.c_str(), logs[i].gantry ? "gantry" : "robot",
-              logs[i].duration_s(), models[i].source.c_str());
+              logs[i].duration_s(), models[i].model.source.c_str());
   for (int c = 0; c < kChannels; ++c)
     if (logs[i].active[static_cast<std::size_t>(c)])
       std::printf(" %s %.3g %s", channel_name(c), r.noise_floor[i][static_cast<std::size_t>(c)], channel_unit(c));
-  std::printf("\n");
+  std::printf("\n    %s\n", terrain_text(models[i]).c_str());
 }
 std::printf("\nheld-out error per channel, in multiples of the noise floor (1.00 = only noise left):\n");
 std::printf("step  %-26s", "effect added");

@@ -4,14 +4,15 @@
 #include <string>
 #include <vector>
 
+#include "terrain.hpp"
 #include "workbench.hpp"
 
 namespace auger::wb {
 
-void print_explain_json(const ExplainResult& r, const std::vector<Dataset>& logs, const std::vector<ModelChoice>& models,
+void print_explain_json(const ExplainResult& r, const std::vector<Dataset>& logs, const std::vector<TerrainChoice>& models,
                         const std::string& out, const std::string& next, const std::vector<std::string>& warnings);
 // Everything but the last lines (the model file written, next), which the command prints.
-void print_explain_text(const ExplainResult& r, const std::vector<Dataset>& logs, const std::vector<ModelChoice>& models,
+void print_explain_text(const ExplainResult& r, const std::vector<Dataset>& logs, const std::vector<TerrainChoice>& models,
                         double seconds);
 
 }  // namespace auger::wb

@@ -11,6 +11,7 @@
 #include "checks.hpp"
 #include "cli_text.hpp"
 #include "commands.hpp"
+#include "terrain.hpp"
 #include "workbench.hpp"
 
 namespace auger::wb {
@@ -19,7 +20,8 @@ namespace {
 
 const CommandLine kCli{
     "auger fit",
-    "LOG --add EFFECT[,EFFECT...] [--add-term DOF:FORM[,DOF:FORM...]] [--out MODEL] [--model FILE] [--json]",
+    "LOG --add EFFECT[,EFFECT...] [--add-term DOF:FORM[,DOF:FORM...]] [--out MODEL] [--model FILE]\n"
+    "                 [--terrain NAME|auto] [--json]",
     "Re-identifies sigma and D (eqs. (15)-(17)) together with the effects added, prints the error\n"
     "per channel before and after (also as multiples of the noise floor), writes a model file.\n",
     {{"--add", "EFFECT[,EFFECT...]", "the effects to add (auger effects lists them); paper_params: the\n"
@@ -28,6 +30,7 @@ const CommandLine kCli{
       "docs/workbench.md \"Discovered terms\"), e.g. yaw:v_mps or screw_2:neg(omega_rpm)"},
      {"--out", "MODEL", "write the fitted model file there"},
      kModelOption,
+     kTerrainOption,
      {"--json", "", "one JSON object on stdout"},
      {"--progress", "", "progress lines on stderr"}},
     ""};
@@ -57,9 +60,13 @@ int run_fit(int argc, char** argv) {
   }
   if (!known_effects("auger fit", ids)) return 2;
   try {
-    const Dataset d = load_dataset(a.positional[0]);
+    Dataset d = load_dataset(a.positional[0]);
     require_fit_data(d, "fit");
-    const FitResult r = fit(d, choose_model(d, a.get("--model")), ids, a.has("--progress"), terms);
+    std::string added = a.has("--add") ? " --add " + a.get("--add") : "";
+    if (a.has("--add-term")) added += " --add-term '" + a.get("--add-term") + "'";
+    const std::string model_arg = a.has("--model") ? " --model " + typed(a.get("--model")) : "";
+    const TerrainChoice tc = choose_terrain(d, a.get("--model"), a.get("--terrain"), "fit", model_arg + added);
+    const FitResult r = fit(d, tc.model, ids, a.has("--progress"), terms);
     // Numbers, or nothing is written (a model of NaN would load and mislead).
     require_noise_floor(d, r.noise_floor);
     require_finite(d, r.err_before, r.before, "segments, before");
@@ -69,8 +76,8 @@ int run_fit(int argc, char** argv) {
         if (!std::isfinite(p.value))
           throw std::runtime_error("the fit of " + e.effect + " gave " + p.name + " = " + std::to_string(p.value) +
                                    ": nothing written");
-    std::vector<std::string> warnings;
-    if (const std::string w = terrain_warning(d, r.before); !w.empty()) warnings.push_back(w);
+    std::vector<std::string> warnings = tc.warnings;
+    if (const std::string w = unchecked_warning(d); !w.empty()) warnings.push_back(w);
     // The file must load back and give the same model (checked here, not assumed).
     const std::string out = a.get("--out");
     if (!out.empty()) {
@@ -95,17 +102,19 @@ int run_fit(int argc, char** argv) {
     for (double x : r.err_after.ratio_to_noise) beyond = beyond || x > 1.3;
     const std::string log = typed(d.path), model_file = out.empty() ? "fitted.toml" : typed(out);
     std::string next;
-    std::string added = a.has("--add") ? " --add " + a.get("--add") : "";
-    if (a.has("--add-term")) added += " --add-term '" + a.get("--add-term") + "'";
-    if (out.empty()) next = "auger fit " + log + added + " --out fitted.toml (write the model file)";
+    const std::string terrain_arg = tc.from == "--terrain" || tc.from == "auto" ? " --terrain " + tc.model.terrain : "";
+    if (out.empty()) next = "auger fit " + log + model_arg + terrain_arg + added + " --out fitted.toml (write the model file)";
     else if (beyond) next = "auger diagnose " + log + " --model " + model_file + " (what is still missing)";
     else next = "auger compare " + log + " --model " + model_file + " (the error after, as above), or load it in augerd";
+    if (const std::string better = terrain_next(d, tc, "fit", model_arg + added); !better.empty())
+      next = better + "; or " + next;
     if (flagged)
       next = "check the flagged values above (an effect the log cannot identify: drop it or record the experiment "
              "that excites it); then " + next;
     if (a.has("--json")) {
       Json j;
       j.begin_object().str("log", d.path);
+      json_terrain(j, tc);
       j.channels("noise_floor", r.noise_floor, d.active);
       j.channels("segment_floor", r.segment_floor, d.active);
       j.begin_object("before").channels("rms", r.err_before.rms, d.active).channels("ratio", r.err_before.ratio_to_noise, d.active).end_object();
@@ -122,7 +131,7 @@ int run_fit(int argc, char** argv) {
       return 0;
     }
     print_warnings("fit", warnings);
-    std::printf("log %s; model before: %s\n", d.path.c_str(), r.before.source.c_str());
+    std::printf("log %s; model before: %s\n%s\n", d.path.c_str(), r.before.source.c_str(), terrain_text(tc).c_str());
     std::printf("RMS error per channel (segments of 25 s), and as a multiple of the noise floor:\n");
     std::printf("  %-8s  %-34s  %s\n", "channel", "before", "after");
     for (int c = 0; c < kChannels; ++c) {

@@ -16,6 +16,7 @@
 #include "cli_text.hpp"
 #include "commands.hpp"
 #include "report.hpp"
+#include "terrain.hpp"
 
 namespace auger::wb {
 namespace {
@@ -33,12 +34,13 @@ const char* kStyle =
 
 const CommandLine kCli{
     "auger report",
-    "LOG --out DIR [--model FILE] [--effect ID] [--no-diagnose] [--explain] [--json]",
+    "LOG --out DIR [--model FILE] [--terrain NAME|auto] [--effect ID] [--no-diagnose] [--explain] [--json]",
     "Writes DIR/index.html, one self-contained page (opens offline): measured vs model for x, y,\n"
     "psi and the path; the error over time with the worst windows; diagnose's candidates; the\n"
     "model before and after the best effect is fitted, with the effect's own curves.\n",
     {{"--out", "DIR", "the report's directory (created if missing)"},
      kModelOption,
+     kTerrainOption,
      {"--effect", "ID", "fit this effect rather than diagnose's best"},
      {"--no-diagnose", "", "leave out diagnose's candidates"},
      {"--explain", "", "the steps of auger explain, and its model as the one after"},
@@ -112,11 +114,13 @@ int run_report(int argc, char** argv) {
   }
 
   try {
-    const Dataset d = load_dataset(a.positional[0]);  // bad input first: exit 2 naming the line
+    Dataset d = load_dataset(a.positional[0]);  // bad input first: exit 2 naming the line
     const bool search = !a.has("--no-diagnose") || a.has("--effect") || a.has("--explain");
     if (search) require_fit_data(d, "report");
     const std::string model_path = a.get("--model");
-    const ModelChoice mc = choose_model(d, model_path);
+    const std::string out_arg = " --out " + typed(out_dir) + (model_path.empty() ? "" : " --model " + typed(model_path));
+    const TerrainChoice tc = choose_terrain(d, model_path, a.get("--terrain"), "report", out_arg);
+    const ModelChoice& mc = tc.model;
     Gnuplot gp;  // then a missing gnuplot or dygraphs, before the work
     ChartSet charts;
     OutputDir dir(out_dir);
@@ -131,7 +135,9 @@ int run_report(int argc, char** argv) {
     require_noise_floor(d, f.cmp.noise_floor);
     require_finite(d, f.cmp.segments_err, mc, "segments of 25 s");
     f.chans = active_channels(d);
-    if (const std::string w = terrain_warning(d, mc); !w.empty()) f.warnings.push_back(w);
+    f.warnings = tc.warnings;
+    if (const std::string w = unchecked_warning(d); !w.empty()) f.warnings.push_back(w);
+    f.terrain = terrain_text(tc);
     print_warnings("report", f.warnings);
     if (!a.has("--no-diagnose")) {
       step("diagnose (every library effect)");
@@ -180,6 +186,8 @@ int run_report(int argc, char** argv) {
       f.next = "nothing is missing: the model file in use is fine for this log (auger compare " + log + model_arg + ")";
     else
       f.next = "auger report " + log + model_arg + " --out " + typed(out_dir) + " (with diagnose: which effect is missing)";
+    if (const std::string better = terrain_next(d, tc, "report", out_arg); !better.empty())
+      f.next = better + "; or " + f.next;
 
     step("plots");
     std::vector<Section> sections = {summary_section(f, gp, charts), model_section(f, gp, charts), error_section(f, charts)};
@@ -219,6 +227,7 @@ int run_report(int argc, char** argv) {
       j.begin_array("sections");
       for (const auto& s : sections) j.str(nullptr, s.id);
       j.end_array();
+      json_terrain(j, tc);
       j.channels("noise_floor", f.cmp.noise_floor, d.active);
       j.begin_object("segments").channels("rms", f.cmp.segments_err.rms, d.active).end_object();
       if (f.have_diag) j.boolean("significant", f.dg.significant);

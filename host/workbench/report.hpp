@@ -17,6 +17,7 @@ struct Findings {
   const Dataset& d;
   std::vector<int> chans;  // active channels
   std::vector<std::string> warnings;
+  std::string terrain;  // the terrain used and why (terrain_text)
   CompareResult cmp;
   bool have_diag = false;
   DiagnoseResult dg;

@@ -51,6 +51,11 @@ std::vector<std::size_t> rows_to_keep(const Chart& c, std::size_t max_rows) {
       if (best < n) keep.push_back(best);
     }
   }
+  // The edges of a gap in a series drawn with gaps, so that thinning never bridges it.
+  for (const auto& s : c.series)
+    if (s.gaps)
+      for (std::size_t i = 1; i < n; ++i)
+        if (std::isfinite(s.y[i]) != std::isfinite(s.y[i - 1])) keep.push_back(i - 1), keep.push_back(i);
   std::sort(keep.begin(), keep.end());
   keep.erase(std::unique(keep.begin(), keep.end()), keep.end());
   return keep;
@@ -72,6 +77,7 @@ const char* kInit = R"JS(
       else if (st === 'dashed') { o.strokePattern = [6, 3]; o.strokeWidth = 1.2; }
       else if (st === 'step') { o.stepPlot = true; o.strokeWidth = 1.6; }
       else { o.strokeWidth = 1.4; }
+      if (s.gaps[i]) o.connectSeparatedPoints = false;
       series[s.labels[i + 1]] = o;
     });
     var opts = {
@@ -151,8 +157,10 @@ std::string ChartSet::add(Chart c, std::size_t max_rows) {
   const std::vector<std::size_t> rows = rows_to_keep(c, max_rows);
   using nlohmann::ordered_json;
   ordered_json labels = ordered_json::array({c.xlabel}), styles = ordered_json::array(),
-               colors = ordered_json::array(), bands = ordered_json::array(), data = ordered_json::array();
+               colors = ordered_json::array(), bands = ordered_json::array(), data = ordered_json::array(),
+               gaps = ordered_json::array();
   for (const auto& s : c.series) {
+    gaps.push_back(s.gaps);
     labels.push_back(s.label);
     styles.push_back(s.style);
     colors.push_back(s.color);
@@ -167,7 +175,7 @@ std::string ChartSet::add(Chart c, std::size_t max_rows) {
     for (const auto& s : c.series) row.push_back(json_number(s.y[r], 6));
     data.push_back(std::move(row));
   }
-  ordered_json j = {{"id", id},         {"labels", labels}, {"styles", styles},   {"colors", colors},
+  ordered_json j = {{"id", id},         {"labels", labels}, {"styles", styles},   {"colors", colors}, {"gaps", gaps},
                     {"xlabel", c.xlabel}, {"ylabel", c.ylabel}, {"group", c.group}, {"height", c.height_px},
                     {"integer_x", c.integer_x}, {"log_y", c.log_y}, {"bands", bands}, {"data", data}};
   specs_.push_back(json_for_script(j));

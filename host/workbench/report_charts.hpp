@@ -15,6 +15,9 @@ struct ChartSeries {
   // "line", "thin" (a lighter, thinner line), "dashed", "points", "step" (constant until the next value)
   std::string style = "line";
   std::string color;  // CSS colour, "" = dygraphs' own
+  // A NaN breaks the line (a model run restarted from the measured pose: no chord between the
+  // runs); otherwise the line joins the values around it (a series measured on other rows).
+  bool gaps = false;
 };
 
 struct ChartBand {  // a shaded x-interval with a label (the worst windows)

@@ -62,6 +62,10 @@ std::vector<double> predicted(const Dataset& d, const Prediction& p, int c) {
     if (std::isfinite(q)) prev = q;
     v[k] = q;
   }
+  // Each restart from the measured pose begins a line of its own: the row before it is left
+  // empty, so no chord joins one run's end to the next one's start (drawn with gaps).
+  for (std::size_t i = 1; i < p.segment_start.size(); ++i)
+    if (p.segment_start[i] > 0 && p.segment_start[i] <= d.size()) v[p.segment_start[i] - 1] = kNaN;
   return v;
 }
 
@@ -149,7 +153,8 @@ Section summary_section(const Findings& f, const Gnuplot& gp, const ChartSet& ch
   h << "<table><tr><th class=l>log</th><td class=l>" << esc(d.path) << "</td></tr>"
     << "<tr><th class=l>kind</th><td class=l>" << (d.gantry ? "gantry (" + esc(d.axis) + ")" : "robot") << "</td></tr>"
     << "<tr><th class=l>duration</th><td class=l>" << fixed(d.duration_s(), 1) << " s, " << d.size() << " samples</td></tr>"
-    << "<tr><th class=l>model</th><td class=l>" << esc(cmp.model.source) << ", terrain " << esc(cmp.model.terrain) << "</td></tr>"
+    << "<tr><th class=l>model</th><td class=l>" << esc(cmp.model.source) << "</td></tr>"
+    << "<tr><th class=l>terrain</th><td class=l id=terrain>" << esc(f.terrain) << "</td></tr>"
     << "<tr><th class=l>plots</th><td class=l>time plots: dygraphs (" << esc(charts.source()) << "), others: "
     << esc(gp.version()) << "</td></tr></table>\n";
   h << "<p>Noise floor estimated from the data (every error below is also given as a multiple of it; 1 = only noise "
@@ -180,8 +185,8 @@ Section model_section(const Findings& f, Gnuplot& gp, ChartSet& charts) {
     Chart ch = time_chart(d, c, "measured and model", channel_label(c));
     const auto seg = predicted(d, cmp.segments, c), ol = predicted(d, cmp.open_loop, c);
     ch.series = {{"measured", measured(d, seg, c), "points", kMeasured},
-                 {"model, segments of 25 s", seg, "line", kSegments},
-                 {"model, open loop", ol, "dashed", kOpenLoop}};
+                 {"model, segments of 25 s", seg, "line", kSegments, true},
+                 {"model, open loop", ol, "dashed", kOpenLoop, true}};
     h << charts.add(std::move(ch));
   }
   if (d.active[kX] && d.active[kY]) {
@@ -200,6 +205,11 @@ Section model_section(const Findings& f, Gnuplot& gp, ChartSet& charts) {
     std::vector<std::size_t> rows;
     const std::size_t step = std::max<std::size_t>(1, d.size() / 4000);
     for (std::size_t k = 0; k < d.size(); k += step) rows.push_back(k);
+    for (const auto* p : {&cmp.segments, &f.after.segments})  // the breaks between runs (predicted())
+      for (std::size_t i = 1; i < p->segment_start.size(); ++i)
+        if (p->segment_start[i] > 0 && p->segment_start[i] <= d.size()) rows.push_back(p->segment_start[i] - 1);
+    std::sort(rows.begin(), rows.end());
+    rows.erase(std::unique(rows.begin(), rows.end()), rows.end());
     auto pick = [&](const std::vector<double>& v) {
       std::vector<double> o;
       for (std::size_t k : rows) o.push_back(v[k]);
@@ -382,8 +392,8 @@ Section before_after_section(const Findings& f, ChartSet& charts) {
     Chart ch = time_chart(d, c, "before and after", channel_label(c));
     const auto before = predicted(d, cmp.segments, c), after = predicted(d, f.after.segments, c);
     ch.series = {{"measured", measured(d, before, c), "points", kMeasured},
-                 {"before", before, "line", kSegments},
-                 {"after", after, "line", kAfter}};
+                 {"before", before, "line", kSegments, true},
+                 {"after", after, "line", kAfter, true}};
     h << charts.add(std::move(ch));
   }
   for (int c : f.chans) {
@@ -450,7 +460,14 @@ Section explain_section(const Findings& f, ChartSet& charts) {
     series.back().y.push_back(s.heldout_combined);
     h << "<td>" << fixed(s.heldout_combined, 2) << "</td><td>" << (s.index > 0 ? fixed(s.delta_bic, 1) : "") << "</td><td class=l>";
     for (const auto& dr : s.dropped) h << esc(dr) << " dropped: it no longer pays for itself. ";
-    if (s.flagged) h << "<span class=flag>a fitted value is flagged</span>. ";
+    if (s.flagged) {
+      // Which values, and why (as `auger explain` prints them).
+      h << "<span class=flag>flagged:";
+      for (const auto& fe : s.fitted)
+        for (const auto& p : fe.params)
+          if (!p.flag.empty()) h << " <span class=flagged-param>" << esc(fe.effect + ": " + param_text(p)) << " (" << esc(p.flag) << ")</span>";
+      h << "</span>. ";
+    }
     for (const auto& a : s.alternatives)
       h << "near tie: " << esc(a.fitted.effect) << " (held-out " << fixed(a.heldout_ratio, 2)
         << " times the noise floor); the experiment that tells them apart: " << esc(a.tell_apart) << ". ";

@@ -32,11 +32,18 @@ def _next(result: Result) -> str:
     o = result.outputs[0]
     more = (" (each stretch is a log of its own: %s)" % ", ".join(x.path for x in result.outputs)
             if len(result.outputs) > 1 else "")
+    # What the workbench accepts (host/wb_engine/dataset.cpp load_dataset): a pose, or else an IMU
+    # heading, which compare, diagnose and explain then compare the model in alone.
     if all(x.measured.get("x_m", 0) >= 10 or x.measured.get("y_m", 0) >= 10 for x in result.outputs):
         return "auger compare %s%s" % (o.path, more)
-    return ("auger merge %s CAMERA_LOG --out merged.csv (the log has no pose, which compare, diagnose and explain "
-            "need: a pose log recorded elsewhere brings it, docs/workbench-tools.md), or auger export %s --mcap "
-            "%s (its channels in Foxglove or PlotJuggler)%s" % (o.path, o.path, Path(o.path).with_suffix(".mcap"), more))
+    if all(x.measured.get("imu_psi_rad", 0) >= 10 for x in result.outputs):
+        return ("auger compare %s (the log has no pose: the model is compared in the IMU heading alone; auger merge "
+                "%s CAMERA_LOG --out merged.csv brings a pose recorded elsewhere, docs/workbench-tools.md)%s"
+                % (o.path, o.path, more))
+    return ("auger merge %s CAMERA_LOG --out merged.csv (the log has neither a pose nor an IMU heading, one of which "
+            "compare, diagnose and explain need: a pose log recorded elsewhere brings it, docs/workbench-tools.md), or "
+            "auger export %s --mcap %s (its channels in Foxglove or PlotJuggler)%s"
+            % (o.path, o.path, Path(o.path).with_suffix(".mcap"), more))
 
 
 def _text(src, result: Result, rate_hz: float, warnings: list[str]):

@@ -4,6 +4,7 @@ in both storages where the storage allows, and what the import must say or refus
 import json
 import math
 import os
+import subprocess
 import time
 
 import numpy as np
@@ -217,14 +218,25 @@ def test_a_span_beyond_the_limit_is_refused_at_once(tmp_path):
 
 
 @pytest.mark.parametrize("storage", STORAGES)
-def test_a_bag_without_pose_suggests_what_takes_it(tmp_path, storage):
-    bag = bag_of(tmp_path, storage, pose_type=None)
+@pytest.mark.parametrize("imu", ["fused", "none"])
+def test_a_bag_without_pose_suggests_what_takes_it(tmp_path, storage, imu):
+    """Without pose, next: names compare where the IMU heading is there (and compare accepts the
+    log, where the built program is at hand), else merge or export."""
+    bag = bag_of(tmp_path, storage, pose_type=None, imu_orientation=imu)
     code, out, err = run_import(bag, "--out", tmp_path / "out.csv", "--terrain", "sand")
     assert code == 0, err
     assert "topic /robot_pose is not in the bag: columns x_m, y_m, psi_rad left empty" in err
     last = out.splitlines()[-1]
-    assert last.startswith("next: auger merge %s CAMERA_LOG --out merged.csv" % (tmp_path / "out.csv"))
-    assert "auger export %s --mcap" % (tmp_path / "out.csv") in last and "compare" not in last.split("(")[0]
+    if imu == "fused":
+        assert last.startswith("next: auger compare %s (the log has no pose" % (tmp_path / "out.csv"))
+        if os.environ.get("AUGER_BIN"):
+            p = subprocess.run([os.environ["AUGER_BIN"], "compare", str(tmp_path / "out.csv"), "--json"],
+                               capture_output=True, text=True, timeout=120)
+            assert p.returncode == 0, p.stderr
+            assert any("the log has no pose" in w for w in json.loads(p.stdout)["warnings"])
+    else:
+        assert last.startswith("next: auger merge %s CAMERA_LOG --out merged.csv" % (tmp_path / "out.csv"))
+        assert "auger export %s --mcap" % (tmp_path / "out.csv") in last and "compare" not in last.split("(")[0]
 
 
 @pytest.mark.parametrize("storage", STORAGES)
