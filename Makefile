@@ -18,6 +18,7 @@
 #   make bench-robot      speed of the whole simulated robot in lock-step
 #   make bench-ros2       what augerd's ROS 2 interface costs its 100 Hz loop, under load
 #   make bench-explain    auger explain on 240 s and 10 min logs (wall and CPU seconds)
+#   make bench-import     auger import of 10 min and 1 h bags (wall seconds, peak memory)
 # The robot's board (A64-OLinuXino, aarch64; docs/board.md):
 #   make board       augerd, auger, auger-module for aarch64 (cross on x86, native on aarch64),
 #                    in build-aarch64/ (BOARD_BUILD); ROS2=1: with augerd's ROS 2 interface
@@ -37,7 +38,8 @@ AVR_CFLAGS := -mmcu=atmega328p -DF_CPU=16000000UL -std=c99 -Os -Wall -Wextra -We
 HOST_WARN := -Wall -Wextra -Werror -pedantic
 
 .PHONY: all deps firmware flash host asan check-protocol fuzz fuzz-smoke test test-full demo \
-        bench-protocol bench-firmware bench-host bench-robot bench-ros2 bench-explain pid-units clean venv \
+        bench-protocol bench-firmware bench-host bench-robot bench-ros2 bench-explain bench-import pid-units \
+        clean venv \
         board board-deps board-test install uninstall flash-all bench-board
 
 all: host
@@ -160,6 +162,9 @@ bench-ros2: host venv
 
 bench-explain: host
 	scripts/bench-explain.sh $(BUILD) 3
+
+bench-import: host venv
+	scripts/bench-import.sh $(BUILD) 600 3600
 
 # The paper's PID gains under every reading of their units (docs/firmware.md).
 pid-units: host

@@ -127,7 +127,7 @@ std::string vector_name(int v)
     }
 }
 
-// ---- the host: the firmware-in-the-loop rig (tests/fil/fil_rig.hpp) sends setpoints every
+// ---- the host: the firmware-in-the-loop rig (sim/rig/fil_rig.hpp) sends setpoints every
 // 10 ms and parses the telemetry ----
 
 auger::fil::Rig make_rig(int count, int threads, double battery_v)

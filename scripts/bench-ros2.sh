@@ -36,6 +36,7 @@ for run in without-ros2 with-ros2; do
 enabled = true
 domain_id = $domain
 dds_config = \"$root/tests/ros2/dds-loopback.xml\"
+insecure = true
 pose_topic = \"/camera/pose\"
 imu_topic = \"imu\""
   AUGERD_SENSORS_SOCKET=$d/augerd-sensors.sock augerd_start "$d" frozen_grass "" "" "$sections"

@@ -66,7 +66,8 @@ run_case() {
   [[ -z $ros2 ]] || sections="[ros2]
 enabled = true
 domain_id = $ros2_domain
-dds_config = \"$root/tests/ros2/dds-loopback.xml\""
+dds_config = \"$root/tests/ros2/dds-loopback.xml\"
+insecure = true   # loopback only, no keys (docs/ros2.md \"Who may command the robot\")"
   augerd_start "$d" sand "allocator = \"$alloc\"
 gamma_per_s = [0.2, 0.2, 0.2]
 omega_min_rpm = 3.0

@@ -16,6 +16,8 @@ packages=(
   simavr libsimavr-dev libelf-dev arduino-core-avr
   # host; augerd's ROS 2 interface: Eclipse Cyclone DDS and its IDL compiler idlc
   libeigen3-dev libtomlplusplus-dev nlohmann-json3-dev libserial-dev catch2 cyclonedds-dev cyclonedds-tools
+  # the DDS Security keystore of that interface (auger ros2-keys runs the openssl program)
+  openssl
   # fuzzing (libFuzzer) and sanitizers
   clang libclang-rt-14-dev
   # benchmarks (instruction counts)

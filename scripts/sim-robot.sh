@@ -34,13 +34,12 @@ sim_start() {
   done
 }
 
-# augerd_start DIR TERRAIN CONTROL_LINES LOG_LINES [SECTIONS] : augerd on the ptys of sim_start,
-# listed in another order than the ids (it maps modules by the id they report), with the given
-# extra lines in [control] and [log] and extra SECTIONS at the end (e.g. [ros2]); its sensors
-# socket is DIR/sensors.sock (where sim_start sends the camera and IMU) unless
-# AUGERD_SENSORS_SOCKET names another. Waits for its commands socket DIR/commands.sock. Sets
-# AUGERD_PID.
-augerd_start() {
+# augerd_config DIR TERRAIN CONTROL_LINES LOG_LINES [SECTIONS] : writes DIR/augerd.toml for the
+# ptys of sim_start, listed in another order than the ids (augerd maps modules by the id they
+# report), with the given extra lines in [control] and [log] and extra SECTIONS at the end (e.g.
+# [ros2]); its sensors socket is DIR/sensors.sock (where sim_start sends the camera and IMU)
+# unless AUGERD_SENSORS_SOCKET names another.
+augerd_config() {
   local d=$1 terrain=$2 control=$3 log=$4 sections=${5:-}
   mkdir -p "$d/logs"
   cat > "$d/augerd.toml" <<CONF
@@ -60,6 +59,13 @@ dir = "$d/logs"
 $log
 $sections
 CONF
+}
+
+# augerd_start DIR TERRAIN CONTROL_LINES LOG_LINES [SECTIONS] : augerd on augerd_config's file.
+# Waits for its commands socket DIR/commands.sock. Sets AUGERD_PID.
+augerd_start() {
+  local d=$1
+  augerd_config "$@"
   "$AUGER_BUILD/host/augerd/augerd" --config "$d/augerd.toml" > "$d/augerd.out" 2>&1 &
   AUGERD_PID=$!
   sim_wait_for "$d/commands.sock" || { cat "$d/augerd.out" >&2; return 1; }

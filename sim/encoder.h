@@ -58,7 +58,7 @@ void encoder_move(encoder_t *e, avr_cycle_count_t from, avr_cycle_count_t to,
 /* After an avr_reset (cycle timers cleared): drop pending edges, jump to the count of
  * angle_rad and re-drive the pins. Ends a hold. */
 void encoder_restart(encoder_t *e, double angle_rad);
-/* For a bench that drives the pins itself (bench/encoder_rate.h): the shaft's pending edges
+/* For a bench that drives the pins itself (encoder_rate.h): the shaft's pending edges
  * are dropped and the pins stay where they are, whatever the shaft does, until
  * encoder_release. While held, encoder_step moves them one X4 count (dir > 0 up, else down). */
 void encoder_hold(encoder_t *e);

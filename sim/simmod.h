@@ -127,7 +127,7 @@ uint64_t simmod_sleep_cycles(const simmod_t *sim, int module);
 
 /* ---- test and benchmark hooks ---- */
 /* The module's encoder part (encoder.h), for a bench that drives its pins itself, e.g. at an
- * imposed edge rate (bench/encoder_rate.h). */
+ * imposed edge rate (encoder_rate.h). */
 struct encoder_t *simmod_encoder(simmod_t *sim, int module);
 
 /* One avr_run() of a module: one instruction, or one sleep span; an interrupt taken at its

@@ -9,6 +9,7 @@
 #include "commands.hpp"  // host/workbench
 #include "interop.hpp"   // host/interop
 #include "operator.hpp"  // host/operator
+#include "ros2_keys.hpp"  // host/ros2_keys
 #include "subcommand.hpp"
 
 namespace {
@@ -40,6 +41,9 @@ std::vector<auger::cli::Subcommand> all_subcommands() {
        auger::interop::run_import},
       {"export", "a robot log as MCAP (Foxglove, PlotJuggler), with the model's prediction on request",
        auger::interop::run_export},
+      // augerd's ROS 2 interface (docs/ros2.md).
+      {"ros2-keys", "the DDS Security keystore: who may command the robot over ROS 2 (openssl)",
+       auger::ros2_keys::run},
   };
   for (const auto& s : auger::cli::client_subcommands()) all.push_back(s);
   return all;

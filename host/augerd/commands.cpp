@@ -29,6 +29,8 @@ std::optional<std::string> Daemon::command(const std::string& line) {
         event(-1, "enable", "enabled by " + commands_->current_peer());
       }
       controller_->clear_fault();
+      // The operator's go-ahead: a network cmd_vel may drive at once (docs/ros2.md "Arbitration").
+      local_active_s_ = -1e9;
       estimator_fault_reported_ = false;
       fault_module_ = -1;
       fault_reason_ = "none";
@@ -39,6 +41,7 @@ std::optional<std::string> Daemon::command(const std::string& line) {
       return "ok";
     }
     case CommandKind::stop:
+      take_source(Source::local, "local stop by " + commands_->current_peer());
       if (enabled_)
         event(-1, "stop", std::string("all screws stopped (was ") + mode_name(mode_) + ") by " + commands_->current_peer());
       enabled_ = false;
@@ -53,6 +56,7 @@ std::optional<std::string> Daemon::command(const std::string& line) {
       // One module alone (step responses, calibration): the robot is not tracking, and the
       // command expires like `vel` (the dead-man).
       if (mode_ != Mode::spin) event(int(c.a), "spin", "one module driven alone by " + commands_->current_peer());
+      take_source(Source::local, "local spin by " + commands_->current_peer());
       disable_controller();
       spin_module_ = int(c.a);
       spin_rpm_ = c.b;
@@ -62,6 +66,8 @@ std::optional<std::string> Daemon::command(const std::string& line) {
       return "ok";
     case CommandKind::vel:
       if (!enabled_) return not_enabled;
+      if (from_network_) take_source(Source::network, "network cmd_vel (ROS 2)");
+      else take_source(Source::local, "local vel by " + commands_->current_peer());
       disable_controller();
       vel_cmd_ = auger::Vec3(c.a, c.b, c.c);
       vel_until_s_ = t_s_ + cfg_.vel_timeout_s;
@@ -70,6 +76,7 @@ std::optional<std::string> Daemon::command(const std::string& line) {
       return "ok";
     case CommandKind::go_to: {
       if (!enabled_) return not_enabled;
+      take_source(Source::local, "local goto by " + commands_->current_peer());
       final_waypoint_ = auger::Waypoint{0.0, auger::Vec3(c.a, c.b, c.c)};
       controller_->set_waypoints({final_waypoint_});
       controller_->set_enabled(true);
@@ -91,6 +98,7 @@ std::optional<std::string> Daemon::command(const std::string& line) {
           cfg_.log_dir + "/" + run_name_ + "-follow-" + std::to_string(follow_traj_n_) + ".waypoints";
       loader_.start(c.text, copy, t_s_);
       follow_client_ = commands_->current_client();
+      follow_peer_ = commands_->current_peer();
       follow_epoch_ = motion_epoch_;
       return std::nullopt;
     }
@@ -125,6 +133,7 @@ void Daemon::follow_loaded() {
   } catch (const std::exception& e) {
     return commands_->reply(follow_client_, std::string("error: ") + e.what());
   }
+  take_source(Source::local, "local follow by " + follow_peer_);
   controller_->set_enabled(true);
   ctrl_events_ |= kEvWaypoints;
   traj_logged_ = r->copied ? follow_traj_n_ : -1;

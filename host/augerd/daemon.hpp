@@ -66,6 +66,15 @@ class Daemon {
   void ros2_inputs();
   void ros2_publish();
   void ros2_refused(const std::string& why);
+  // Arbitration of motion commands (docs/ros2.md "Arbitration"): local stop > local goto,
+  // follow, vel, spin > network cmd_vel; every change of source an event.
+  enum class Source { none, local, network };
+  void take_source(Source s, const std::string& who);
+  std::string network_vel_refusal();  // why a network cmd_vel may not drive now ("" if it may)
+  bool local_motion_running() const {
+    return source_ == Source::local && enabled_ &&
+           (mode_ == Mode::vel || mode_ == Mode::spin || mode_ == Mode::go_to || mode_ == Mode::follow);
+  }
   std::string ros2_status() const;  // status all's ros2_* fields ("" without ROS 2)
   void ros2_report() const;         // the exit report's ROS 2 line
 
@@ -80,7 +89,7 @@ class Daemon {
   void write_log(const std::array<double, 4>& cmd_rpm);
   std::string port_of(int module) const { return module >= 0 ? bus_.module(module).port : "-"; }
 
-  static constexpr double kArrivedM = 0.02, kArrivedRad = 0.05;  // docs/daemon.md, "arrived"
+  static constexpr double kArrivedM = 0.02, kArrivedRad = 0.05;  // docs/daemon.md "The loop"
 
   const DaemonConfig& cfg_;
   auger::Model model_;
@@ -111,6 +120,7 @@ class Daemon {
   bool estimator_fault_reported_ = false;  // the controller's latched fault, until `enable`
   std::uint64_t follow_client_ = 0;  // the client waiting for its `follow` answer
   int follow_traj_n_ = -1;           // the copy's number for that request
+  std::string follow_peer_;          // and who sent it (the source's event)
   // Counts commands that change the motion, and faults: a `follow` whose file arrives after
   // another such event is refused (the later command wins).
   std::uint64_t motion_epoch_ = 0, follow_epoch_ = 0;
@@ -130,6 +140,11 @@ class Daemon {
 
   // ROS 2 (null unless enabled): what its inputs did, and the time the loop spends on it.
   std::unique_ptr<auger::ros2::Bridge> ros2_;
+  Source source_ = Source::none;   // where the running (or last) motion command came from
+  std::string source_who_ = "none";
+  double local_active_s_ = -1e9;   // the last cycle a local motion command ran (or its stop)
+  bool from_network_ = false;      // command() is running a network cmd_vel
+  bool network_refusal_said_ = false;  // the event of this run of refusals is in the log
   auger::ros2::Snapshot ros2_out_;
   long ros2_applied_ = 0, ros2_refused_ = 0;
   std::string ros2_last_refusal_;

@@ -22,6 +22,9 @@ void Daemon::open_ros2() {
 // (parse_command, parse_sensor: auger/input_limits.hpp) applies to ROS 2 messages unchanged,
 // and the 0.5 s dead-man of `vel` to Twist.
 void Daemon::ros2_inputs() {
+  // When the local command stopped running (a vel's dead-man, a goto's arrival): the network
+  // waits local_priority_s from there.
+  if (local_motion_running()) local_active_s_ = t_s_;
   auger::ros2::Inputs in;
   const double t0 = clock_s(CLOCK_MONOTONIC), c0 = clock_s(CLOCK_THREAD_CPUTIME_ID);
   const bool got = ros2_->poll(in);
@@ -42,8 +45,14 @@ void Daemon::ros2_inputs() {
   };
   if (in.has_vel) {
     std::snprintf(line, sizeof line, "vel %.17g %.17g %.17g", in.u_mps, in.v_mps, in.r_radps);
-    // `vel` always answers at once (only `follow` answers later).
-    apply(command(line).value_or("ok"), "cmd_vel");
+    if (const std::string why = network_vel_refusal(); !why.empty()) {
+      ros2_refused("cmd_vel: " + why);
+    } else {
+      // `vel` always answers at once (only `follow` answers later).
+      from_network_ = true;
+      apply(command(line).value_or("ok"), "cmd_vel");
+      from_network_ = false;
+    }
   }
   if (in.has_pose) {
     std::snprintf(line, sizeof line, "pose %.17g %.17g %.17g %.17g %.17g %.17g %.17g", in.pose_t_unix_s, in.x_m, in.y_m,
@@ -54,6 +63,42 @@ void Daemon::ros2_inputs() {
     std::snprintf(line, sizeof line, "imu %.17g %.17g %.17g", in.imu_t_unix_s, in.imu_psi_rad, in.imu_r_radps);
     apply(sensor(line), "imu");
   }
+}
+
+// Motion commands arbitrated as twist_mux does it, by priority (docs/ros2.md "Arbitration"):
+// a local `stop` (and any fault) first, then the local motion commands (goto, follow, vel,
+// spin), then a network cmd_vel, which drives only while no local motion runs and not before
+// local_priority_s after the last one ended (or arrived), so a teleoperation's pauses and a
+// goto's arrival are not taken over at once. A `stop` needs a local `enable` anyway.
+void Daemon::take_source(Source s, const std::string& who) {
+  if (s == Source::local) local_active_s_ = t_s_;
+  // Only with ROS 2 are there two sources to tell apart.
+  if (ros2_ && s != source_) {
+    event(-1, "source", "motion commands from " + who + " (was " + source_who_ + ")");
+    std::fprintf(stderr, "augerd: t=%.3f s: motion commands from %s (was %s)\n", t_s_, who.c_str(),
+                 source_who_.c_str());
+  }
+  network_refusal_said_ = false;  // a new command: a new run of refusals gets its event
+  source_ = s;
+  source_who_ = who;
+}
+
+std::string Daemon::network_vel_refusal() {
+  if (source_ != Source::local || !enabled_) return "";  // not enabled: command() says so
+  const bool running = local_motion_running();
+  char why[200] = "";
+  if (running)
+    std::snprintf(why, sizeof why, "a %s is running (%s); local commands have priority", mode_name(mode_),
+                  source_who_.c_str());
+  else if (t_s_ - local_active_s_ < cfg_.ros2.local_priority_s)
+    std::snprintf(why, sizeof why,
+                  "the last local command (%s) ended %.2f s ago; network cmd_vel may drive %.2f s after it",
+                  source_who_.c_str(), t_s_ - local_active_s_, cfg_.ros2.local_priority_s);
+  if (why[0] && !network_refusal_said_) {
+    event(-1, "network-refused", std::string("cmd_vel (ROS 2) not obeyed: ") + why);
+    network_refusal_said_ = true;
+  }
+  return why;
 }
 
 void Daemon::ros2_refused(const std::string& why) {

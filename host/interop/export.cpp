@@ -1,4 +1,4 @@
-// `auger export LOG --mcap OUT.mcap [--model FILE]`: a robot log as MCAP (core's
+// `auger export LOG --mcap OUT.mcap [--model FILE] [--json]`: a robot log as MCAP (core's
 // RobotLogMcapWriter), with the workbench's prediction beside the measurement on request.
 // The file is written under a temporary name and renamed when complete: never a partial output.
 #include <sys/stat.h>
@@ -15,6 +15,7 @@
 #include "auger/log.hpp"
 #include "auger/log_mcap.hpp"
 #include "interop.hpp"
+#include "output.hpp"
 #include "workbench.hpp"
 
 namespace auger::interop {
@@ -23,7 +24,7 @@ namespace {
 
 const CommandLine kCli{
     "auger export",
-    "LOG --mcap OUT.mcap [--model FILE]",
+    "LOG --mcap OUT.mcap [--model FILE] [--json]",
     "The robot log as MCAP for Foxglove and PlotJuggler (docs/formats.md): the pose as\n"
     "foxglove.PoseInFrame on /pose and a frame on /tf, the columns in flat JSON messages on\n"
     "/screws, /pose_2d, /imu, /reference, /status, /other.\n",
@@ -31,8 +32,9 @@ const CommandLine kCli{
      {"--model", "FILE", "a model file, or \"default\" for the shipped one: also the model's prediction\n"
       "from the measured screw speeds (as `auger compare` runs it: re-started from\n"
       "the measured pose every 25 s) on /model/pose_2d, /model/pose and the frame\n"
-      "base_link_model"}},
-    ""};
+      "base_link_model"},
+     {"--json", "", "one JSON object on stdout"}},
+    "Exit 0: written; 2: bad usage or input (nothing written, an existing OUT.mcap kept).\n"};
 
 }  // namespace
 
@@ -95,10 +97,24 @@ int run_export(int argc, char** argv) {
     if (!out) throw std::runtime_error("writing " + out_path + " failed (disk full?)");
     if (std::rename(tmp_path.c_str(), out_path.c_str()) != 0)
       throw std::runtime_error("cannot rename " + tmp_path + " to " + out_path + ": " + std::strerror(errno));
+    const char* next = "open it in Foxglove (Open local file) or PlotJuggler (Load Data); docs/formats.md";
+    if (a.has("--json")) {
+      wb::Json j;
+      j.begin_object().str("command", "export").str("log", log_path).str("out", out_path);
+      j.num("rows", static_cast<double>(rows)).num("duration_s", t_last - t_first);
+      j.num("messages", static_cast<double>(w.message_count()));
+      if (model_source.empty())
+        j.num("model", wb::kNaN);  // null: no prediction
+      else
+        j.str("model", model_source);
+      j.str("next", next).end_object();
+      std::printf("%s\n", j.text().c_str());
+      return 0;
+    }
     std::printf("auger export: %s -> %s: %zu rows, %.2f s, %llu messages%s%s\n", log_path.c_str(), out_path.c_str(),
                 rows, t_last - t_first, static_cast<unsigned long long>(w.message_count()),
                 model_source.empty() ? "" : "; prediction of ", model_source.c_str());
-    std::printf("open it in Foxglove (Open local file) or PlotJuggler (Load Data); docs/formats.md\n");
+    std::printf("next: %s\n", next);
     return 0;
   } catch (const std::exception& e) {
     if (fd >= 0) std::remove(tmp_path.c_str());

@@ -1,10 +1,8 @@
-// The gnuplot driver (gnuplot.hpp): run without a shell (posix_spawnp with an argument vector),
+// The gnuplot driver (gnuplot.hpp): run without a shell (process.hpp: an argument vector),
 // every string in a script quoted by gp_quote.
 #include "gnuplot.hpp"
+#include "process.hpp"
 
-#include <fcntl.h>
-#include <spawn.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -15,8 +13,6 @@
 #include <fstream>
 #include <sstream>
 #include <system_error>
-
-extern char** environ;
 
 namespace auger::io {
 namespace {
@@ -31,32 +27,6 @@ std::string slurp(const std::string& path) {
 void replace_all(std::string& s, const std::string& from, const std::string& to) {
   for (std::size_t p = s.find(from); p != std::string::npos; p = s.find(from, p + to.size())) s.replace(p, from.size(), to);
 }
-
-// Runs exe with args (no shell), stdout and stderr to files; the exit status as waitpid gives it,
-// or -1 if it could not be started.
-int run(const std::string& exe, const std::vector<std::string>& args, const std::string& out_path,
-        const std::string& err_path) {
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
-  posix_spawn_file_actions_addopen(&fa, STDOUT_FILENO, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-  posix_spawn_file_actions_addopen(&fa, STDERR_FILENO, err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-  std::vector<std::string> argv_s{exe};
-  argv_s.insert(argv_s.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  for (auto& a : argv_s) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  pid_t pid = 0;
-  const int rc = posix_spawnp(&pid, exe.c_str(), &fa, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&fa);
-  if (rc != 0) return -1;
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0)
-    if (errno != EINTR) return -1;
-  return status;
-}
-
-bool succeeded(int status) { return status >= 0 && WIFEXITED(status) && WEXITSTATUS(status) == 0; }
 
 }  // namespace
 
@@ -77,10 +47,10 @@ Gnuplot::Gnuplot() {
   if (!mkdtemp(templ.data())) throw PlotError("cannot create a temporary directory for the plots");
   dir_ = templ;
   const std::string out = dir_ + "/version.txt";
-  const int status = run(exe_, {"--version"}, out, out + ".err");
+  const int status = run_program(exe_, {"--version"}, out, out + ".err");
   version_ = slurp(out);
   while (!version_.empty() && (version_.back() == '\n' || version_.back() == '\r')) version_.pop_back();
-  if (!succeeded(status) || version_.rfind("gnuplot", 0) != 0) {
+  if (!program_succeeded(status) || version_.rfind("gnuplot", 0) != 0) {
     std::error_code ec;
     std::filesystem::remove_all(dir_, ec);
     throw PlotError("gnuplot not found or not working ('" + exe_ +
@@ -126,8 +96,8 @@ std::string Gnuplot::run_script(const std::string& name, const std::string& scri
     gp << script << "\n";
     if (!gp) throw PlotError("cannot write " + gp_path);
   }
-  const int status = run(exe_, {gp_path}, out_path, err_path);
-  if (!succeeded(status)) throw PlotError("gnuplot failed on plot '" + name + "': " + slurp(err_path));
+  const int status = run_program(exe_, {gp_path}, out_path, err_path);
+  if (!program_succeeded(status)) throw PlotError("gnuplot failed on plot '" + name + "': " + slurp(err_path));
   return slurp(out_path);
 }
 

@@ -1,6 +1,6 @@
 // One motor module over its serial port, spoken to in the protocol of shared/protocol.h:
-// identity, settings (CONFIG / CONFIG_REPORT), and the frame pump. auger-module uses it;
-// augerd will drive setpoints through the same pump.
+// identity, settings (CONFIG / CONFIG_REPORT), and the frame pump. auger-module, `auger step`,
+// `auger calib` and augerd (its module bus) use it.
 #pragma once
 
 #include "protocol.h"

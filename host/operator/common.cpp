@@ -6,17 +6,15 @@
 #include <ctime>
 #include <utility>
 
+#include "auger/args.hpp"
 #include "protocol.h"
 #include "serial_port.hpp"
 
 namespace auger::op {
 
 double parse_number(const std::string& option, const std::string& text) {
-  char* end = nullptr;
-  errno = 0;
-  const double v = std::strtod(text.c_str(), &end);
-  if (text.empty() || *end != '\0' || errno == ERANGE || !std::isfinite(v))
-    throw UsageError(option + ": '" + text + "' is not a finite number");
+  double v = 0;
+  if (!decimal_number(text, v)) throw UsageError(option + ": '" + text + "' is not a finite number");
   return v;
 }
 

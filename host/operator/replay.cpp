@@ -106,7 +106,7 @@ int run_replay(int argc, char** argv) {
     ControllerConfig ccfg;
     if (!config_path.empty()) {
       // Whether this build could run augerd's ROS 2 bridge does not matter to a replay.
-      const DaemonConfig dc = read_daemon_config(config_path, /*ros2_available=*/true);
+      const DaemonConfig dc = read_daemon_config(config_path, /*ros2_available=*/true, /*ros2_security_stated=*/false);
       model = build_model(load_model_file(dc.model_file), dc.terrain);
       ccfg = dc.controller;
     } else {
@@ -192,7 +192,7 @@ int run_replay(int argc, char** argv) {
           sin.pose = Vec3(v("x_m"), v("y_m"), v("psi_rad"));
           const Vec3 sd(v("pose_sx_m"), v("pose_sy_m"), v("pose_spsi_rad"));
           sin.pose_cov = Vec3(sd[0] * sd[0], sd[1] * sd[1], sd[2] * sd[2]).asDiagonal();
-          sin.pose_t_s = v("pose_capture_t_s");
+          sin.pose_t_s = v(daemon::pose_capture_column());
         }
         if (!std::isnan(v("imu_psi_rad"))) {
           sin.has_imu_psi = sin.has_imu_r = true;

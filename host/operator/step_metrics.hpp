@@ -1,4 +1,4 @@
-// The step-response figures of `auger step` and of the firmware's step tests (tests/fil/fil_rig.cpp
+// The step-response figures of `auger step` and of the firmware's step tests (sim/rig/fil_rig.cpp
 // step_metrics calls this, docs/firmware.md): rise time 10-90 %, overshoot past
 // the target in % of the step, steady-state error as the mean offset over the last 0.5 s;
 // plus the settling time (last exit from a band of 5 % of the step, at least 0.5 rpm).

@@ -43,6 +43,29 @@ dds_qos_t* make_qos(Profile p) {
   return q;
 }
 
+// No DDS peer may crash augerd (docs/ros2.md "Robustness"). Debian's Cyclone DDS 0.10.2 does not
+// know XTypes' int8/uint8 type kinds: when it asks a peer for the type object of an endpoint it
+// wants to match and the answer has such a member, its type library keeps a null member type and
+// then dereferences it (a segfault in the discovery thread; upstream knows int8/uint8 from release
+// 11.0, no 0.10.x does). Cyclone asks only while matching two endpoints that both carry XTypes
+// type information and whose reader allows type coercion (then it must resolve both types to
+// check assignability). So augerd never lets that happen: its readers disallow type coercion (a
+// writer with type information must have exactly augerd's type, compared by type identifier,
+// nothing to resolve), and its writers carry no type information (a remote reader's QoS decides
+// for a writer; without an identifier on one side Cyclone matches by type name, as ROS 2's
+// rmw_cyclonedds does).
+dds_qos_t* make_reader_qos(Profile p) {
+  dds_qos_t* q = make_qos(p);
+  dds_qset_type_consistency(q, DDS_TYPE_CONSISTENCY_DISALLOW_TYPE_COERCION, false, false, false, false, false);
+  return q;
+}
+
+std::unique_ptr<dds_topic_descriptor_t> without_type_information(const dds_topic_descriptor_t& d) {
+  return std::unique_ptr<dds_topic_descriptor_t>(new dds_topic_descriptor_t{
+      d.m_size, d.m_align, d.m_flagset & ~uint32_t(DDS_TOPIC_XTYPES_METADATA), d.m_nkeys, d.m_typename, d.m_keys,
+      d.m_nops, d.m_ops, d.m_meta, {nullptr, 0}, {nullptr, 0}, d.restrict_data_representation});
+}
+
 void copy_text(std::array<char, 200>& to, const std::string& s) {
   const std::size_t n = std::min(s.size(), to.size() - 1);
   std::memcpy(to.data(), s.data(), n);
@@ -89,6 +112,7 @@ class CycloneBridge final : public Bridge {
   Settings settings_;
   dds_entity_t domain_ = 0, participant_ = 0;
   std::vector<std::unique_ptr<Reader>> readers_;
+  std::vector<std::unique_ptr<dds_topic_descriptor_t>> untyped_;  // the writers' descriptors (add_writer)
   dds_entity_t odom_w_ = 0, joints_w_ = 0, diag_w_ = 0, tf_w_ = 0;
   std::string description_;
 
@@ -107,23 +131,36 @@ class CycloneBridge final : public Bridge {
 };
 
 CycloneBridge::CycloneBridge(const Settings& s) : settings_(s) {
-  if (!s.dds_config.empty()) {
-    domain_ = dds_create_domain(dds_domainid_t(s.domain_id), ("file://" + s.dds_config).c_str());
-    if (domain_ < 0)
-      throw std::runtime_error("ROS 2: cannot create DDS domain " + std::to_string(s.domain_id) + " from " +
-                               s.dds_config + ": " + dds_strretcode(domain_));
-  }
+  // The domain's configuration is dds_config or else Cyclone's built-in defaults, never the
+  // CYCLONEDDS_URI of augerd's environment: what `augerd --check` checked is what runs.
+  const std::string config = s.dds_config.empty() ? "" : "file://" + s.dds_config;
+  domain_ = dds_create_domain(dds_domainid_t(s.domain_id), config.c_str());
+  if (domain_ < 0)
+    throw std::runtime_error("ROS 2: cannot create DDS domain " + std::to_string(s.domain_id) + " from " +
+                             (s.dds_config.empty() ? "Cyclone DDS's defaults" : s.dds_config) + ": " +
+                             dds_strretcode(domain_));
   dds_qos_t* pq = dds_create_qos();
   dds_qset_entity_name(pq, "augerd");
+  // DDS Security (docs/ros2.md "Who may command the robot"): the plugins of Debian's
+  // libddsc0debian, augerd's identity, governance and permissions from the keystore.
+  if (!s.keystore.empty())
+    for (const auto& [name, value] : security_properties(s.keystore + "/enclaves/" + kEnclave))
+      dds_qset_prop(pq, name.c_str(), value.c_str());
   participant_ = dds_create_participant(dds_domainid_t(s.domain_id), pq, nullptr);
   dds_delete_qos(pq);
   if (participant_ < 0) {
-    if (domain_ > 0) dds_delete(domain_);
+    dds_delete(domain_);
     throw std::runtime_error("ROS 2: cannot create the DDS participant in domain " + std::to_string(s.domain_id) +
-                             ": " + dds_strretcode(participant_) + " (check the Cyclone DDS configuration)");
+                             ": " + dds_strretcode(participant_) +
+                             (s.keystore.empty() ? " (check the Cyclone DDS configuration)"
+                                                 : " (check the keystore " + s.keystore + ": auger ros2-keys)"));
   }
   try {
-    description_ = "domain " + std::to_string(s.domain_id) + "; in:";
+    description_ = "domain " + std::to_string(s.domain_id) +
+                   (s.keystore.empty()
+                        ? " WITHOUT DDS Security (insecure = true: anyone who reaches the domain may command the robot)"
+                        : ", DDS Security with " + s.keystore + "/enclaves/" + kEnclave) +
+                   "; in:";
     add_reader(s.cmd_vel_topic, &geometry_msgs_msg_dds__Twist__desc, Profile::default_, &CycloneBridge::take_twist,
                "Twist");
     add_reader(s.cmd_vel_stamped_topic, &geometry_msgs_msg_dds__TwistStamped__desc, Profile::default_,
@@ -146,7 +183,7 @@ CycloneBridge::CycloneBridge(const Settings& s) : settings_(s) {
                            "DiagnosticArray");
   } catch (...) {
     dds_delete(participant_);
-    if (domain_ > 0) dds_delete(domain_);
+    dds_delete(domain_);
     throw;
   }
   thread_ = std::thread([this] { run(); });
@@ -161,7 +198,7 @@ CycloneBridge::~CycloneBridge() {
   thread_.join();
   // Deleting the participant deletes its readers (their listeners stop first) and writers.
   dds_delete(participant_);
-  if (domain_ > 0) dds_delete(domain_);
+  dds_delete(domain_);
 }
 
 dds_entity_t CycloneBridge::topic(const dds_topic_descriptor_t* desc, const std::string& ros_name) {
@@ -178,7 +215,7 @@ void CycloneBridge::add_reader(const std::string& ros_name, const dds_topic_desc
   auto r = std::make_unique<Reader>(Reader{this, 0, take});
   dds_listener_t* l = dds_create_listener(r.get());
   dds_lset_data_available(l, &CycloneBridge::on_data);
-  dds_qos_t* q = make_qos(p);
+  dds_qos_t* q = make_reader_qos(p);
   r->reader = dds_create_reader(participant_, t, q, l);
   dds_delete_qos(q);
   dds_delete_listener(l);  // the reader keeps its own copy
@@ -190,7 +227,8 @@ void CycloneBridge::add_reader(const std::string& ros_name, const dds_topic_desc
 
 dds_entity_t CycloneBridge::add_writer(const std::string& ros_name, const dds_topic_descriptor_t* desc, Profile p,
                                        const char* type) {
-  const dds_entity_t t = topic(desc, ros_name);
+  untyped_.push_back(without_type_information(*desc));
+  const dds_entity_t t = topic(untyped_.back().get(), ros_name);
   dds_qos_t* q = make_qos(p);
   const dds_entity_t w = dds_create_writer(participant_, t, q, nullptr);
   dds_delete_qos(q);

@@ -8,6 +8,9 @@ namespace auger::ros2 {
 
 bool available() { return false; }
 
+// [ros2] enabled is refused when the configuration is read: nothing to check here.
+std::vector<std::string> check_dds_config(const Settings&) { return {}; }
+
 std::unique_ptr<Bridge> make_bridge(const Settings&) {
   throw std::runtime_error(
       "this augerd was built without the ROS 2 interface (Cyclone DDS); build it with "

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "auger/ros2_settings.hpp"
 
@@ -76,6 +77,11 @@ class Bridge {
 
 // Whether this build has the bridge (built with Cyclone DDS).
 bool available();
+// When enabled with a dds_config: the file as Cyclone DDS will read it (a non-empty regular file,
+// well-formed, <CycloneDDS> with a <Domain> for the domain id, no <Security>: that is [ros2]
+// keystore's, and Cyclone accepts every element). One line per problem, naming the file; empty
+// when fine. For `augerd --check` and every start (startup_check.cpp).
+std::vector<std::string> check_dds_config(const Settings& s);
 // Creates the participant, readers and writers. Throws std::runtime_error (no DDS, a bad
 // configuration file). Built without Cyclone DDS: throws, saying how to build with it.
 std::unique_ptr<Bridge> make_bridge(const Settings& s);

@@ -94,7 +94,7 @@ std::string resolve(const std::string& config_path, const std::string& p) {
 
 // [ros2] (docs/ros2.md): every key optional; nothing happens unless enabled = true.
 void read_ros2(const Reader& r, const toml::table& t, const std::string& path, bool available,
-               auger::ros2::Settings& s) {
+               bool security_stated, auger::ros2::Settings& s) {
   namespace ros2 = auger::ros2;
   auto name_check = [&](const toml::node& v, const std::string& name) {
     try {
@@ -125,10 +125,12 @@ void read_ros2(const Reader& r, const toml::table& t, const std::string& path, b
   auto rate = [&](double& to, const char* key) {
     return [&r, &to, key](const toml::node& v) { to = r.number(v, key, 0, 100); };
   };
+  const toml::node *enabled_at = nullptr, *insecure_at = nullptr;
   r.keys(t, "[ros2]",
          {{"enabled",
            [&](const toml::node& v) {
              s.enabled = r.boolean(v, "enabled");
+             enabled_at = &v;
              if (s.enabled && !available)
                r.fail(v, "this augerd was built without the ROS 2 interface (Cyclone DDS): build it with "
                          "-DAUGER_WITH_ROS2=ON (for the board: make board ROS2=1)");
@@ -139,6 +141,13 @@ void read_ros2(const Reader& r, const toml::table& t, const std::string& path, b
              s.domain_id = int(d);
            }},
           {"dds_config", [&](const toml::node& v) { s.dds_config = resolve(path, r.text(v, "dds_config")); }},
+          {"keystore", [&](const toml::node& v) { s.keystore = resolve(path, r.text(v, "keystore")); }},
+          {"insecure",
+           [&](const toml::node& v) {
+             s.insecure = r.boolean(v, "insecure");
+             insecure_at = &v;
+           }},
+          {"local_priority_s", [&](const toml::node& v) { s.local_priority_s = r.number(v, "local_priority_s", 0, 60); }},
           {"namespace",
            [&](const toml::node& v) {
              if (!v.is_string()) r.fail(v, "'namespace' must be a string");
@@ -181,11 +190,19 @@ void read_ros2(const Reader& r, const toml::table& t, const std::string& path, b
                frame(s.joint_names[i])(*a->get(i));
              }
            }}});
+  // Who may command the robot over DDS is stated, never a default (docs/ros2.md).
+  if (s.insecure && !s.keystore.empty())
+    r.fail(*insecure_at, "'insecure = true' and 'keystore' contradict each other: give one of them");
+  if (security_stated && s.enabled && !s.insecure && s.keystore.empty())
+    r.fail(*enabled_at,
+           "[ros2] enabled without DDS Security: give 'keystore' (made by `auger ros2-keys create`), or "
+           "'insecure = true' to let anyone who reaches DDS domain " + std::to_string(s.domain_id) +
+               " command the robot (docs/ros2.md)");
 }
 
 }  // namespace
 
-DaemonConfig read_daemon_config(const std::string& path, bool ros2_available) {
+DaemonConfig read_daemon_config(const std::string& path, bool ros2_available, bool ros2_security_stated) {
   DaemonConfig c;
   c.path = path;
   Reader r{path};
@@ -351,7 +368,7 @@ DaemonConfig read_daemon_config(const std::string& path, bool ros2_available) {
                         c.idle_timeout_s = r.number(v, "idle_timeout_s", 0.5, 3600);
                       }}});
            }},
-          {"ros2", [&](const toml::node& n) { read_ros2(r, r.table(n, "ros2"), path, ros2_available, c.ros2); }},
+          {"ros2", [&](const toml::node& n) { read_ros2(r, r.table(n, "ros2"), path, ros2_available, ros2_security_stated, c.ros2); }},
           {"log", [&](const toml::node& n) {
              r.keys(r.table(n, "log"), "[log]",
                     {{"dir",

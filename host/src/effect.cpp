@@ -34,6 +34,9 @@ std::shared_ptr<const Effect> EffectRegistry::create(const EffectConfig& c) cons
   for (const auto& p : c.params) {
     auto spec = std::find_if(e.params.begin(), e.params.end(),
                              [&](const ParamSpec& s) { return s.name == p.name; });
+    if (spec == e.params.end() &&
+        std::find(e.text_params.begin(), e.text_params.end(), p.name) != e.text_params.end())
+      throw ConfigError(c.file, p.line, p.column, "effect '" + c.id + "': '" + p.name + "' must be a text, not a number");
     if (spec == e.params.end()) {
       std::string known;
       for (const auto& s : e.params) known += (known.empty() ? "" : ", ") + s.name;
@@ -44,6 +47,19 @@ std::shared_ptr<const Effect> EffectRegistry::create(const EffectConfig& c) cons
     values[k] = p.value;
     given[k] = true;
   }
+  std::vector<std::string> texts(e.text_params.size());
+  std::vector<bool> text_given(e.text_params.size(), false);
+  for (const auto& p : c.texts) {
+    const auto at = std::find(e.text_params.begin(), e.text_params.end(), p.name);
+    if (at == e.text_params.end())
+      throw ConfigError(c.file, p.line, p.column,
+                        "effect '" + c.id + "': '" + p.name + "' must be a number, not a text");
+    texts[static_cast<std::size_t>(at - e.text_params.begin())] = p.value;
+    text_given[static_cast<std::size_t>(at - e.text_params.begin())] = true;
+  }
+  for (std::size_t k = 0; k < e.text_params.size(); ++k)
+    if (!text_given[k])
+      throw ConfigError(c.file, c.line, c.column, "effect '" + c.id + "' needs the text '" + e.text_params[k] + "'");
   for (std::size_t k = 0; k < e.params.size(); ++k) {
     if (given[k]) continue;
     if (e.params[k].required)
@@ -52,7 +68,7 @@ std::shared_ptr<const Effect> EffectRegistry::create(const EffectConfig& c) cons
     values[k] = e.params[k].default_value;
   }
   try {
-    return e.make(values);
+    return e.build(values, texts);
   } catch (const std::invalid_argument& ex) {
     throw ConfigError(c.file, c.line, c.column, "effect '" + c.id + "': " + ex.what());
   }
@@ -65,6 +81,7 @@ void register_builtin_effects(EffectRegistry& r) {
   effects::register_terrain(r);
   effects::register_sensors(r);
   effects::register_body(r);
+  effects::register_term(r);
 }
 
 const EffectRegistry& EffectRegistry::builtin() {

@@ -40,28 +40,6 @@ std::string quote_input(const std::string& s, std::size_t max_bytes) {
   return q;
 }
 
-const std::vector<NamedBound>& input_bounds() {
-  using namespace limits;
-  static const std::vector<NamedBound> table = {
-      {"x_m, y_m (pose, goal, waypoint)", kPosition},
-      {"psi_rad (pose, imu, goal, waypoint)", kHeading},
-      {"sx_m, sy_m (pose)", kPositionSd},
-      {"spsi_rad (pose)", kHeadingSd},
-      {"r_radps (imu)", kYawRate},
-      {"u_mps, v_mps (vel)", kBodySpeed},
-      {"r_radps (vel)", kBodyYawRate},
-      {"omega_rpm (spin, logs)", kScrewSpeed},
-      {"t_s (waypoint)", kWaypointTime},
-      {"force_n (gantry logs)", kForce},
-      {"mass_kg (gantry log metadata)", kGantryMass},
-      {"t_s, t0_unix_s (logs)", kLogTime},
-      {"estimate x, y", kEstimatePosition},
-      {"estimate u, v", kEstimateSpeed},
-      {"estimate r", kEstimateYawRate},
-  };
-  return table;
-}
-
 std::string check_bound(const char* field, double v, const InputBound& b) {
   if (within(v, b)) return "";
   return std::string(field) + " = " + number_text(v) + " " + b.unit + " is outside " + number_text(b.lo) + ".." +

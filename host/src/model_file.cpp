@@ -178,6 +178,7 @@ std::string write_model_file(const ModelFile& f) {
   }
   for (const EffectConfig& c : f.effects) {
     toml::table t{{"id", c.id}};
+    for (const auto& p : c.texts) t.insert(p.name, p.value);
     for (const auto& p : c.params) t.insert(p.name, p.value);
     put(o, toml::table{{"effect", toml::array{std::move(t)}}}, c.comment);
   }
@@ -286,6 +287,8 @@ ModelFile parse_model_file(const std::string& source, const std::string& name) {
           if (ekey == "id") {
             c.id = text(name, ev, "id");
             have_id = true;
+          } else if (ev.is_string()) {
+            c.texts.push_back({ekey, text(name, ev, ekey), line_of(ev), col_of(ev)});
           } else {
             c.params.push_back({ekey, number(name, ev, ekey), line_of(ev), col_of(ev)});
           }

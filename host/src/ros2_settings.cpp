@@ -93,4 +93,54 @@ void check_settings(const Settings& s) {
   for (const auto& j : s.joint_names) check_frame_id(j);
 }
 
+std::vector<std::string> input_topics(const Settings& s) {
+  std::vector<std::string> out;
+  for (const std::string* t :
+       {&s.cmd_vel_topic, &s.cmd_vel_stamped_topic, &s.pose_topic, &s.pose_cov_topic, &s.imu_topic})
+    if (!t->empty()) out.push_back(fully_qualified_name(*t, s.ns));
+  return out;
+}
+
+// As the bridge creates its writers (host/ros2/bridge.cpp): /tf goes with the odometry.
+std::vector<std::string> output_topics(const Settings& s) {
+  std::vector<std::string> out;
+  if (s.odom_rate_hz > 0) out.push_back(fully_qualified_name(s.odom_topic, s.ns));
+  if (s.odom_rate_hz > 0 && s.tf) out.push_back(fully_qualified_name(s.tf_topic, s.ns));
+  if (s.joint_states_rate_hz > 0) out.push_back(fully_qualified_name(s.joint_states_topic, s.ns));
+  if (s.diagnostics_rate_hz > 0) out.push_back(fully_qualified_name(s.diagnostics_topic, s.ns));
+  return out;
+}
+
+std::vector<SecurityFile> enclave_files(const std::string& enclave_dir) {
+  const std::string e = enclave_dir + "/";
+  return {{"dds.sec.auth.identity_ca", e + "identity_ca.cert.pem"},
+          {"dds.sec.auth.identity_certificate", e + "cert.pem"},
+          {"dds.sec.auth.private_key", e + "key.pem"},
+          {"dds.sec.access.permissions_ca", e + "permissions_ca.cert.pem"},
+          {"dds.sec.access.governance", e + "governance.p7s"},
+          {"dds.sec.access.permissions", e + "permissions.p7s"}};
+}
+
+std::vector<SecurityFile> security_files(const Settings& s) {
+  if (s.keystore.empty()) return {};
+  return enclave_files(s.keystore + "/enclaves/" + kEnclave);
+}
+
+std::vector<std::pair<std::string, std::string>> security_properties(const std::string& enclave_dir) {
+  std::vector<std::pair<std::string, std::string>> p;
+  struct Plugin {
+    const char *key, *library, *name;
+  };
+  for (const Plugin& x : {Plugin{"auth", "dds_security_auth", "authentication"},
+                          Plugin{"access", "dds_security_ac", "access_control"},
+                          Plugin{"crypto", "dds_security_crypto", "crypto"}}) {
+    const std::string k = std::string("dds.sec.") + x.key + ".library.";
+    p.push_back({k + "path", x.library});
+    p.push_back({k + "init", std::string("init_") + x.name});
+    p.push_back({k + "finalize", std::string("finalize_") + x.name});
+  }
+  for (const auto& f : enclave_files(enclave_dir)) p.push_back({f.property, "file:" + f.path});
+  return p;
+}
+
 }  // namespace auger::ros2

@@ -49,10 +49,8 @@ void usage(FILE* out) { kCli.print_usage(out); }
 
 double number(const std::string& arg, const std::string& text)
 {
-    errno = 0;
-    char* end = nullptr;
-    double x = std::strtod(text.c_str(), &end);
-    if (text.empty() || *end != '\0' || errno != 0 || !std::isfinite(x)) bad_arg(arg, "'" + text + "' is not a number");
+    double x = 0;
+    if (!auger::decimal_number(text, x)) bad_arg(arg, "'" + text + "' is not a number");
     return x;
 }
 

@@ -1,6 +1,9 @@
 // The workbench engine's datasets (dataset.hpp): a log read into the channels the workbench
 // compares, and the noise floor estimated from the data.
 #include "dataset.hpp"
+#include "simulation.hpp"
+
+#include "auger/daemon_log.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -63,8 +66,19 @@ Dataset load_dataset(const std::string& path) {
   } else {
     RobotLogReader r(path);
     d.terrain = r.csv().meta("terrain").value_or("");
+    const int capture = r.csv().column_index(daemon::pose_capture_column());
     RobotSample s;
     while (r.next(s)) {
+      if (capture >= 0) {
+        // A capture time is on the log's clock, a little before the row (a camera's latency; a
+        // little after it where the camera's clock runs ahead of augerd's: up to 0.13 s in the
+        // demo's logs); one seconds away is not a time of this row's pose but an error.
+        const double tc = r.csv().value(capture);
+        if (finite(tc) && !(tc <= s.t_s + 1.0 && tc >= s.t_s - 2.0))
+          r.csv().fail_at_field(capture, "pose_capture_t_s " + std::to_string(tc) +
+                                             " is not within 2 s before or 1 s after the row's t_s " + std::to_string(s.t_s));
+        d.pose_t_s.push_back(finite(tc) && finite(s.x_m) ? tc : kNaN);
+      }
       d.t_s.push_back(s.t_s);
       Vec4 w(s.omega_rpm[0], s.omega_rpm[1], s.omega_rpm[2], s.omega_rpm[3]);
       fill_gap(w, last);
@@ -279,8 +293,40 @@ NoiseColour camera_noise_colour(const Dataset& d, const ChannelValues& white) {
   nc.factor = std::sqrt(whole2) / white[kPsi];
   // Within what white noise gives (the estimate's own spread is a few %): not coloured.
   nc.applied = nc.factor > 1.25;
-  if (nc.applied) nc.whiten = camera_noise_filter(kept_t, kept_e, kept_group, whole2, 2.0 * half_frame_s);
+  if (nc.applied) {
+    nc.whiten = camera_noise_filter(kept_t, kept_e, kept_group, whole2, 2.0 * half_frame_s);
+    // The same differences' means over consecutive 2 s windows (each 60 s group's mean removed,
+    // as above): the variance of the camera noise's 2 s mean, less the IMU's white share.
+    const double window_s = SimOptions{}.anchor_s;
+    double s2 = 0, imu2 = 0;
+    std::size_t windows = 0;
+    for (std::size_t i = 0; i < kept_e.size();) {
+      std::size_t j = i;
+      double acc = 0;
+      while (j < kept_e.size() && kept_group[j] == kept_group[i] && kept_t[j] - kept_t[i] < window_s &&
+             (j == i || kept_t[j] - kept_t[j - 1] < 0.5))
+        acc += kept_e[j++];
+      const double m = static_cast<double>(j - i);
+      if (m >= 10) {
+        s2 += (acc / m) * (acc / m);
+        imu2 += white[kImuPsi] * white[kImuPsi] / m;
+        ++windows;
+      }
+      i = j;
+    }
+    if (windows >= 10) {
+      nc.anchor_windows = windows;
+      nc.anchor_share = std::max(0.0, (s2 - imu2) / static_cast<double>(windows)) / whole2;
+    }
+  }
   return nc;
+}
+
+ChannelValues segment_floor(const ChannelValues& noise_floor, const NoiseColour& colour) {
+  ChannelValues out = noise_floor;
+  if (colour.applied)
+    for (int c : {kX, kY}) out[static_cast<std::size_t>(c)] *= std::sqrt(1.0 + colour.anchor_share);
+  return out;
 }
 
 ChannelValues estimate_noise_floor(const Dataset& data, NoiseColour* colour) {

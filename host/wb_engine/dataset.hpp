@@ -38,9 +38,13 @@ struct Dataset {
   std::array<bool, kChannels> active{};  // channels with at least a few measurements
   std::vector<double> force_n;        // gantry: the measured traction force along the rail (else empty)
   std::vector<double> imu_r_radps;    // robot: the IMU's yaw rate (NaN = not measured)
+  // When each row's pose was captured (augerd's pose_capture_t_s; NaN: at t_s). Empty if the log
+  // has no such column.
+  std::vector<double> pose_t_s;
   std::size_t size() const { return t_s.size(); }
   double duration_s() const { return t_s.empty() ? 0 : t_s.back() - t_s.front(); }
 };
+
 
 // Reads a robot or gantry log (by its `# format:`; a log without one is read as a robot log).
 // Throws auger::LogError naming file, line and column.
@@ -60,8 +64,19 @@ struct NoiseColour {
   std::size_t samples = 0;  // camera/IMU pairs compared (fewer than 200: not estimated)
   bool applied = false;
   WhiteningFilter whiten;   // of the camera's noise, when applied
+  // The variance of the camera noise's mean over a segment's 2 s anchor (SimOptions::anchor_s),
+  // as a share of its whole variance: what the rigid shift of each segment keeps of a noise that
+  // wanders (measured, not modelled: 2 s means of camera minus IMU heading). 0: not applied.
+  double anchor_share = 0;
+  std::size_t anchor_windows = 0;  // 2 s windows it is the variance of
 };
 NoiseColour camera_noise_colour(const Dataset& data, const ChannelValues& white);
+// The error a perfect model leaves on segments anchored on 2 s of poses, per channel: the noise
+// floor, and where the camera's noise wanders, for x and y the part of it the anchor keeps,
+// sqrt(1 + anchor_share) times the floor (the heading is anchored on the IMU, whose noise is
+// white). The reference of every error ratio: 1.0 = only noise left.
+ChannelValues segment_floor(const ChannelValues& noise_floor, const NoiseColour& colour);
+
 // Measurement noise per channel, from the data itself: the robust spread (MAD) of each
 // measured sample's deviation from the cubic through its measured neighbours, scaled for the
 // neighbours' weights, times the camera's colour factor. NaN for a channel without data.

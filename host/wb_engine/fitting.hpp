@@ -1,6 +1,6 @@
 // The effect search's machinery (search.hpp is its public side), shared by diagnose and fit
 // (search.cpp, search_diagnose.cpp) and explain (explain.cpp); internal to the workbench engine
-// (docs/workbench.md "How effects are fitted").
+// (docs/workbench.md "diagnose", point 1).
 // A model under test is a list of Parts (the paper's parameters, library effects), fitted by
 // simulation error over segments of one or more logs (a Problem) with Levenberg-Marquardt.
 #pragma once
@@ -28,11 +28,15 @@ struct Part {
   std::vector<int> free;       // indices into values that Gauss-Newton moves
   int log = -1;                // the log it applies to (-1: every log of the problem)
   std::string terrain;         // paper_params: the terrain set it re-identifies
+  std::vector<std::string> texts;  // text parameters (a discovered term's dof and form)
 };
 
 // A part for an effect id (or paper_params) at its defaults; the free parameters are those the
 // data can move (a gantry moves one DOF). Throws std::invalid_argument on an unknown id.
 Part make_part(const std::string& id, const Model& base, const Dataset& d);
+// A discovered term (auger/term_form.hpp) as a part: its coefficient free, typical_coefficient the
+// size its fit starts from and scales by. Throws std::invalid_argument on a bad dof or form.
+Part make_term_part(const std::string& dof, const std::string& form, double typical_coefficient);
 // The parts of a model's own effects, at the model's values (so they can be refitted).
 std::vector<Part> parts_of(const Model& model, const Dataset& d);
 // The model without its effects (the base the parts are applied to).
@@ -94,6 +98,9 @@ struct FitOutcome {
   int sims = 0;
 };
 FitOutcome levenberg_marquardt(const Problem& pr, std::vector<Part> parts, int max_iter);
+// The bounds of the search: a parameter's own bounds and its physical range, the stricter.
+double search_lower(const ParamSpec& s);
+double search_upper(const ParamSpec& s);
 // Levenberg-Marquardt restarted with a fresh damping while it still gains (a stalled step is
 // often a poor finite-difference direction, not the optimum).
 FitOutcome refit(const Problem& pr, std::vector<Part> parts, int max_iter, int restarts = 3);

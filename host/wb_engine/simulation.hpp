@@ -35,6 +35,8 @@ struct SimOptions {
   // Each segment's start pose is refined to the mean offset of its first anchor_s of measurements
   // (a rigid shift of the segment), so one noisy pose sample does not bias a whole segment.
   double anchor_s = 2.0;
+  // ... the heading from the IMU heading where the log has one (the camera's noise may wander).
+  bool heading_from_imu = true;
   double warm_s = 2.0;  // the model runs this long (> 5 x I_z / D_psi) before a segment start to set its velocity
 };
 
@@ -104,6 +106,7 @@ struct CompareResult {
   ModelChoice model;
   ChannelValues noise_floor{};
   NoiseColour noise_colour;  // the camera noise's colour, found against the IMU heading
+  ChannelValues segment_floor{};  // the reference of the ratios (segment_floor(): the noise the anchor keeps)
   Prediction open_loop, segments, imu_heading;  // imu_heading empty without IMU heading data
   ErrorStats open_loop_err, segments_err, imu_heading_err, one_step_err;
   std::vector<Window> windows;  // 5 s windows

@@ -1,6 +1,7 @@
 // What the workbench's subcommands print (cli_text.hpp).
 #include "cli_text.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -63,6 +64,7 @@ void json_fitted(Json& j, const char* key, const std::vector<FittedEffect>& effe
   j.begin_array(key);
   for (const auto& e : effects) {
     j.begin_object().str("effect", e.effect).str("description", e.description);
+    for (const auto& [name, value] : e.texts) j.str(name.c_str(), value);
     j.begin_object("params");
     for (const auto& p : e.params) j.num(p.name.c_str(), p.value);
     j.end_object().begin_object("params_sigma");
@@ -121,6 +123,16 @@ std::vector<std::string> split_ids(const std::string& text) {
   while (std::getline(ss, id, ','))
     if (!id.empty()) ids.push_back(id);
   return ids;
+}
+
+bool known_effects(const char* program, const std::vector<std::string>& ids) {
+  const std::vector<LibraryEffect> library = effect_library();
+  for (const auto& id : ids)
+    if (std::none_of(library.begin(), library.end(), [&](const LibraryEffect& le) { return le.id == id; })) {
+      std::fprintf(stderr, "%s: unknown effect '%s' (auger effects lists them)\n", program, id.c_str());
+      return false;
+    }
+  return true;
 }
 
 }  // namespace auger::wb

@@ -48,6 +48,9 @@ extern const char* const kRankingRule;
 
 // "a,b,,c" -> {"a", "b", "c"}: the effect ids of --add and --only.
 std::vector<std::string> split_ids(const std::string& text);
+// True if every id is an effect of the library (auger effects); else prints, naming the first
+// unknown one, "PROGRAM: unknown effect 'ID' (auger effects lists them)".
+bool known_effects(const char* program, const std::vector<std::string>& ids);
 
 // A path as it would be typed in a shell (quoted when it holds anything but [A-Za-z0-9._/-]),
 // for the "next:" commands the subcommands print. Display only: nothing here is run.

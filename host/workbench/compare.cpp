@@ -92,8 +92,10 @@ int run_compare(int argc, char** argv) {
       j.str("terrain", r.model.terrain);
       j.num("duration_s", d.duration_s()).num("samples", static_cast<double>(d.size()));
       j.channels("noise_floor", r.noise_floor, d.active);
+      j.channels("segment_floor", r.segment_floor, d.active);
       const NoiseColour& nc = r.noise_colour;
       j.begin_object("noise_colour").num("factor", nc.factor).num("pairs", static_cast<double>(nc.samples));
+      j.num("anchor_share", nc.anchor_share).num("anchor_windows", static_cast<double>(nc.anchor_windows));
       j.boolean("applied", nc.applied).num("frame_s", nc.whiten.frame_s).begin_array("ar");
       for (double a : nc.whiten.ar) j.num(nullptr, a);
       j.end_array().end_object();
@@ -131,6 +133,10 @@ int run_compare(int argc, char** argv) {
                   "camera / IMU heading pairs while not turning); its filter for the residual tests: AR(%zu) per %.3g s frame,",
                   r.noise_colour.factor, r.noise_colour.samples, r.noise_colour.whiten.ar.size(), r.noise_colour.whiten.frame_s);
       for (double a : r.noise_colour.whiten.ar) std::printf(" %.3f", a);
+      std::printf("\n  each segment's start is anchored on 2 s of poses, whose mean keeps %.0f %% of that noise's "
+                  "variance (%zu windows):\n  a perfect model leaves x %s, y %s; the multiples below are of these",
+                  100 * r.noise_colour.anchor_share, r.noise_colour.anchor_windows,
+                  with_unit(r.segment_floor[kX], "m", 3).c_str(), with_unit(r.segment_floor[kY], "m", 3).c_str());
     }
     std::vector<Variant> vs = {{"open loop (Table 4)", &r.open_loop_err}, {"segments of 25 s", &r.segments_err}};
     if (d.active[kImuPsi]) vs.push_back({"IMU heading (Fig. 9)", &r.imu_heading_err});

@@ -55,24 +55,10 @@ int run_diagnose(int argc, char** argv) {
     require_fit_data(d, "diagnose");
     DiagnoseOptions o;
     o.only = split_ids(a.get("--only"));
-    for (const auto& id : o.only) {
-      bool known = false;
-      for (const auto& le : effect_library()) known |= le.id == id;
-      if (!known) {
-        std::fprintf(stderr, "auger diagnose: unknown effect '%s' (auger effects lists them)\n", id.c_str());
-        return 2;
-      }
-    }
-    if (a.has("--threads")) {
-      const std::string t = a.get("--threads");
-      char* end = nullptr;
-      const long n = std::strtol(t.c_str(), &end, 10);
-      if (end == t.c_str() || *end != '\0' || n < 1 || n > 256) {
-        std::fprintf(stderr, "auger diagnose: --threads '%s' is not a number of threads in 1..256\n", t.c_str());
-        return 2;
-      }
-      o.threads = int(n);
-    }
+    long threads = 0;
+    if (!known_effects("auger diagnose", o.only) || !a.whole("auger diagnose", "--threads", o.threads, 1, 256, threads))
+      return 2;
+    o.threads = static_cast<int>(threads);
     o.progress = a.has("--progress") || (!a.has("--quiet") && d.duration_s() > 300);
     const DiagnoseResult r = diagnose(d, choose_model(d, a.get("--model")), o);
     require_noise_floor(d, r.noise_floor);
@@ -86,6 +72,7 @@ int run_diagnose(int argc, char** argv) {
       j.str("log", d.path).str("kind", d.gantry ? "gantry" : "robot").str("model", r.model.source);
       j.str("terrain", r.model.terrain);
       j.channels("noise_floor", r.noise_floor, d.active);
+      j.channels("segment_floor", r.segment_floor, d.active);
       j.channels("nominal_rms", r.nominal.rms, d.active);
       j.channels("nominal_ratio", r.nominal.ratio_to_noise, d.active);
       j.num("nominal_heldout_ratio", r.nominal_heldout_ratio).num("n", r.n).num("n_eff", r.n_eff);

@@ -11,6 +11,7 @@
 #include "checks.hpp"
 #include "cli_text.hpp"
 #include "commands.hpp"
+#include "explain_out.hpp"
 #include "workbench.hpp"
 
 namespace auger::wb {
@@ -39,48 +40,23 @@ const CommandLine kCli{
      {"--quiet", "", "no progress lines"}},
     ""};
 
-// "1.23" for a channel the log has, "-" otherwise.
-std::string cell(double v) {
-  if (!std::isfinite(v)) return "-";
-  char buf[32];
-  std::snprintf(buf, sizeof buf, v < 10 ? "%.2f" : "%.1f", v);
-  return buf;
-}
-
 }  // namespace
 
 int run_explain(int argc, char** argv) {
   Args a;
   if (const int rc = kCli.parse_or_answer(argc, argv, a); rc >= 0) return rc;
   if (a.positional.empty()) return kCli.print_usage(stderr), 2;
-  auto count = [&](const char* opt, int dflt, int lo, int hi, int& out) {
-    if (!a.has(opt)) {
-      out = dflt;
-      return true;
-    }
-    const std::string v = a.get(opt);
-    char* end = nullptr;
-    const long n = std::strtol(v.c_str(), &end, 10);
-    if (v.empty() || *end != '\0' || n < lo || n > hi) {
-      std::fprintf(stderr, "auger explain: %s: '%s' is not a whole number from %d to %d\n", opt, v.c_str(), lo, hi);
-      return false;
-    }
-    out = static_cast<int>(n);
-    return true;
-  };
   ExplainOptions o;
-  if (!count("--max-effects", 4, 1, 10, o.max_effects) || !count("--beam", 2, 1, 6, o.beam) ||
-      !count("--threads", 2, 1, 64, o.threads))
+  long max_effects = 0, beam = 0, threads = 0;
+  const char* who = "auger explain";
+  if (!a.whole(who, "--max-effects", 4, 1, 10, max_effects) || !a.whole(who, "--beam", 2, 1, 6, beam) ||
+      !a.whole(who, "--threads", 2, 1, 64, threads))
     return 2;
+  o.max_effects = static_cast<int>(max_effects);
+  o.beam = static_cast<int>(beam);
+  o.threads = static_cast<int>(threads);
   o.only = split_ids(a.get("--only"));
-  for (const auto& id : o.only) {
-    bool known = false;
-    for (const auto& le : effect_library()) known |= le.id == id;
-    if (!known) {
-      std::fprintf(stderr, "auger explain: unknown effect '%s' (auger effects lists them)\n", id.c_str());
-      return 2;
-    }
-  }
+  if (!known_effects(who, o.only)) return 2;
   try {
     std::vector<Dataset> logs;
     std::vector<ModelChoice> models;
@@ -141,130 +117,10 @@ int run_explain(int argc, char** argv) {
                                                logs_arg.substr(0, logs_arg.find(' ', 1)) + " --model MODEL.toml"
                                          : "auger compare" + std::string(" ") + a.positional.front() + " --model " + out;
     if (a.has("--json")) {
-      Json j;
-      j.begin_object();
-      j.begin_array("logs");
-      for (std::size_t i = 0; i < r.logs.size(); ++i) {
-        j.begin_object().str("log", r.logs[i]).str("model", models[i].source).str("terrain", models[i].terrain);
-        j.channels("noise_floor", r.noise_floor[i], logs[i].active).end_object();
-      }
-      j.end_array();
-      j.begin_array("effects");
-      for (const auto& id : r.effects) j.str(nullptr, id);
-      j.end_array();
-      j.begin_array("steps");
-      for (const auto& s : r.steps) {
-        j.begin_object().num("step", s.index).str("added", s.added);
-        j.begin_array("dropped");
-        for (const auto& d : s.dropped) j.str(nullptr, d);
-        j.end_array().begin_array("effects");
-        for (const auto& e : s.effects) j.str(nullptr, e);
-        j.end_array();
-        j.channels("heldout_ratio", s.heldout_ratio, r.active).num("heldout_combined", s.heldout_combined);
-        j.num("delta_bic", s.delta_bic).boolean("flagged", s.flagged).boolean("paper_params_held", s.paper_held);
-        j.num("split", s.split);
-        if (s.second_opinion) {
-          j.begin_object("second_opinion").num("refused_heldout", s.refused_heldout).num("refused_from", s.refused_from);
-          j.begin_array("splits");
-          for (std::size_t k = 0; k < s.split_heldout.size(); ++k)
-            j.begin_object().num("split", static_cast<double>(k + 2)).num("heldout_combined", s.split_heldout[k])
-                .num("before", s.split_from[k]).num("delta_bic", s.split_delta_bic[k]).end_object();
-          j.end_array().end_object();
-        }
-        json_fitted(j, "fitted", s.fitted);
-        j.begin_array("alternatives");
-        for (const auto& c : s.alternatives) {
-          j.begin_object().str("effect", c.fitted.effect).num("heldout_ratio", c.heldout_ratio).num("delta_bic", c.delta_bic);
-          j.str("tell_apart", c.tell_apart).end_object();
-        }
-        j.end_array().end_object();
-      }
-      j.end_array();
-      j.begin_object("final");
-      j.channels("ratio", r.final_ratio, r.active).channels("heldout_ratio", r.final_heldout, r.active);
-      json_fitted(j, "fitted", r.final_fitted);
-      j.begin_array("residual_tests");
-      for (std::size_t i = 0; i < r.tests.size(); ++i) {
-        j.begin_object().str("log", r.logs[i]).boolean("white", r.tests[i].white).boolean("independent", r.tests[i].independent);
-        j.str("summary", describe_residual_tests(r.tests[i])).end_object();
-      }
-      j.end_array();
-      j.str("model_file", out);
-      j.end_object();
-      j.str("verdict_kind", r.verdict_kind).str("verdict", r.verdict);
-      json_windows(j, "where", r.where);
-      j.num("structures_fitted", r.structures_tried);
-      j.str("next", next);
-      j.begin_array("warnings");
-      for (const auto& w : warnings) j.str(nullptr, w);
-      j.end_array();
-      j.end_object();
-      std::printf("%s\n", j.text().c_str());
+      print_explain_json(r, logs, models, out, next, warnings);
       return 0;
     }
-    std::printf("explain: %zu log%s, %.1f s in all\n", logs.size(), logs.size() > 1 ? "s" : "", seconds);
-    for (std::size_t i = 0; i < logs.size(); ++i) {
-      std::printf("  %s: %s, %.1f s; model: %s; noise floor", logs[i].path.c_str(), logs[i].gantry ? "gantry" : "robot",
-                  logs[i].duration_s(), models[i].source.c_str());
-      for (int c = 0; c < kChannels; ++c)
-        if (logs[i].active[static_cast<std::size_t>(c)])
-          std::printf(" %s %.3g %s", channel_name(c), r.noise_floor[i][static_cast<std::size_t>(c)], channel_unit(c));
-      std::printf("\n");
-    }
-    std::printf("\nheld-out error per channel, in multiples of the noise floor (1.00 = only noise left):\n");
-    std::printf("step  %-26s", "effect added");
-    for (int c = 0; c < kChannels; ++c)
-      if (r.active[static_cast<std::size_t>(c)]) std::printf(" %8s", channel_name(c));
-    std::printf("  delta BIC\n");
-    for (const auto& s : r.steps) {
-      std::printf("%4d  %-26s", s.index, s.added.empty() ? "(the model as given)" : ("+ " + s.added).c_str());
-      for (int c = 0; c < kChannels; ++c)
-        if (r.active[static_cast<std::size_t>(c)]) std::printf(" %8s", cell(s.heldout_ratio[static_cast<std::size_t>(c)]).c_str());
-      if (s.index > 0) std::printf("  %9.1f%s", s.delta_bic, s.flagged ? "  FLAGGED" : "");
-      std::printf("\n");
-      for (const auto& d : s.dropped) std::printf("      - %s dropped: it no longer pays for itself\n", d.c_str());
-      if (s.second_opinion) {
-        std::printf("      (refused by the held-out segments alone: %.2f against %.2f before; taken because it\n"
-                    "      passes on the log's two other splits, each holding out another third of the segments:\n     ",
-                    s.refused_heldout, s.refused_from);
-        for (std::size_t k = 0; k < s.split_heldout.size(); ++k)
-          std::printf(" split %zu: %.2f against %.2f, delta BIC %.1f%s", k + 2, s.split_heldout[k], s.split_from[k],
-                      s.split_delta_bic[k], k + 1 < s.split_heldout.size() ? ";" : ".\n");
-        std::printf("      Held-out errors from here on are split %d's)\n", s.split);
-      }
-      if (s.paper_held && s.index > 0 && !r.steps[static_cast<std::size_t>(s.index - 1)].paper_held)
-        std::printf("      (the paper's parameters held at its values: refitted, they ran to the end of their range)\n");
-      for (const auto& c : s.alternatives)
-        std::printf("      near tie: %s (held-out %s, delta BIC %.1f); the experiment that tells them apart: %s\n",
-                    c.fitted.effect.c_str(), times_noise(c.heldout_ratio).c_str(), c.delta_bic, c.tell_apart.c_str());
-    }
-    std::printf("Each step refits every effect chosen so far and the paper's parameters jointly with the candidate;\n"
-                "a candidate is taken when it gains more than 10 in BIC and lowers the held-out error by 2 %%, the\n"
-                "lowest held-out error first (a fit with a value at or beyond its physical range counted 15 %% worse).\n"
-                "Where the paper's parameters run to the end of their range, the structure is fitted with them held\n"
-                "at the paper's values too, and the one with the lower held-out error is taken. Where the held-out\n"
-                "segments alone refuse the candidate that gains most in BIC, it is taken if it passes on both other\n"
-                "splits of the log (each holding out another third of its segments).\n");
-    std::printf("\nfinal model, refitted on every segment; error as `auger compare --model` computes it (segments of\n"
-                "25 s, multiples of the noise floor):");
-    for (int c = 0; c < kChannels; ++c)
-      if (r.active[static_cast<std::size_t>(c)])
-        std::printf("  %s %s", channel_name(c), cell(r.final_ratio[static_cast<std::size_t>(c)]).c_str());
-    std::printf("\n");
-    for (const auto& e : r.final_fitted) {
-      std::printf("  %s: %s\n", e.effect.c_str(), e.description.c_str());
-      print_fitted(stdout, e, "    ");
-    }
-    std::printf("residual tests:");
-    for (std::size_t i = 0; i < r.tests.size(); ++i)
-      std::printf(" %s%s", r.tests.size() > 1 ? (r.logs[i] + ": ").c_str() : "", describe_residual_tests(r.tests[i]).c_str());
-    std::printf("\n\nverdict: %s\n", r.verdict.c_str());
-    if (r.verdict_kind != "noise" && !r.where.empty()) {
-      std::printf("where the model fails most (5 s windows):\n");
-      for (const auto& w : r.where)
-        std::printf("  t %7.1f - %7.1f s  %-7s  RMS %s = %s\n", w.t_start_s, w.t_end_s, channel_name(w.dof),
-                    with_unit(w.rms, channel_unit(w.dof), 3).c_str(), times_noise(w.ratio_to_noise).c_str());
-    }
+    print_explain_text(r, logs, models, seconds);
     if (!out.empty()) std::printf("model file written: %s\n", out.c_str());
     std::printf("next: %s\n", next.c_str());
     return 0;

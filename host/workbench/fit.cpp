@@ -7,6 +7,7 @@
 #include <string>
 
 #include "auger/args.hpp"
+#include "auger/term_form.hpp"
 #include "checks.hpp"
 #include "cli_text.hpp"
 #include "commands.hpp"
@@ -18,11 +19,13 @@ namespace {
 
 const CommandLine kCli{
     "auger fit",
-    "LOG --add EFFECT[,EFFECT...] [--out MODEL] [--model FILE] [--json]",
+    "LOG --add EFFECT[,EFFECT...] [--add-term DOF:FORM[,DOF:FORM...]] [--out MODEL] [--model FILE] [--json]",
     "Re-identifies sigma and D (eqs. (15)-(17)) together with the effects added, prints the error\n"
     "per channel before and after (also as multiples of the noise floor), writes a model file.\n",
     {{"--add", "EFFECT[,EFFECT...]", "the effects to add (auger effects lists them); paper_params: the\n"
       "paper's parameters alone"},
+     {"--add-term", "DOF:FORM[,...]", "discovered terms to fit as well (auger explain proposes them;\n"
+      "docs/workbench.md \"Discovered terms\"), e.g. yaw:v_mps or screw_2:neg(omega_rpm)"},
      {"--out", "MODEL", "write the fitted model file there"},
      kModelOption,
      {"--json", "", "one JSON object on stdout"},
@@ -36,22 +39,27 @@ int run_fit(int argc, char** argv) {
   if (const int rc = kCli.parse_or_answer(argc, argv, a); rc >= 0) return rc;
   if (a.positional.size() != 1) return kCli.print_usage(stderr), 2;
   const std::vector<std::string> ids = split_ids(a.get("--add"));
-  if (ids.empty()) {
-    std::fprintf(stderr, "auger fit: --add EFFECT[,EFFECT...] is required (auger effects lists them)\n");
-    return 2;
-  }
-  for (const auto& id : ids) {
-    bool known = false;
-    for (const auto& le : effect_library()) known |= le.id == id;
-    if (!known) {
-      std::fprintf(stderr, "auger fit: unknown effect '%s' (auger effects lists them)\n", id.c_str());
+  std::vector<std::pair<std::string, std::string>> terms;
+  for (const std::string& spec : split_ids(a.get("--add-term"))) {
+    const auto colon = spec.find(':');
+    try {
+      if (colon == std::string::npos) throw std::invalid_argument("'" + spec + "' is not DOF:FORM");
+      const TermForm f(spec.substr(0, colon), spec.substr(colon + 1));
+      terms.push_back({f.dof_text(), f.form_text()});
+    } catch (const std::invalid_argument& e) {
+      std::fprintf(stderr, "auger fit: --add-term: %s\n", e.what());
       return 2;
     }
   }
+  if (ids.empty() && terms.empty()) {
+    std::fprintf(stderr, "auger fit: --add EFFECT[,EFFECT...] is required (auger effects lists them)\n");
+    return 2;
+  }
+  if (!known_effects("auger fit", ids)) return 2;
   try {
     const Dataset d = load_dataset(a.positional[0]);
     require_fit_data(d, "fit");
-    const FitResult r = fit(d, choose_model(d, a.get("--model")), ids, a.has("--progress"));
+    const FitResult r = fit(d, choose_model(d, a.get("--model")), ids, a.has("--progress"), terms);
     // Numbers, or nothing is written (a model of NaN would load and mislead).
     require_noise_floor(d, r.noise_floor);
     require_finite(d, r.err_before, r.before, "segments, before");
@@ -87,7 +95,9 @@ int run_fit(int argc, char** argv) {
     for (double x : r.err_after.ratio_to_noise) beyond = beyond || x > 1.3;
     const std::string log = typed(d.path), model_file = out.empty() ? "fitted.toml" : typed(out);
     std::string next;
-    if (out.empty()) next = "auger fit " + log + " --add " + a.get("--add") + " --out fitted.toml (write the model file)";
+    std::string added = a.has("--add") ? " --add " + a.get("--add") : "";
+    if (a.has("--add-term")) added += " --add-term '" + a.get("--add-term") + "'";
+    if (out.empty()) next = "auger fit " + log + added + " --out fitted.toml (write the model file)";
     else if (beyond) next = "auger diagnose " + log + " --model " + model_file + " (what is still missing)";
     else next = "auger compare " + log + " --model " + model_file + " (the error after, as above), or load it in augerd";
     if (flagged)
@@ -97,6 +107,7 @@ int run_fit(int argc, char** argv) {
       Json j;
       j.begin_object().str("log", d.path);
       j.channels("noise_floor", r.noise_floor, d.active);
+      j.channels("segment_floor", r.segment_floor, d.active);
       j.begin_object("before").channels("rms", r.err_before.rms, d.active).channels("ratio", r.err_before.ratio_to_noise, d.active).end_object();
       j.begin_object("after").channels("rms", r.err_after.rms, d.active).channels("ratio", r.err_after.ratio_to_noise, d.active).end_object();
       json_fitted(j, "effects", r.effects);

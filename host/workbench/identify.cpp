@@ -51,15 +51,7 @@ int run_identify(int argc, char** argv) {
   Args args;
   if (const int rc = kCli.parse_or_answer(argc, argv, args); rc >= 0) return rc;
   json = args.has("--json");
-  if (args.has("--confidence")) {
-    const std::string text = args.get("--confidence");
-    char* end = nullptr;
-    options.confidence = std::strtod(text.c_str(), &end);
-    if (text.empty() || *end != '\0' || !(options.confidence > 0 && options.confidence < 1)) {
-      std::fprintf(stderr, "auger identify: --confidence '%s' is not a probability in (0, 1)\n", text.c_str());
-      return 2;
-    }
-  }
+  if (!args.number_in("auger identify", "--confidence", options.confidence, 0, 1, options.confidence)) return 2;
   files = args.positional;
   if (files.empty()) return identify_usage(stderr, 2);
 

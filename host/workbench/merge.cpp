@@ -37,10 +37,8 @@ int merge_usage(std::FILE* f, int code) {
 }
 
 double parse_number(const char* text, const char* what) {
-  char* end = nullptr;
-  const double v = std::strtod(text, &end);
-  if (end == text || *end != '\0' || !std::isfinite(v))
-    throw std::invalid_argument(std::string(what) + " '" + text + "' is not a number");
+  double v = 0;
+  if (!decimal_number(text, v)) throw std::invalid_argument(std::string(what) + " '" + text + "' is not a number");
   return v;
 }
 

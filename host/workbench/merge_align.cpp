@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "auger/args.hpp"
 #include "auger/input_limits.hpp"
 #include "auger/log.hpp"
 #include "auger/measured.hpp"
@@ -88,10 +89,8 @@ LagScore correlate(const std::vector<double>& a, const std::vector<double>& b, l
 }  // namespace
 
 double parse_t0_unix_s(const std::string& path, const MetadataEntry& m) {
-  char* end = nullptr;
-  const double v = std::strtod(m.value.c_str(), &end);
-  if (end == m.value.c_str() || *end != '\0' || !std::isfinite(v))
-    throw LogError(path, m.line, 1, "t0_unix_s " + quote_input(m.value) + " is not a number");
+  double v = 0;
+  if (!decimal_number(m.value, v)) throw LogError(path, m.line, 1, "t0_unix_s " + quote_input(m.value) + " is not a number");
   if (const std::string e = check_bound("t0_unix_s", v, limits::kLogTime); !e.empty()) throw LogError(path, m.line, 1, e);
   return v;
 }

@@ -253,9 +253,9 @@ Section error_section(const Findings& f, ChartSet& charts) {
       for (std::size_t i = k; i < d.size() && d.t_s[i] <= w.t_end_s; ++i)
         if (std::isfinite(d.meas[i][cc])) step[i] = w.ratio_to_noise;
     }
-    ch.series = {{"error, re-initialised every 5 s", error_ratio(d, win, cmp.noise_floor, c), "line", "#ff7f0e"},
+    ch.series = {{"error, re-initialised every 5 s", error_ratio(d, win, cmp.segment_floor, c), "line", "#ff7f0e"},
                  {"RMS of each 5 s window", step, "step", "#8c2d04"},
-                 {"error, segments of 25 s", error_ratio(d, cmp.segments, cmp.noise_floor, c), "thin", "#aaaaaa"}};
+                 {"error, segments of 25 s", error_ratio(d, cmp.segments, cmp.segment_floor, c), "thin", "#aaaaaa"}};
     int n = 0;
     for (const auto& w : cmp.worst) {
       ++n;
@@ -389,8 +389,8 @@ Section before_after_section(const Findings& f, ChartSet& charts) {
   for (int c : f.chans) {
     Chart ch = time_chart(d, c, "error before and after", error_label(c));
     ch.height_px = 160;
-    ch.series = {{"before", error_ratio(d, cmp.segments, cmp.noise_floor, c), "thin", "#999999"},
-                 {"after", error_ratio(d, f.after.segments, cmp.noise_floor, c), "line", kAfter}};
+    ch.series = {{"before", error_ratio(d, cmp.segments, cmp.segment_floor, c), "thin", "#999999"},
+                 {"after", error_ratio(d, f.after.segments, cmp.segment_floor, c), "line", kAfter}};
     h << charts.add(std::move(ch));
   }
   return {"before-after", "Before and after", h.str()};

@@ -1,37 +1,32 @@
-"""ROS 2 bags (rosbag2: a folder with metadata.yaml, or one .db3 / .mcap file) into time series.
+"""ROS 2 bags (rosbag2: a folder with metadata.yaml, or one .db3 / .mcap file) into a robot log.
 
-Read with the `rosbags` library (pure Python, no ROS). Types: the definitions the bag embeds
-win; what it lacks comes from ROS 2 Humble's standard set and robominer_msgs (robominer.py).
+Two passes over the messages in recording order (bagscan.py): the first reads stamps only
+(clock steps and silences: timeline.py; the grid's size; samples for the types: bagtypes.py),
+the second decodes and puts each value on the grid as it comes (grid.py). Each value is checked
+where it enters: a quaternion that is no orientation, a number outside its column's bounds, a
+message that does not decode; what is dropped is counted and said, naming topic and message.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from pathlib import Path
+from dataclasses import dataclass, field
 
 import numpy as np
-from rosbags.interfaces import MessageDefinitionFormat, Nodetype
-from rosbags.rosbag2 import Reader, ReaderError
-from rosbags.typesys import get_types_from_idl, get_types_from_msg, get_typestore, Stores
-from rosbags.typesys.base import TypesysError
+from rosbags.interfaces import Nodetype
 
 from . import InputError
-from .mapping import ColumnSpec, Map
-from .robominer import default_fielddefs
+from .bagscan import header_stamp, in_record_order, open_bag, scan
+from .bagtypes import Decoder, TypeBook
+from .limits import MAX_GAPS, value_problem
+from .mapping import INTEGERS, ColumnSpec, Map
+from .robominer import FEEDBACK
 
 QUATERNION = "geometry_msgs/msg/Quaternion"
 SCREW_NAMES = ("front-right", "rear-right", "rear-left", "front-left")  # docs/model.md
 NUMERIC = {"bool", "byte", "char", "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64",
            "uint64", "float32", "float64"}
-
-
-@dataclass
-class Series:
-    """One log column's samples: times in ns (the map's clock) and values."""
-    spec: ColumnSpec
-    t_ns: np.ndarray
-    values: np.ndarray
+UNIT_TOLERANCE = 0.01  # |norm - 1| of a quaternion that is an orientation (float32 sensors: 1e-4)
 
 
 def yaw_of(x: float, y: float, z: float, w: float) -> float:
@@ -39,57 +34,56 @@ def yaw_of(x: float, y: float, z: float, w: float) -> float:
     return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
-def _typestore(path, connections):
-    defs = {}
-    for c in connections:
-        try:
-            if c.msgdef.format == MessageDefinitionFormat.MSG:
-                defs.update(get_types_from_msg(c.msgdef.data, c.msgtype))
-            elif c.msgdef.format == MessageDefinitionFormat.IDL:
-                # one IDL, or several each after a line of 80 '=' and "IDL: name"
-                sep = "=" * 80 + "\n"
-                parts = c.msgdef.data.split(sep)[1:] if c.msgdef.data.startswith(sep) else [c.msgdef.data]
-                for part in parts:
-                    defs.update(get_types_from_idl(part.split("\n", 1)[1] if part.startswith("IDL: ") else part))
-        except (TypesysError, IndexError) as e:
-            raise InputError("%s: topic %s: its type %s has a definition the reader cannot parse: %s"
-                             % (path, c.topic, c.msgtype, e)) from None
-    merged = default_fielddefs()
-    merged.update(defs)  # the bag's own definitions win
-    store = get_typestore(Stores.EMPTY)
-    store.register(merged)
-    return store
+def quaternion_problem(x, y, z, w) -> tuple[str, str] | None:
+    """(kind, the value) when (x, y, z, w) is no orientation."""
+    n = math.sqrt(x * x + y * y + z * z + w * w)
+    if not math.isfinite(n) or abs(n - 1.0) > UNIT_TOLERANCE:
+        return "not a unit quaternion", "(%g, %g, %g, %g), norm %.3g" % (x, y, z, w, n)
+    return None
 
 
-class _Accessor:
+class Accessor:
     """A field path resolved against a message type once: how to get the value, and its kind."""
 
-    def __init__(self, path, store, msgtype, spec: ColumnSpec, topic):
-        self.steps = []
-        typ = msgtype
-        kind = None
-        where = "%s: column %s: %s (%s)" % (path, spec.name, topic, msgtype)
-        for part in spec.field.split("."):
+    def __init__(self, dec: Decoder, spec: ColumnSpec):
+        """LookupError (why, for every field of the spec) when the type has none of them."""
+        errors = []
+        for path in spec.fields:
+            try:
+                self._resolve(dec, path)
+                self.path = path
+                return
+            except LookupError as e:
+                errors.append(str(e))
+        raise LookupError("; ".join(errors))
+
+    def _resolve(self, dec, path):
+        self.steps, self.covariance = [], None
+        typ, kind = dec.msgtype, None
+        parts = path.split(".")
+        for n, part in enumerate(parts):
             index = None
             if part.endswith("]") and "[" in part:
                 part, idx = part[:-1].split("[", 1)
                 if not idx.isdigit():
-                    raise InputError("%s: field '%s': '[%s]' is not an index" % (where, spec.field, idx))
+                    raise LookupError("field '%s': '[%s]' is not an index" % (path, idx))
                 index = int(idx)
             if typ is None:
-                raise InputError("%s: field '%s': '%s' is not a message, it has no fields" % (where, spec.field, part))
-            fields = dict(store.fielddefs[typ][1])
+                raise LookupError("field '%s': '%s' is not a message, it has no fields" % (path, part))
+            fields = dec.fields(typ)
             if part not in fields:
-                raise InputError("%s has no field '%s' (in '%s'; it has: %s)"
-                                 % (where, part, spec.field, ", ".join(fields)))
+                raise LookupError("has no field '%s'%s (it has: %s)" % (
+                    part, "" if part == path else " (in '%s')" % path, ", ".join(fields)))
             node, arg = fields[part]
             if index is not None:
                 if node not in (Nodetype.ARRAY, Nodetype.SEQUENCE):
-                    raise InputError("%s: field '%s': %s is not an array" % (where, spec.field, part))
+                    raise LookupError("field '%s': %s is not an array" % (path, part))
                 node, arg = arg[0]
             elif node in (Nodetype.ARRAY, Nodetype.SEQUENCE):
-                raise InputError("%s: field '%s': %s is an array; name an element, e.g. %s[0]"
-                                 % (where, spec.field, part, part))
+                raise LookupError("field '%s': %s is an array; name an element, e.g. %s[0]" % (path, part, part))
+            if n == len(parts) - 1 and index is None and part + "_covariance" in fields:
+                # sensor_msgs/Imu: orientation_covariance[0] = -1 says "no orientation estimate"
+                self.covariance = part + "_covariance"
             self.steps.append((part, index))
             if node == Nodetype.NAME:
                 typ, kind = arg, "message"
@@ -97,28 +91,36 @@ class _Accessor:
                 typ, kind = None, arg[0]
         if kind == "message" and typ == QUATERNION:
             self.kind = "quaternion"
-        elif kind in NUMERIC:
+        elif kind in NUMERIC or kind == "string":
             self.kind = kind
-        elif kind == "string":
-            self.kind = "string"
         else:
-            raise InputError("%s: field '%s' is a %s, not a number or a quaternion"
-                             % (where, spec.field, typ or kind))
+            raise LookupError("field '%s' is a %s, not a number or a quaternion" % (path, typ or kind))
 
-    def get(self, msg):
-        v = msg
+    def get(self, msg) -> tuple[float, tuple[str, str] | None]:
+        """(value, (kind, the value) when it is no value) of one message."""
+        v, parent = msg, msg
         for name, index in self.steps:
+            parent = v
             v = getattr(v, name)
             if index is not None:
                 v = v[index]
         if self.kind == "quaternion":
-            return yaw_of(v.x, v.y, v.z, v.w)
+            if self.covariance is not None:
+                cov = getattr(parent, self.covariance)
+                if len(cov) and cov[0] == -1:
+                    return math.nan, ("no orientation: %s[0] = -1, the sensor_msgs/Imu convention for a sensor "
+                                      "without one" % self.covariance, "-1")
+            p = quaternion_problem(v.x, v.y, v.z, v.w)
+            return (math.nan, p) if p else (yaw_of(v.x, v.y, v.z, v.w), None)
         if self.kind == "string":
-            return float(v)  # a number sent as text (ValueError is reported by the caller)
+            try:
+                return float(v), None  # a number sent as text
+            except ValueError:
+                return math.nan, ("not a number", repr(v[:40]))
         if self.kind == "float32":
             # the float32's shortest decimal (10.7, not 10.699999809265137): what was meant
-            return float(str(np.float32(v)))
-        return float(v)
+            return float(str(np.float32(v))), None
+        return float(v), None
 
 
 def _match_value(msg, field):
@@ -128,119 +130,183 @@ def _match_value(msg, field):
     return str(v)
 
 
-def list_topics(path: str) -> list[tuple[str, str, int]]:
-    """(topic, type, message count) of every topic in the bag."""
-    with _open(path) as reader:
-        return sorted((name, info.msgtype or "(several types)", info.msgcount) for name, info in reader.topics.items())
+@dataclass
+class Problems:
+    """Values left out, per column and reason: counted, the first one named."""
+    seen: dict[str, int] = field(default_factory=dict)
+    dropped: dict[tuple[str, str], list] = field(default_factory=dict)
+
+    def add(self, column, kind, first_text):
+        d = self.dropped.setdefault((column, kind), [0, first_text])
+        d[0] += 1
+
+    def warnings(self, where_of) -> list[str]:
+        return ["column %s (%s): %d of %d samples left empty, %s (the first: %s)"
+                % (c, where_of(c), n, self.seen.get(c, n), kind, first) for (c, kind), (n, first) in self.dropped.items()]
 
 
-def _open(path):
-    p = Path(path)
-    if p.is_dir() and not (p / "metadata.yaml").exists():
-        raise InputError("%s: not a rosbag2 folder (no metadata.yaml); give the bag's folder or its .db3 "
-                         "or .mcap file" % path)
+@dataclass
+class BagPlan:
+    """What the first pass settled, for the second (read_values)."""
+    reader: object
+    conns: list
+    specs_by_topic: dict[str, list[ColumnSpec]]
+    decoders: dict[int, Decoder]
+    accessors: dict[tuple[int, str], Accessor]
+    scans: dict
+    notes: list[str]
+
+
+def plan_bag(path: str, cmap: Map, user_msgs: dict, warn) -> BagPlan:
+    """Opens the bag and does everything before decoding: topics, first pass, types, fields."""
+    reader = open_bag(path)
     try:
-        reader = Reader(p)
-        reader.open()
-    except FileNotFoundError as e:
-        raise InputError("%s: %s" % (path, e)) from None
-    except (ReaderError, KeyError, ValueError, OSError) as e:
-        raise InputError("%s: not a readable ROS 2 bag: %s" % (path, e)) from None
-
-    class _Closing:
-        def __enter__(self):
-            return reader
-
-        def __exit__(self, *exc):
-            reader.close()
-            return False
-
-    return _Closing()
+        return _plan(reader, path, cmap, user_msgs, warn)
+    except BaseException:
+        reader.close()
+        raise
 
 
-def read_bag(path: str, cmap: Map, warn) -> tuple[dict[str, Series], list[str]]:
-    """The map's columns as time series, and notes for the user (e.g. motor ids that differ
-    from the position a topic stands for)."""
-    notes: list[str] = []
-    with _open(path) as reader:
-        topics = reader.topics
-        specs_by_topic: dict[str, list[ColumnSpec]] = {}
-        for spec in cmap.columns:
-            if spec.topic is None:
-                raise InputError("%s: column %s: a bag needs a topic and a field (it has %s)"
-                                 % (cmap.path, spec.name, spec.where()))
-            if spec.topic not in topics or topics[spec.topic].msgcount == 0:
-                what = "is not in the bag" if spec.topic not in topics else "has no messages"
-                if spec.required:
-                    raise InputError("%s: topic %s %s (column %s needs it; `auger import %s --list-topics` "
-                                     "lists what it has)" % (path, spec.topic, what, spec.name, path))
-                warn("%s: topic %s %s: column %s left empty" % (path, spec.topic, what, spec.name))
-                continue
-            specs_by_topic.setdefault(spec.topic, []).append(spec)
-        conns = [c for c in reader.connections if c.topic in specs_by_topic]
-        store = _typestore(path, conns)
-        accessors = {}
-        for c in conns:
-            if c.msgtype not in store.fielddefs:
-                raise InputError("%s: topic %s: type %s is neither defined in the bag nor a standard ROS 2 "
-                                 "or robominer_msgs type" % (path, c.topic, c.msgtype))
-            for spec in specs_by_topic[c.topic]:
-                accessors[(c.id, spec.name)] = _Accessor(path, store, c.msgtype, spec, c.topic)
-                for k in spec.match:
-                    if k not in dict(store.fielddefs[c.msgtype][1]) and "." not in k:
-                        raise InputError("%s: column %s: match: %s (%s) has no field '%s'"
-                                         % (cmap.path, spec.name, c.topic, c.msgtype, k))
-        samples: dict[str, tuple[list, list]] = {s.name: ([], []) for specs in specs_by_topic.values() for s in specs}
-        counts: dict[str, int] = {}
-        motor_ids: dict[str, set[str]] = {}
-        for conn, t_ns, raw in reader.messages(connections=conns):
-            n = counts[conn.topic] = counts.get(conn.topic, 0) + 1
+def _plan(reader, path, cmap, user_msgs, warn):
+    topics = reader.topics
+    specs_by_topic: dict[str, list[ColumnSpec]] = {}
+    absent: dict[str, list[str]] = {}
+    for spec in cmap.columns:
+        if spec.topic is None:
+            raise InputError("%s: column %s: a bag needs a topic and a field (it has %s)"
+                             % (cmap.path, spec.name, spec.where()))
+        if spec.topic not in topics or topics[spec.topic].msgcount == 0:
+            what = "is not in the bag" if spec.topic not in topics else "has no messages"
+            if spec.required:
+                raise InputError("%s: topic %s %s (column %s needs it; `auger import %s --list-topics` "
+                                 "lists what it has)" % (path, spec.topic, what, spec.name, path))
+            absent.setdefault("%s %s" % (spec.topic, what), []).append(spec.name)
+            continue
+        specs_by_topic.setdefault(spec.topic, []).append(spec)
+    for what, cols in absent.items():
+        warn("%s: topic %s: column%s %s left empty" % (path, what, "s" if len(cols) > 1 else "", ", ".join(cols)))
+    conns = [c for c in reader.connections if c.topic in specs_by_topic]
+    scans = scan(reader, conns, path, cmap.clock, int(cmap.max_gap_s * 1e9), MAX_GAPS)
+    book = TypeBook(path, conns, user_msgs, warn)
+    fitted: dict[str, list[str]] = {}     # decoded as (an older version): topics
+    optional: dict[tuple, list[str]] = {}  # (type, its source, why): optional columns without a field
+    decoders: dict[int, Decoder] = {}
+    accessors: dict[tuple[int, str], Accessor] = {}
+    for c in conns:
+        specs = specs_by_topic.get(c.topic)
+        if not specs:
+            continue
+        needed = [s.name for s in specs if s.required]
+        samples = scans[c.topic].samples.get(c.id, []) if c.topic in scans else []
+        if not samples:  # the bag's index counted messages its storage does not have
+            if needed:
+                raise InputError("%s: topic %s has no messages in its storage (columns %s need them)"
+                                 % (path, c.topic, ", ".join(needed)))
+            continue
+        dec, why, note = book.choose(c.topic, c.msgtype, samples)
+        if dec is None:
+            if needed:
+                raise InputError("%s: topic %s (columns %s): %s" % (path, c.topic, ", ".join(needed), why))
+            warn("%s: topic %s: %s: dropped, columns %s left empty" % (path, c.topic, why,
+                                                                       ", ".join(s.name for s in specs)))
+            _drop_topic(c.topic, specs_by_topic, scans)
+            continue
+        if note and note.startswith("decoded as"):
+            fitted.setdefault(note, []).append(c.topic)
+        elif note:
+            warn("%s: %s: %s" % (path, c.topic, note))
+        if cmap.clock == "header" and not dec.has_header():
+            raise InputError("%s: topic %s (%s) has no header; the map's clock = \"header\" needs one"
+                             % (path, c.topic, c.msgtype))
+        decoders[c.id] = dec
+        for spec in list(specs):
             try:
-                msg = store.deserialize_cdr(raw, conn.msgtype)
-            except Exception as e:  # rosbags raises several kinds on a truncated or foreign message
-                raise InputError("%s: topic %s: message %d (%s, at %d ns) cannot be decoded: %s"
-                                 % (path, conn.topic, n, conn.msgtype, t_ns, e)) from None
-            if conn.msgtype == "robominer_msgs/msg/MotorModuleFeedback":
-                motor_ids.setdefault(conn.topic, set()).add(str(msg.motor_id))
-            if cmap.clock == "header":
-                try:
-                    st = msg.header.stamp
-                except AttributeError:
-                    raise InputError("%s: topic %s (%s) has no header; the map's clock = \"header\" needs one"
-                                     % (path, conn.topic, conn.msgtype)) from None
-                t_ns = st.sec * 1_000_000_000 + st.nanosec
-            for spec in specs_by_topic[conn.topic]:
-                try:
-                    if spec.match and any(_match_value(msg, k) != v for k, v in spec.match.items()):
-                        continue
-                    v = accessors[(conn.id, spec.name)].get(msg)
-                except ValueError:
-                    raise InputError("%s: topic %s: message %d: field %s is not a number"
-                                     % (path, conn.topic, n, spec.field)) from None
-                except AttributeError as e:  # a match key the message does not have
-                    raise InputError("%s: column %s: match on %s (%s): %s"
-                                     % (cmap.path, spec.name, conn.topic, conn.msgtype, e)) from None
-                ts, vs = samples[spec.name]
-                ts.append(t_ns)
-                vs.append(v * spec.scale + spec.offset)
-        # The group's motor modules report their own id; the topic (the position) decides the
-        # screw index, and a module whose id differs is worth a word.
-        for topic, ids in motor_ids.items():
-            for spec in specs_by_topic[topic]:
-                if spec.name.startswith("omega_rpm_") and not spec.match and ids != {spec.name[-1]}:
-                    notes.append("%s carries motor_id %s; mapped by its topic to screw %s (%s)"
-                                 % (topic, ", ".join(sorted(ids)), spec.name[-1], SCREW_NAMES[int(spec.name[-1])]))
-    series = {}
-    for specs in specs_by_topic.values():
-        for spec in specs:
-            ts, vs = samples[spec.name]
-            if not ts:
+                accessors[(c.id, spec.name)] = Accessor(dec, spec)
+            except LookupError as e:
                 if spec.required:
-                    raise InputError("%s: topic %s: no message matches %s (column %s)"
-                                     % (path, spec.topic, spec.where(), spec.name))
-                warn("%s: no message for column %s (%s): left empty" % (path, spec.name, spec.where()))
+                    raise InputError("%s: column %s: %s (%s) %s%s"
+                                     % (path, spec.name, c.topic, c.msgtype, e, _pose_hint(spec))) from None
+                optional.setdefault((c.msgtype, dec.source, str(e)), []).append("%s (%s)" % (spec.name, c.topic))
                 continue
-            t = np.asarray(ts, dtype=np.int64)
-            order = np.argsort(t, kind="stable")
-            series[spec.name] = Series(spec, t[order], np.asarray(vs, dtype=float)[order])
-    return series, notes
+            for k in spec.match:
+                if k.split(".")[0] not in dec.fields():
+                    raise InputError("%s: column %s: match: %s (%s) has no field '%s'"
+                                     % (cmap.path, spec.name, c.topic, c.msgtype, k))
+    for (typ, source, why), cols in optional.items():
+        warn("%s: %s (as %s) %s: left empty, as the map allows: %s" % (path, typ, source, why, ", ".join(cols)))
+    notes = ["%s (the definition their bytes fit): %s" % (note, ", ".join(topics)) for note, topics in fitted.items()]
+    conns = [c for c in conns if c.id in decoders]
+    if cmap.clock == "header":
+        for topic, s in scans.items():
+            if s.stampless:
+                raise InputError("%s: topic %s: %d messages too short for a header" % (path, topic, s.stampless))
+    return BagPlan(reader, conns, specs_by_topic, decoders, accessors, scans, notes)
+
+
+def _drop_topic(topic, specs_by_topic, scans):
+    specs_by_topic.pop(topic, None)
+    scans.pop(topic, None)
+
+
+def _pose_hint(spec: ColumnSpec) -> str:
+    if spec.name in ("x_m", "y_m", "psi_rad"):
+        return ("; the default map reads PoseStamped, PoseWithCovarianceStamped, Odometry and TransformStamped "
+                "there: for another type give a map (--map FILE, docs/formats.md) whose %s names its field"
+                % spec.name)
+    return "; a map (--map FILE, docs/formats.md) names another field"
+
+
+def read_values(plan: BagPlan, path: str, cmap: Map, route, problems: Problems, t_ref_ns: int):
+    """The second pass: every mapped value, decoded and checked, to route(topic, idx, t, column, v)."""
+    specs_by_topic = plan.specs_by_topic
+    counts: dict[int, int] = {}
+    undecoded: dict[str, list] = {}
+    motor_ids: dict[str, set[str]] = {}
+    for idx, (conn, t_rx, raw) in enumerate(in_record_order(plan.reader, plan.conns, path)):
+        dec = plan.decoders[conn.id]
+        n = counts[conn.id] = counts.get(conn.id, 0) + 1
+        t_ns = header_stamp(raw) if cmap.clock == "header" else t_rx
+        specs = specs_by_topic[conn.topic]
+        try:
+            msg = dec.decode(raw)
+        except Exception as e:  # rosbags raises several kinds on a truncated or foreign message
+            if any(s.required for s in specs):
+                raise InputError("%s: topic %s: message %d (%s as %s, at %d ns) cannot be decoded: %s"
+                                 % (path, conn.topic, n, conn.msgtype, dec.source, t_ns, e)) from None
+            u = undecoded.setdefault(conn.topic, [0, n, t_ns, str(e)])
+            u[0] += 1
+            continue
+        if conn.msgtype == FEEDBACK:
+            motor_ids.setdefault(conn.topic, set()).add(str(getattr(msg, "motor_id", "?")))
+        for spec in specs:
+            acc = plan.accessors.get((conn.id, spec.name))
+            if acc is None:
+                continue
+            try:
+                if spec.match and any(_match_value(msg, k) != v for k, v in spec.match.items()):
+                    continue
+            except AttributeError as e:
+                raise InputError("%s: column %s: match on %s (%s): %s"
+                                 % (cmap.path, spec.name, conn.topic, conn.msgtype, e)) from None
+            problems.seen[spec.name] = problems.seen.get(spec.name, 0) + 1
+            v, why = acc.get(msg)
+            if why is None:
+                v = v * spec.scale + spec.offset
+                why = value_problem(spec.name, v, spec.name in INTEGERS)
+            if why is not None:
+                problems.add(spec.name, why[0], "message %d at t = %.3f s, %s" % (n, (t_ns - t_ref_ns) / 1e9, why[1]))
+                continue
+            route(conn.topic, idx, t_ns, spec.name, v)
+    notes = []
+    for topic, (k, n, t_ns, e) in undecoded.items():
+        notes.append("%s: topic %s: %d messages cannot be decoded (the first: message %d at t = %.3f s: %s): "
+                     "left out" % (path, topic, k, n, (t_ns - t_ref_ns) / 1e9, e))
+    ids_notes = []
+    # The group's motor modules report their own id; the topic (the position) decides the
+    # screw index, and a module whose id differs is worth a word.
+    for topic, ids in motor_ids.items():
+        for spec in specs_by_topic[topic]:
+            if spec.name.startswith("omega_rpm_") and not spec.match and ids != {spec.name[-1]}:
+                ids_notes.append("%s carries motor_id %s; mapped by its topic to screw %s (%s)"
+                                 % (topic, ", ".join(sorted(ids)), spec.name[-1], SCREW_NAMES[int(spec.name[-1])]))
+    return notes, ids_notes

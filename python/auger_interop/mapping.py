@@ -2,7 +2,7 @@
 
 A map is a small TOML file (docs/formats.md); maps/robominer.toml is the default for bags.
 Every key is checked: an unknown key, a wrong type or a column the log format does not know
-is an error naming the file and the key.
+is an error naming the file and the key. The file is read with a size limit (limits.py).
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ from dataclasses import dataclass, field as dc_field
 from pathlib import Path
 
 from . import InputError
+from .limits import MAX_ROWS, read_text_file
 
 DEFAULT_MAP = Path(__file__).parent / "maps" / "robominer.toml"
 
@@ -33,24 +34,25 @@ REQUIRED_COLUMNS = ["omega_rpm_%d" % i for i in range(4)] + ["x_m", "y_m", "psi_
 HEADINGS = {"psi_rad", "imu_psi_rad", "psid_rad"}  # wrapped to (-pi, pi] (docs/model.md)
 INTEGERS = {"status_%d" % i for i in range(4)} | {"seq_ack_%d" % i for i in range(4)}
 
-# How a column is put on the grid (resample.py): an external pose stays sparse (each sample on
-# its nearest row), a setpoint or a status word is held until the next, the rest is interpolated.
-RESAMPLE_MODES = ("linear", "hold", "sparse")
+# How a column is put on the grid (grid.py): a measurement stays sparse (each sample on its
+# nearest row, the rows between empty: "not measured", so the noise floor sees only measured
+# samples); a setpoint, a reference or a status word is in force until the next, so it is held;
+# linear interpolation only where a map asks for it.
+RESAMPLE_MODES = ("sparse", "hold", "linear")
 
 
 def default_resample(name: str) -> str:
-    if name in ("x_m", "y_m", "psi_rad"):
-        return "sparse"
     if name.startswith(("cmd_rpm_", "status_", "seq_ack_")) or name in ("xd_m", "yd_m", "psid_rad"):
         return "hold"
-    return "linear"
+    return "sparse"
 
 
 @dataclass
 class ColumnSpec:
     name: str                      # the log column
     topic: str | None = None       # bag: the topic ...
-    field: str | None = None       # ... and the field path in its message ("pose.position.x")
+    fields: list[str] = dc_field(default_factory=list)  # ... and the field path in its message
+    #                                ("pose.position.x"); several: the first the type has
     column: str | None = None      # CSV: the source column
     quaternion: list[str] | None = None  # CSV: four columns x, y, z, w whose yaw is the value
     match: dict[str, str] = dc_field(default_factory=dict)  # bag: only messages with these field values
@@ -60,8 +62,8 @@ class ColumnSpec:
     required: bool = True
 
     @property
-    def is_heading(self) -> bool:
-        return self.name in HEADINGS
+    def field(self) -> str | None:
+        return " or ".join(self.fields) if self.fields else None
 
     def where(self) -> str:
         """Where the values come from, for messages."""
@@ -78,7 +80,9 @@ class Map:
     path: str
     rate_hz: float = 100.0
     clock: str = "receive"          # bag: "receive" (the bag's time stamps) or "header" (header.stamp)
-    max_gap_s: float = 1.0          # a longer gap between samples leaves the rows in it empty
+    max_gap_s: float = 1.0          # a longer silence of every source splits the log (timeline.py)
+    max_rows: int = MAX_ROWS        # the most rows one log may have
+    msg: dict[str, str] = dc_field(default_factory=dict)  # bag: .msg text of types the bag lacks
     metadata: dict[str, str] = dc_field(default_factory=dict)
     columns: list[ColumnSpec] = dc_field(default_factory=list)
     # CSV only: the time column, its scale to seconds, and whether it is Unix time
@@ -116,19 +120,28 @@ def _keys(path, where, table, allowed):
             _fail(path, where, "unknown key '%s' (known: %s)" % (k, ", ".join(sorted(allowed))))
 
 
+_TYPE = re.compile(r"^[A-Za-z][A-Za-z0-9_]*/(msg/)?[A-Za-z][A-Za-z0-9_]*$")
+
+
+def _type_name(path, where, v):
+    """A ROS 2 message type name, "pkg/msg/Type" (also "pkg/Type")."""
+    if not isinstance(v, str) or not _TYPE.match(v):
+        _fail(path, where, "%r is not a message type name like robominer_msgs/msg/MotorModuleFeedback" % (v,))
+    return v if "/msg/" in v else v.replace("/", "/msg/", 1)
+
+
 def load_map(path: str | Path | None = None) -> Map:
     """Reads and checks a map file (the default map when path is None)."""
     p = Path(path) if path is not None else DEFAULT_MAP
     name = str(p)
+    text = read_text_file(name, "map")
     try:
-        with open(p, "rb") as f:
-            doc = tomllib.load(f)
-    except OSError as e:
-        raise InputError("%s: cannot read the map: %s" % (name, e.strerror or e)) from None
+        doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise InputError("%s: not valid TOML: %s" % (name, e)) from None
 
-    _keys(name, "top level", doc, {"schema", "rate_hz", "clock", "max_gap_s", "metadata", "columns", "time", "csv"})
+    _keys(name, "top level", doc, {"schema", "rate_hz", "clock", "max_gap_s", "max_rows", "metadata", "columns",
+                                   "time", "csv", "msg"})
     if doc.get("schema") != 1:
         _fail(name, "schema", "must be 1 (got %r)" % (doc.get("schema"),))
     m = Map(path=name)
@@ -142,8 +155,18 @@ def load_map(path: str | Path | None = None) -> Map:
             _fail(name, "clock", "'%s' is not 'receive' or 'header'" % m.clock)
     if "max_gap_s" in doc:
         m.max_gap_s = _number(name, "max_gap_s", doc["max_gap_s"])
-        if m.max_gap_s <= 0:
-            _fail(name, "max_gap_s", "must be positive")
+        if not 0 < m.max_gap_s <= 3600:
+            _fail(name, "max_gap_s", "%g is outside (0, 3600] s" % m.max_gap_s)
+    if "max_rows" in doc:
+        v = doc["max_rows"]
+        if isinstance(v, bool) or not isinstance(v, int) or not 3 <= v <= 10 * MAX_ROWS:
+            _fail(name, "max_rows", "%r is not a whole number in 3..%d" % (v, 10 * MAX_ROWS))
+        m.max_rows = v
+    msg = doc.get("msg", {})
+    if not isinstance(msg, dict):
+        _fail(name, "msg", "must be a table of \"pkg/msg/Type\" = \"\"\"its .msg text\"\"\"")
+    for k, v in msg.items():
+        m.msg[_type_name(name, "msg." + k, k)] = _string(name, "msg." + k, v)
     meta = doc.get("metadata", {})
     if not isinstance(meta, dict):
         _fail(name, "metadata", "must be a table")
@@ -193,7 +216,9 @@ def load_map(path: str | Path | None = None) -> Map:
         cs = ColumnSpec(name=col, resample=default_resample(col))
         if "topic" in spec or "field" in spec:
             cs.topic = _string(name, where + ".topic", spec.get("topic"))
-            cs.field = _string(name, where + ".field", spec.get("field"))
+            f = spec.get("field")
+            alternatives = f if isinstance(f, list) and f else [f]
+            cs.fields = [_string(name, where + ".field", x) for x in alternatives]
         if "column" in spec:
             cs.column = _string(name, where + ".column", spec["column"])
         if "quaternion" in spec:

@@ -1,6 +1,7 @@
 """The built programs together: a simulated drive with a hidden effect (auger-sim-log) written
-as the group's ROS 2 bags, `auger import` back, `auger diagnose` names the effect; `auger
-export --mcap` read back with the independent `mcap` reader, every value compared."""
+as the group's ROS 2 bags (every kind issue 26 lists), `auger import` back, `auger diagnose` names
+the effect the CSV of the run names; `auger export --mcap` read back with the independent `mcap`
+reader, every value compared."""
 
 import json
 import math
@@ -11,6 +12,7 @@ import pytest
 from mcap.reader import make_reader
 from mcap.stream_reader import StreamReader
 
+from auger_interop.robominer import COMMAND, FEEDBACK
 from bagmaker import log_to_bag, read_log, strip_definitions
 from conftest import binary
 
@@ -54,6 +56,59 @@ def test_bags_to_diagnose_names_the_hidden_effect(drive):
     _, got = read_log(drive / "sqlite3.csv")
     for i in range(4):
         np.testing.assert_allclose(got["omega_rpm_%d" % i], orig["omega_rpm_%d" % i], rtol=2e-7, atol=1e-30)
+
+
+def _step(kind):
+    if kind == "forward":   # an NTP step 5 s forward at 20 s
+        return lambda t: t + 5_000_000_000 if t >= 20_000_000_000 else t
+    return lambda t: t - 3_000_000_000 if t >= 40_000_000_000 else t   # 3 s back at 40 s
+
+
+VARIANTS = {
+    "feedback-before-june-2021-sqlite3-no-definitions": dict(storage="sqlite3", strip=True, versions={FEEDBACK: 1}),
+    "feedback-before-june-2021-mcap-5hz": dict(storage="mcap", versions={FEEDBACK: 1}, feedback_every=20),
+    "imu-without-orientation": dict(storage="mcap", imu_orientation="none"),
+    "imu-50hz-feedback-5hz": dict(storage="sqlite3", imu_every=2, feedback_every=20, feedback_phase=5),
+    "odometry-pose": dict(storage="mcap", pose_type="nav_msgs/msg/Odometry"),
+    "command-int32-no-definitions": dict(storage="sqlite3", strip=True, versions={COMMAND: 1}),
+    "clock-forward-split": dict(storage="sqlite3", clock=_step("forward"), split=2),
+    "clock-back-split": dict(storage="mcap", clock=_step("back"), split=2),
+}
+
+
+@pytest.fixture(scope="module")
+def csv_diagnosis(drive):
+    auger = binary("AUGER_BIN")
+    return (json.loads(run(auger, "diagnose", drive / "drive.csv", "--json")),
+            json.loads(run(auger, "compare", drive / "drive.csv", "--json")))
+
+
+@pytest.mark.parametrize("variant", list(VARIANTS))
+def test_each_kind_of_group_bag_diagnoses_as_its_csv(drive, csv_diagnosis, variant, tmp_path):
+    """The bags the group has (older messages, slower sensors, no IMU orientation, another pose
+    type, a clock that steps) of one simulated run: diagnose on each import names what diagnose
+    on the run's CSV names; the measured samples give the CSV's noise floors within 10 %."""
+    auger = binary("AUGER_BIN")
+    kw = dict(VARIANTS[variant])
+    strip, split = kw.pop("strip", False), kw.pop("split", 0)
+    bag = log_to_bag(drive / "drive.csv", tmp_path / "bag", **kw)
+    if strip:
+        strip_definitions(bag)
+    out = run(auger, "import", bag, "--out", tmp_path / "run.csv", "--terrain", "sand", *(["--split"] if split else []))
+    logs = [tmp_path / ("run-%d.csv" % k) for k in range(1, split + 1)] if split else [tmp_path / "run.csv"]
+    assert all(p.exists() for p in logs), out
+    want, floors = csv_diagnosis
+    for log in logs:
+        d = json.loads(run(auger, "diagnose", log, "--json"))
+        assert d["candidates"][0]["effect"] == want["candidates"][0]["effect"], (log, d["verdict"])
+        assert d["significant"] is True
+    if not split:
+        got = json.loads(run(auger, "compare", logs[0], "--json"))["noise_floor"]
+        for ch, v in floors["noise_floor"].items():
+            if variant == "imu-without-orientation" and ch == "imu_psi":
+                assert ch not in got   # no IMU heading at all, rather than a heading of 0
+            else:
+                assert got[ch] == pytest.approx(v, rel=0.10), (ch, got[ch], v)
 
 
 GROUPS = {

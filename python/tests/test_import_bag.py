@@ -54,26 +54,36 @@ def test_humble_bag_without_definitions(tmp_path):
     assert (tmp_path / "a.csv").read_text() == (tmp_path / "b.csv").read_text()
 
 
-def test_group_rates_are_resampled(tmp_path):
-    """Motor feedback at 5 Hz (the group's modules): interpolated linearly; an IMU dropout
-    longer than max_gap_s (1 s) leaves its rows empty, a shorter one is bridged."""
+def test_group_rates_keep_measured_samples_only(tmp_path):
+    """Motor feedback at 5 Hz (the group's modules), each screw's at its own phase, and an IMU
+    with a dropout: every sample on its own row, the rows between empty (not interpolated); row 0
+    carries each screw speed's last sample before it, so the log starts with all four."""
     t, cols = synthetic_log(tmp_path / "in.csv", seconds=8)
-    cols["imu_psi_rad"][(t >= 3) & (t < 5)] = np.nan      # 2 s: empty
-    cols["imu_psi_rad"][(t >= 6) & (t < 6.5)] = np.nan    # 0.5 s: interpolated
+    cols["imu_psi_rad"][(t >= 3) & (t < 5)] = np.nan      # 2 s
+    cols["imu_psi_rad"][(t >= 6) & (t < 6.5)] = np.nan    # 0.5 s
     write_log(tmp_path / "in.csv", t, cols)
-    bag = log_to_bag(tmp_path / "in.csv", tmp_path / "bag", t0_ns=T0_NS, feedback_every=20)
+    bag = log_to_bag(tmp_path / "in.csv", tmp_path / "bag", t0_ns=T0_NS, feedback_every=20, feedback_phase=5)
     code, out, err = run_import(bag, "--out", tmp_path / "out.csv")
     assert code == 0, err
-    _, got = read_log(tmp_path / "out.csv")
-    assert len(got["t_s"]) == len(t)
-    fb = np.arange(0, len(t), 20)
+    meta, got = read_log(tmp_path / "out.csv")
+    # screw i is sent at rows k with (k + 5 i) % 20 == 0: screw 0 first at row 0, 1 at 15, 2 at
+    # 10, 3 at 5; all four have one from row 15 to row 785 (screw 3's last)
+    first = 15
+    assert meta["t0_unix_s"] == "1767225600.273456789"   # T0 + 0.15 s
+    rows = np.arange(first, 786)
+    assert len(got["t_s"]) == len(rows)
     for i in range(4):
-        w = cols["omega_rpm_%d" % i]
-        expect = np.interp(t, t[fb], w[fb])
-        np.testing.assert_allclose(got["omega_rpm_%d" % i], expect, rtol=1e-6, atol=1e-6)
+        w, want = got["omega_rpm_%d" % i], cols["omega_rpm_%d" % i]
+        sent = (rows + 5 * i) % 20 == 0
+        np.testing.assert_array_equal(~np.isnan(w[1:]), sent[1:])
+        np.testing.assert_allclose(w[sent], want[rows[sent]], rtol=2e-7)
+        # row 0: the last sample at or before it
+        assert w[0] == pytest.approx(want[(0, 15, 10, 5)[i]], rel=2e-7), i
     assert "/front_right/motor_module: 41 samples (5.0 Hz)" in out
     imu = got["imu_psi_rad"]
-    assert np.all(np.isnan(imu[(t > 2.995) & (t < 5)])) and not np.any(np.isnan(imu[(t <= 2.99) | (t >= 5)]))
+    ts = got["t_s"] + first * 0.01
+    gap = ((ts >= 3 - 1e-9) & (ts < 5 - 1e-9)) | ((ts >= 6 - 1e-9) & (ts < 6.5 - 1e-9))
+    np.testing.assert_array_equal(np.isnan(imu), gap)
 
 
 def test_motor_id_other_than_position_is_noted(tmp_path):
@@ -115,7 +125,7 @@ def test_corrupt_message_names_topic_and_message(tmp_path):
     code, _, err = run_import(bag, "--out", tmp_path / "out.csv")
     assert code == 2
     assert "topic /rear_right/motor_module: message 7 (robominer_msgs/msg/MotorModuleFeedback" in err
-    assert not (tmp_path / "out.csv").exists()
+    assert sorted(os.listdir(tmp_path)) == ["bag", "in.csv"]   # no output, no temporary file left
 
 
 def test_map_errors_name_file_and_key(tmp_path):

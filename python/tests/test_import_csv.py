@@ -51,15 +51,19 @@ def test_csv_map_renames_scales_and_resamples(tmp_path):
     assert meta["terrain"] == "frozen_grass" and meta["t0_unix_s"] == "1767225600"
     t = got["t_s"]
     assert len(t) == 599 and abs(t[1] - 0.01) < 1e-12    # 5.98 s at 100 Hz
-    # linear between 20 ms samples of a sine: within (dt^2/8) max|w''| = 2e-4 rpm
+    # the 50 Hz rows on every other row of the 100 Hz grid, unchanged; the rows between empty
+    measured = np.arange(len(t)) % 2 == 0
     for i in range(4):  # the motors' -2 w (right) and 2 w (left) after the map's scales: w
-        np.testing.assert_allclose(got["omega_rpm_%d" % i], 10 + 4 * np.sin(t), atol=2.1e-4)
+        w = got["omega_rpm_%d" % i]
+        np.testing.assert_array_equal(np.isnan(w), ~measured)
+        np.testing.assert_allclose(w[measured], 10 + 4 * np.sin(t[measured]), rtol=1e-12)
     rows = ~np.isnan(got["x_m"])
     assert rows.sum() == 60
     np.testing.assert_allclose(got["x_m"][rows], 0.01 * t[rows], atol=1e-12)
     np.testing.assert_allclose(got["y_m"][rows], -0.003)
     np.testing.assert_allclose(got["psi_rad"][rows], 0.3 * t[rows], atol=1e-12)
-    np.testing.assert_allclose(got["imu_r_radps"], 0.3, rtol=1e-12)
+    np.testing.assert_allclose(got["imu_r_radps"][measured], 0.3, rtol=1e-12)
+    assert np.isnan(got["imu_r_radps"][~measured]).all()
 
 
 def test_csv_errors_name_file_and_line(tmp_path):
@@ -79,3 +83,19 @@ def test_csv_errors_name_file_and_line(tmp_path):
     code, _, err = run_import(tmp_path / "f.csv", "--out", tmp_path / "log.csv")
     assert code == 2 and "a CSV import needs --map FILE" in err
     assert not (tmp_path / "log.csv").exists()
+
+
+def test_csv_quaternion_that_is_no_orientation_is_left_out(tmp_path):
+    foreign_csv(tmp_path / "f.csv", n=40)
+    lines = (tmp_path / "f.csv").read_text().splitlines()
+    f = lines[12].split(",")   # row 10 (a camera row): qx, qy, qz, qw = 0
+    f[7:11] = ["0", "0", "0", "0"]
+    lines[12] = ",".join(f)
+    (tmp_path / "f.csv").write_text("\n".join(lines) + "\n")
+    (tmp_path / "m.toml").write_text(MAP)
+    code, _, err = run_import(tmp_path / "f.csv", "--out", tmp_path / "log.csv", "--map", tmp_path / "m.toml")
+    assert code == 0, err
+    assert "column psi_rad (the yaw of columns qx, qy, qz, qw): 1 of 8 samples left empty, not a unit quaternion" in err
+    assert "f.csv:13, t = 0.200 s, (0, 0, 0, 0), norm 0" in err
+    _, got = read_log(tmp_path / "log.csv")
+    assert np.isnan(got["psi_rad"][20]) and not np.isnan(got["x_m"][20]) and not np.isnan(got["psi_rad"][30])

@@ -42,7 +42,7 @@ class SimRig {
   // Line faults of rig port k (they act on the bytes from the module to the host).
   void set_mute(int k, bool mute) { mute_[std::size_t(k)] = mute; }
   void set_corrupt(int k, bool corrupt) { corrupt_[std::size_t(k)] = corrupt; }
-  // Closes the pty (the host sees a hang-up); reopen() makes a new one at the same path.
+  // Closes the pty (the host sees a hang-up); reopen_port(k) makes a new one at the same path.
   void close_port(int k) { close_req_[std::size_t(k)] = true; }
   void reopen_port(int k) { reopen_req_[std::size_t(k)] = true; }
 

@@ -4,6 +4,7 @@
 // and is named, a module that returns stays stopped until `enable`, kill -9 stops every motor
 // through the modules' own timeout, and malformed commands, sensor lines and configuration
 // files get clear errors.
+#include "ptys.hpp"
 #include "sim_rig.hpp"
 #include "simmod.h"
 
@@ -552,12 +553,15 @@ TEST_CASE("augerd start-up errors", "[daemon]") {
   // Configurations certain to fail (issue 13): --check and start-up exit 2, which the service
   // does not restart; each names what is wrong. The ports are character devices here.
   {
-    const std::vector<std::string> dev{"/dev/null", "/dev/zero", "/dev/full", "/dev/urandom"};
+    const Ptys ptys(4);  // ttys, as serial ports must be
+    const std::vector<std::string> dev = ptys.names;
     const std::string base = config_text(dir, dev);
+    REQUIRE(symlink(dev[0].c_str(), (dir + "/ttyAlias").c_str()) == 0);
     auto replace = [](std::string t, const std::string& from, const std::string& to) {
       return t.replace(t.find(from), from.size(), to);
     };
     std::ofstream(dir + "/regular") << "x\n";
+    auto q = [](const std::string& path) { return "\"" + path + "\""; };  // a whole port in the list
     struct Case {
       std::string text, message;
     };
@@ -565,7 +569,11 @@ TEST_CASE("augerd start-up errors", "[daemon]") {
                           Case{replace(base, dir + "/log\"", dir + "/regular\""), "is not a directory"},
                           Case{replace(base, dir + "/cmd.sock", dir + "/regular"), "exists and is not a socket"},
                           Case{replace(base, dir + "/sensors.sock", dir + "/log/../cmd.sock"), "are the same file"},
-                          Case{replace(base, "/dev/urandom", dir + "/regular"), "is not a character device"},
+                          Case{replace(base, q(dev[3]), q(dir + "/regular")), "is not a character device"},
+                          // issue 28: no tty, two names of one device, a pseudo filesystem
+                          Case{replace(base, q(dev[3]), q("/dev/zero")), "serial port /dev/zero is not a serial port or a pty"},
+                          Case{replace(base, q(dev[3]), q(dir + "/ttyAlias")), "are the same device"},
+                          Case{replace(base, dir + "/log\"", "/proc\""), "is on the proc pseudo filesystem"},
                           Case{base + "", ""}}) {
       if (k.message.empty()) {
         CHECK(run(k.text, {"--check"}).first == 0);  // the same with every path in place

@@ -18,6 +18,7 @@
 #include "config.hpp"
 #include "daemon_lines.hpp"
 #include "module_adapter.hpp"
+#include "ptys.hpp"
 #include "status_text.hpp"
 
 using namespace augerd;
@@ -361,8 +362,9 @@ TEST_CASE("start-up checks: what augerd --check must catch before anything is op
   const std::string d = templ;
   REQUIRE(mkdir((d + "/log").c_str(), 0755) == 0);
   std::ofstream(d + "/regular") << "not a port\n";
+  const Ptys ptys(4);  // ttys, as serial ports are
   DaemonConfig c;
-  c.ports = {"/dev/null", "/dev/null", "/dev/null", "/dev/null"};  // character devices
+  c.ports = {ptys.names[0], ptys.names[1], ptys.names[2], ptys.names[3]};
   c.log_dir = d + "/log";
   c.commands_socket = d + "/c.sock";
   c.sensors_socket = d + "/s.sock";
@@ -384,6 +386,26 @@ TEST_CASE("start-up checks: what augerd --check must catch before anything is op
   r = problems(x);
   CHECK(r.first);
   CHECK(r.second.find("is not a character device") != std::string::npos);
+  // A character device that is no tty (issue 28): /dev/zero would be read as endless zeros.
+  x = c;
+  x.ports[3] = "/dev/zero";
+  r = problems(x);
+  CHECK(r.first);
+  CHECK(r.second.find("serial port /dev/zero is not a serial port or a pty (character device 1:5") != std::string::npos);
+  // Two names of one device (a udev symlink beside its target): two modules on one port.
+  REQUIRE(symlink(ptys.names[0].c_str(), (d + "/ttyAlias").c_str()) == 0);
+  x = c;
+  x.ports[2] = d + "/ttyAlias";
+  r = problems(x);
+  CHECK(r.first);
+  CHECK(r.second.find("serial ports " + ptys.names[0] + " and " + d + "/ttyAlias are the same device") !=
+        std::string::npos);
+  // A pseudo filesystem as log directory: root passes access(), nothing can be written there.
+  x = c;
+  x.log_dir = "/proc";
+  r = problems(x);
+  CHECK(r.first);
+  CHECK(r.second.find("log directory /proc is on the proc pseudo filesystem") != std::string::npos);
   x = c;
   x.log_dir = d + "/nolog";
   r = problems(x);

@@ -1,6 +1,7 @@
 """ROS 2's name rules and their DDS mapping, as published in the design article "Topic and
 Service name mapping to DDS" (design.ros2.org): written here from that text, independently of
-augerd's host/ros2/names.cpp, to check what augerd announces on the wire.
+augerd's own name rules (fully_qualified_name and dds_topic_name, auger/ros2_settings.hpp), to
+check what augerd announces on the wire.
 
 - A ROS topic `/a/b` is the DDS topic `rt/a/b` (services: rq/.../...Request, rr/...Reply).
 - A message type `pkg/msg/Type` is the DDS type `pkg::msg::dds_::Type_`.

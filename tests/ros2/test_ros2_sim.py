@@ -3,10 +3,9 @@ binding, its own build of the C library; types from ros2_msgs.py, names from ros
 against augerd driving the simulated robot in real time (tests/ros2/ros2_sim.sh starts both).
 Run in order, one robot: names and QoS on the wire, the outputs at rest (values, rates), a Twist
 driving the robot and the 0.5 s dead-man stopping it, then the pose and IMU inputs and their
-refusals. Loopback only, on the domain id the script chose."""
+refusals, then the arbitration between local commands and the network's cmd_vel. Loopback only, on the domain id the script chose."""
 import math
 import os
-import subprocess
 import threading
 import time
 
@@ -19,6 +18,7 @@ from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
 import ros2_msgs as m
+from augerd_cmd import command, events, status
 from ros2_names import dds_topic_name, dds_type_name, is_valid_fully_qualified
 
 ENV = os.environ
@@ -45,18 +45,6 @@ DEFAULT = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)), Policy.Du
               Policy.History.KeepLast(10), Policy.DataRepresentation(use_cdrv0_representation=True))
 SENSOR_DATA = Qos(Policy.Reliability.BestEffort, Policy.Durability.Volatile, Policy.History.KeepLast(5),
                   Policy.DataRepresentation(use_cdrv0_representation=True))
-
-
-def status():
-    """augerd's `status all`, as a dict of its key=value fields."""
-    out = subprocess.run([ENV["AUGER"], "cmd", "--socket", ENV["AUGERD_SOCKET"], "status all"],
-                         capture_output=True, text=True, timeout=5, check=True).stdout
-    return dict(f.split("=", 1) for f in out.split() if "=" in f)
-
-
-def command(*cmds):
-    subprocess.run([ENV["AUGER"], "cmd", "--socket", ENV["AUGERD_SOCKET"], *cmds], capture_output=True,
-                   text=True, timeout=5, check=True)
 
 
 def stamp_s(h):
@@ -393,3 +381,49 @@ def test_pose_and_imu_inputs(dds):
     refused(w["Imu"], no_orientation, "imu without orientation")
     # The diagnostics name the last refusal.
     assert "no orientation" in last_refusal(col)
+
+
+
+def test_local_commands_before_network_cmd_vel(dds):
+    """docs/ros2.md "Arbitration": a network cmd_vel never overrides a local goto, stop or vel;
+    it may drive local_priority_s (1 s here) after the last local motion ended; every change of
+    source and every run of refusals is an event in augerd's event log."""
+    _, _, w = dds
+    priority_s = float(ENV["ROS2_LOCAL_PRIORITY_S"])
+    _, col, _ = dds
+    turn = m.Twist(angular=m.Vector3(z=0.2))
+    network = "motion commands from network cmd_vel (ROS 2)"
+    n0 = events().count(network)  # the earlier tests' Twists
+    # A local goto runs: the network's Twists are refused, counted and logged once.
+    command("enable", "goto 0.3 0 0")
+    before = int(status()["ros2_refused"])
+    send(w["Twist"], turn, 20, 0.5)
+    st = status()
+    assert st["mode"] == "goto" and int(st["ros2_refused"]) >= before + 5, st
+    ev = events()
+    assert ev.count("event=network-refused") == 1, ev
+    assert 'event=network-refused action="cmd_vel (ROS 2) not obeyed: a goto is running (local goto by pid' in ev
+    # A local stop: nothing moves until a local enable; then the network may drive (the enable
+    # is the operator's go-ahead), and the change of source is an event.
+    command("stop")
+    send(w["Twist"], turn, 20, 0.3)
+    assert status()["mode"] == "stopped"
+    command("enable")
+    send(w["Twist"], turn, 20, 0.3)
+    assert status()["mode"] == "vel"
+    assert 'event=source action="motion commands from network cmd_vel (ROS 2) (was local stop by pid' in events()
+    # A local vel takes over at once; the network waits for its 0.5 s dead-man plus priority_s.
+    t_local = time.time()
+    command("vel 0 0 -0.1")
+    assert 'event=source action="motion commands from local vel by pid' in events()
+    before = int(status()["ros2_refused"])
+    send(w["Twist"], turn, 20, 0.5 + priority_s - 0.3)
+    st = status()
+    assert st["mode"] == "idle" and int(st["ros2_refused"]) >= before + 10, st  # expired, not taken over
+    assert "a vel is running (local vel by pid" in events()  # the run of refusals' event
+    assert "ended" in last_refusal(col) and "network cmd_vel may drive 1.00 s after it" in last_refusal(col)
+    time.sleep(max(0.0, t_local + 0.5 + priority_s + 0.2 - time.time()))
+    send(w["Twist"], turn, 20, 0.3)
+    assert status()["mode"] == "vel"
+    assert events().count(network) == n0 + 2
+    command("stop")

@@ -2,13 +2,18 @@
 // ROS messages' conventions and augerd's quantities, and the [ros2] configuration section.
 #include <catch2/catch.hpp>
 
+#include <sys/stat.h>
+
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <unistd.h>
 
 #include "config.hpp"
 #include "convert.hpp"
 #include "ros2.hpp"
+#include "ros2_keys.hpp"
 
 using namespace auger::ros2;
 
@@ -143,7 +148,15 @@ TEST_CASE("the [ros2] configuration section", "[ros2][unit]") {
                        Bad{"[ros2]\nenabled = 1\n", "true or false"},
                        // The sensors socket's bounds (input_limits.hpp): 20 rad would refuse every pose.
                        Bad{"[ros2]\npose_std = [0.01, 0.01, 20]\n", "pose_std[2] = 20 rad is outside 1e-06..10 rad"},
-                       Bad{"[ros2]\nqos = \"fast\"\n", "unknown key 'qos' in [ros2]"}}) {
+                       Bad{"[ros2]\nqos = \"fast\"\n", "unknown key 'qos' in [ros2]"},
+                       // Who may command the robot is stated (issue 28): keys, or insecure said aloud.
+                       Bad{"[ros2]\nenabled = true\ndomain_id = 7\n",
+                           ":" + std::to_string(l + 1) + ":11: [ros2] enabled without DDS Security: give 'keystore' "
+                           "(made by `auger ros2-keys create`), or 'insecure = true' to let anyone who reaches DDS "
+                           "domain 7 command the robot"},
+                       Bad{"[ros2]\nkeystore = \"k\"\ninsecure = true\n",
+                           ":" + std::to_string(l + 2) + ":12: 'insecure = true' and 'keystore' contradict"},
+                       Bad{"[ros2]\nlocal_priority_s = -1\n", "'local_priority_s' = -1 is outside 0..60"}}) {
     const std::string q = write_tmp(kBase + b.text);
     INFO(b.text);
     try {
@@ -155,12 +168,134 @@ TEST_CASE("the [ros2] configuration section", "[ros2][unit]") {
     }
     unlink(q.c_str());
   }
+  {
+    const std::string p = write_tmp(kBase + "[ros2]\nenabled = false\nkeystore = \"keys\"\nlocal_priority_s = 0.5\n");
+    const Settings r = augerd::load_daemon_config(p).ros2;
+    CHECK(r.keystore == "/tmp/keys");  // relative to the file
+    CHECK(r.local_priority_s == 0.5);
+    CHECK_FALSE(r.insecure);
+    const auto files = security_files(r);
+    REQUIRE(files.size() == 6);
+    CHECK(files[2].path == "/tmp/keys/enclaves/augerd/key.pem");
+    CHECK(std::string(files[2].property) == "dds.sec.auth.private_key");
+    unlink(p.c_str());
+  }
   // enabled = true is accepted exactly when this build has the bridge.
-  const std::string p = write_tmp(kBase + "[ros2]\nenabled = true\n");
+  const std::string p = write_tmp(kBase + "[ros2]\nenabled = true\ninsecure = true\n");
   if (available()) {
     CHECK(augerd::load_daemon_config(p).ros2.enabled);
   } else {
     CHECK_THROWS_WITH(augerd::load_daemon_config(p), Catch::Contains("built without the ROS 2 interface"));
   }
   unlink(p.c_str());
+}
+
+// [ros2] dds_config as Cyclone DDS will read it (issue 28): what it would silently read as its
+// defaults (open on every interface), what it refuses only at start, and DDS Security in two
+// places, each a final start-up problem naming the file; then the keystore's files.
+TEST_CASE("augerd --check: dds_config and the keystore", "[ros2][unit]") {
+  if (!available()) return;  // built without Cyclone DDS: [ros2] enabled is refused when read
+  char templ[] = "/tmp/augerd-ddscheck-XXXXXX";
+  REQUIRE(mkdtemp(templ));
+  const std::string d = templ;
+  Settings s;
+  s.enabled = true;
+  s.domain_id = 37;
+  s.insecure = true;
+  auto problems = [&](const std::string& path) {
+    s.dds_config = path;
+    std::string all;
+    for (const auto& x : check_dds_config(s)) all += x + "\n";
+    return all;
+  };
+  auto file = [&](const std::string& name, const std::string& text) {
+    std::ofstream(d + "/" + name) << text;
+    return d + "/" + name;
+  };
+  const std::string lo =
+      "<CycloneDDS>\n  <Domain Id=\"37\">\n    <General><Interfaces><NetworkInterface name=\"lo\"/></Interfaces>"
+      "</General>\n  </Domain>\n</CycloneDDS>\n";
+  CHECK(problems(file("good.xml", lo)) == "");
+  CHECK(problems(file("any.xml", "<CycloneDDS><Domain Id=\"any\"/></CycloneDDS>")) == "");
+  CHECK(problems(file("noid.xml", "<CycloneDDS><Domain/></CycloneDDS>")) == "");
+  struct Bad {
+    std::string path, message;
+  };
+  const std::string silently = "Cyclone DDS would silently run on its defaults";
+  for (const Bad& b :
+       {Bad{d + "/missing.xml", "dds_config " + d + "/missing.xml: No such file or directory"},
+        Bad{d, "dds_config " + d + " is a directory, not a Cyclone DDS XML file: " + silently},
+        Bad{"/dev/null", "dds_config /dev/null is not a regular file (a device or a pipe): " + silently},
+        Bad{file("empty.xml", ""), "empty.xml is empty: " + silently},
+        Bad{file("text.xml", "interfaces: lo\n"), "text.xml:1: [ros2] dds_config is not well-formed XML"},
+        Bad{file("open.xml", "<CycloneDDS>\n<Domain>\n"), "open.xml:3: [ros2] dds_config is not well-formed XML"},
+        Bad{file("root.xml", "<Cyclone><Domain/></Cyclone>"), "the root element is <Cyclone>, not <CycloneDDS>"},
+        Bad{file("other.xml", "<CycloneDDS><Domain Id=\"3\"/></CycloneDDS>"),
+            "has no <Domain> for domain 37 (Id=\"any\" or Id=\"37\"): " + silently},
+        Bad{file("sec.xml", "<CycloneDDS>\n<Domain>\n<Security/>\n</Domain></CycloneDDS>"),
+            "sec.xml:3: [ros2] dds_config has a <Security> section: augerd's DDS Security comes from [ros2] keystore"},
+        Bad{file("bogus.xml", "<CycloneDDS><Domain><General><Bogus>1</Bogus></General></Domain></CycloneDDS>"),
+            "bogus.xml: Cyclone DDS refuses it"},
+        Bad{file("a,b.xml", lo), "has a ',', which Cyclone DDS reads as a separator"}}) {
+    INFO(b.path);
+    const std::string all = problems(b.path);
+    CHECK(all.find(b.message) != std::string::npos);
+    CHECK(std::count(all.begin(), all.end(), '\n') == 1);
+  }
+  s.enabled = false;  // nothing is checked of what is not used
+  CHECK(problems(d + "/missing.xml") == "");
+
+  // The keystore through augerd's start-up check: missing, then present but its key readable by all.
+  augerd::DaemonConfig c;
+  c.log_dir = d;
+  c.commands_socket = d + "/c.sock";
+  c.sensors_socket = d + "/s.sock";
+  c.ports = {"/nonexistent/0", "/nonexistent/1", "/nonexistent/2", "/nonexistent/3"};  // not final
+  c.ros2.enabled = true;
+  c.ros2.keystore = d + "/keys";
+  auto final_problems = [&] {
+    std::string all;
+    for (const auto& x : augerd::check_startup(c))
+      if (x.final) all += x.text + "\n";
+    return all;
+  };
+  CHECK(final_problems().find("[ros2] keystore " + d + "/keys has no enclave augerd") != std::string::npos);
+  const std::string e = d + "/keys/enclaves/augerd";
+  std::filesystem::create_directories(e);
+  for (const auto& f : security_files(c.ros2)) std::ofstream(f.path) << "x";
+  chmod((e + "/key.pem").c_str(), 0644);
+  CHECK(final_problems().find(e + "/key.pem is readable by every user") != std::string::npos);
+  chmod((e + "/key.pem").c_str(), 0600);
+  CHECK(final_problems() == "");
+  unlink((e + "/cert.pem").c_str());
+  CHECK(final_problems().find(e + "/cert.pem: No such file or directory") != std::string::npos);
+  std::filesystem::remove_all(d);
+}
+
+// What augerd's permissions allow (auger ros2-keys): exactly its topics under its settings.
+TEST_CASE("the keystore's permissions: augerd's topics, nothing else", "[ros2][unit]") {
+  Settings s;
+  s.ns = "/robot1";
+  s.pose_topic = "/camera/pose";
+  s.joint_states_rate_hz = 0;  // not published: not allowed
+  CHECK(input_topics(s) == std::vector<std::string>{"/robot1/cmd_vel", "/camera/pose"});
+  CHECK(output_topics(s) == std::vector<std::string>{"/robot1/odom", "/tf", "/diagnostics"});
+  const std::string x = auger::ros2_keys::permissions_xml("augerd", "CN=augerd", 5, {"rt/robot1/odom"},
+                                                          {"rt/robot1/cmd_vel"}, 0, 86400);
+  CHECK(x.find("<subject_name>CN=augerd</subject_name>") != std::string::npos);
+  CHECK(x.find("<domains><id>5</id></domains>") != std::string::npos);
+  CHECK(x.find("<not_before>1970-01-01T00:00:00</not_before>") != std::string::npos);
+  CHECK(x.find("<not_after>1970-01-02T00:00:00</not_after>") != std::string::npos);
+  const auto pub = x.find("<publish>"), sub = x.find("<subscribe>");
+  REQUIRE(pub != std::string::npos);
+  REQUIRE(sub != std::string::npos);
+  CHECK(x.find("rt/robot1/odom", pub) < sub);
+  CHECK(x.find("rt/robot1/cmd_vel", sub) != std::string::npos);
+  CHECK(x.find("<default>DENY</default>") != std::string::npos);
+  const std::string g = auger::ros2_keys::governance_xml(5);
+  CHECK(g.find("<allow_unauthenticated_participants>false</allow_unauthenticated_participants>") != std::string::npos);
+  CHECK(g.find("<data_protection_kind>ENCRYPT</data_protection_kind>") != std::string::npos);
+  // A name goes into a certificate subject (/CN=NAME): nothing that adds a field or an option.
+  CHECK(auger::ros2_keys::check_name("operator_1").empty());
+  for (const char* bad : {"", "a/b", "CN=x", "-x", "1a", "a b", "ä"}) CHECK_FALSE(auger::ros2_keys::check_name(bad).empty());
 }

@@ -18,6 +18,18 @@
 
 namespace auger {
 
+// The one number parser of the command lines and option values: the whole text a finite decimal
+// number ("1.5", "-2e-3"); hexadecimal ("0x1"), "inf", "nan", blanks and trailing text are not.
+inline bool decimal_number(const std::string& text, double& out) {
+  if (text.empty() || text.find_first_not_of("0123456789+-.eE") != std::string::npos) return false;
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(text.c_str(), &end);
+  if (*end != '\0' || errno == ERANGE || !std::isfinite(v)) return false;
+  out = v;
+  return true;
+}
+
 struct Args {
   std::vector<std::string> positional;
   std::vector<std::pair<std::string, std::string>> options;  // --key value ("" for flags)
@@ -38,15 +50,35 @@ struct Args {
     if (!has(k)) return true;
     return to_number(program, k, get(k), out);
   }
+  // The option's value as a whole number in lo..hi (the whole text, decimal), dflt if absent;
+  // false (and printed) if it is not one.
+  bool whole(const char* program, const std::string& k, long dflt, long lo, long hi, long& out) const {
+    out = dflt;
+    if (!has(k)) return true;
+    const std::string text = get(k);
+    double v = 0;
+    if (!decimal_number(text, v) || v != std::floor(v) || v < static_cast<double>(lo) || v > static_cast<double>(hi) ||
+        text.find_first_of(".eE") != std::string::npos) {
+      std::fprintf(stderr, "%s: %s: '%s' is not a whole number from %ld to %ld\n", program, k.c_str(), text.c_str(), lo, hi);
+      return false;
+    }
+    out = static_cast<long>(v);
+    return true;
+  }
+  // As number(), and inside (lo, hi) (open bounds).
+  bool number_in(const char* program, const std::string& k, double dflt, double lo, double hi, double& out) const {
+    if (!number(program, k, dflt, out)) return false;
+    if (has(k) && !(out > lo && out < hi)) {
+      std::fprintf(stderr, "%s: %s: '%s' is not between %g and %g\n", program, k.c_str(), get(k).c_str(), lo, hi);
+      return false;
+    }
+    return true;
+  }
   static bool to_number(const char* program, const std::string& what, const std::string& text, double& out) {
-    char* end = nullptr;
-    errno = 0;
-    const double v = std::strtod(text.c_str(), &end);
-    if (text.empty() || *end != '\0' || errno == ERANGE || !std::isfinite(v)) {
+    if (!decimal_number(text, out)) {
       std::fprintf(stderr, "%s: %s: '%s' is not a finite number\n", program, what.c_str(), text.c_str());
       return false;
     }
-    out = v;
     return true;
   }
 };

@@ -68,7 +68,6 @@ class Controller {
   // dead-reckoning estimators, which keep none.
   const Mat6* estimate_covariance() const { return config_.estimator == EstimatorKind::ekf ? &ekf_.P : nullptr; }
   const ReferenceState& reference() const { return ref_; }
-  const PidTerms& pid_terms() const { return pid_terms_; }
   const AllocationResult& allocation() const { return alloc_; }
   const ControllerConfig& config() const { return config_; }
   // Timestamped poses the EKF could not use: captured before the kept history (2.56 s) or

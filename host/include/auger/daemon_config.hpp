@@ -62,6 +62,8 @@ struct DaemonConfig {
 // too) and the order of related values (omega_min_rpm <= omega_max_rpm, ...). Throws
 // ConfigError ("file:line:column: message"). ros2_available: whether the reader's program has
 // the ROS 2 bridge (augerd built with Cyclone DDS); if not, `[ros2] enabled = true` is an error.
-DaemonConfig read_daemon_config(const std::string& path, bool ros2_available);
+// ros2_security_stated: whether `[ros2] enabled = true` must come with `keystore` or `insecure =
+// true` (false only for `auger ros2-keys`, which makes the keystore the file will name).
+DaemonConfig read_daemon_config(const std::string& path, bool ros2_available, bool ros2_security_stated = true);
 
 }  // namespace auger

@@ -34,13 +34,18 @@ inline bool tracking(Mode m) { return m == Mode::go_to || m == Mode::follow || m
 // its step, so that a replay applies the same changes in the same cycle.
 enum CtrlEvent : int { kEvDisabled = 1, kEvWaypoints = 2, kEvRebuilt = 4 };
 
+// When the pose of a row was captured, on the log's t_s clock (empty: at t_s); augerd logs each
+// camera pose on the row it arrived. The workbench compares the pose with the model then, and a
+// fitted pose_time_offset is what remains late beyond it, as augerd's estimator subtracts it.
+inline const char* pose_capture_column() { return "pose_capture_t_s"; }
+
 // The columns augerd writes after docs/log-format.md's: what `auger replay` needs to run the
 // core's estimator and controller again on the log and compare.
 inline const std::vector<std::string>& replay_columns() {
   static const std::vector<std::string> cols = {
       "mode",      "ctrl_events", "ctrl_enabled", "alloc_nullspace", "goal_x_m",  "goal_y_m",
       "goal_psi_rad", "traj_n",   "tm_fresh_0",  "tm_fresh_1",      "tm_fresh_2", "tm_fresh_3",
-      "pose_sx_m", "pose_sy_m",   "pose_spsi_rad", "pose_capture_t_s", "vel_u_mps",     "vel_v_mps", "vel_r_radps",
+      "pose_sx_m", "pose_sy_m",   "pose_spsi_rad", pose_capture_column(), "vel_u_mps",     "vel_v_mps", "vel_r_radps",
       "spin_module", "spin_rpm",  "xe_m",        "ye_m",            "psie_rad"};
   return cols;
 }

@@ -87,6 +87,8 @@ class Effect {
   // How much earlier than its t_s a pose row shows the robot (camera latency, two computers'
   // clocks), in s; it changes nothing in the dynamics. Read through pose_delay_s(model).
   virtual double pose_delay_s() const { return 0.0; }
+  // Text parameters (name, value) for the model file, e.g. a discovered term's form.
+  virtual std::vector<std::pair<std::string, std::string>> text_params() const { return {}; }
 };
 
 // A parameter a factory accepts; required parameters have no default.
@@ -120,11 +122,17 @@ struct EffectParamValue {
   double value = 0;
   int line = 0, column = 0;
 };
+struct EffectTextValue {
+  std::string name;
+  std::string value;
+  int line = 0, column = 0;
+};
 
 // One `[[effect]]` entry of a model file.
 struct EffectConfig {
   std::string id;
   std::vector<EffectParamValue> params;
+  std::vector<EffectTextValue> texts;  // text parameters (Entry::text_params), e.g. a term's form
   std::string file;
   int line = 0, column = 0;
   std::string comment;  // written before the [[effect]] (write_model_file); the reader leaves it empty
@@ -142,6 +150,16 @@ class EffectRegistry {
     // Plain words for fitted values, e.g. "a constant force of 15 N opposing motion along x".
     std::function<std::string(const std::vector<double>& values)> describe;
     bool needs_imu = false;  // only visible in the IMU heading channel
+    // Text parameters (all required), for an effect whose kind is a text (a discovered term's
+    // form): made by make_text instead of make.
+    std::vector<std::string> text_params{};
+    std::function<std::shared_ptr<const Effect>(const std::vector<double>& values,
+                                                const std::vector<std::string>& texts)>
+        make_text{};
+    // Either factory, with the texts in the order of text_params.
+    std::shared_ptr<const Effect> build(const std::vector<double>& values, const std::vector<std::string>& texts) const {
+      return make_text ? make_text(values, texts) : make(values);
+    }
   };
 
   void add(Entry entry);  // throws std::invalid_argument on a duplicate id

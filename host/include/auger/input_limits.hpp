@@ -8,7 +8,6 @@
 
 #include <cstddef>
 #include <string>
-#include <vector>
 
 #include "auger/model.hpp"
 
@@ -72,13 +71,6 @@ inline constexpr InputBound kEstimateYawRate{"estimated yaw rate", "rad/s", -35,
 // length named (a 10 MB field or a NUL byte must not come back raw). Used by every reader and
 // by augerd's answers.
 std::string quote_input(const std::string& text, std::size_t max_bytes = 60);
-
-// Every bound above with a field name, for docs and tests.
-struct NamedBound {
-  const char* field;
-  InputBound bound;
-};
-const std::vector<NamedBound>& input_bounds();
 
 // v is finite and within b (no allocation: for the 100 Hz path).
 inline bool within(double v, const InputBound& b) { return v >= b.lo && v <= b.hi; }  // false for NaN

@@ -116,9 +116,4 @@ Vec4 kinematic_screw_speeds_rpm(const Model& model, const Vec3& zeta);
 // units with it.
 double yaw_lumping(const Model& model);
 
-// eq. (7), nominal: tau = S B omega with omega in rpm (docs/model-notes.md decision).
-inline Vec3 nominal_drive_force(const Model& model, const Vec4& omega_rpm) {
-  return model.SB * omega_rpm;
-}
-
 }  // namespace auger

@@ -5,6 +5,8 @@
 
 #include <array>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace auger::ros2 {
 
@@ -31,7 +33,38 @@ struct Settings {
                    // e.g. robot_localization, publishes it)
   std::string odom_frame = "odom", base_frame = "base_link";
   std::array<std::string, 4> joint_names = {"screw_0_joint", "screw_1_joint", "screw_2_joint", "screw_3_joint"};
+  // Who may command the robot over DDS (docs/ros2.md "Who may command the robot"): with a
+  // keystore (`auger ros2-keys`) augerd's participant uses DDS Security (authenticated by the
+  // keystore's CA, allowed only its own topics, encrypted as the governance says) and ignores
+  // every participant without a certificate of that CA; insecure = true runs without, and anyone
+  // who reaches the domain may command the robot. Enabled needs exactly one of the two.
+  std::string keystore;
+  bool insecure = false;
+  // A network cmd_vel never overrides a local command (docs/ros2.md "Arbitration"): it is refused
+  // while a local goto, follow, vel or spin runs and this long after it ended (or arrived).
+  double local_priority_s = 2.0;
 };
+
+// The fully qualified ROS 2 names of the topics augerd subscribes (inputs whose topic is not "")
+// and publishes (outputs whose rate is > 0) with these settings: what its permissions allow.
+std::vector<std::string> input_topics(const Settings& s);
+std::vector<std::string> output_topics(const Settings& s);
+
+// augerd's identity in the keystore: the enclave of this name (SROS2's layout, enclaves/NAME).
+inline constexpr const char* kEnclave = "augerd";
+
+// The files of a participant's DDS Security identity in its enclave directory (auger ros2-keys)
+// and the DDS Security property each one is given to (dds.sec.auth.identity_ca, ...).
+struct SecurityFile {
+  const char* property;
+  std::string path;
+};
+std::vector<SecurityFile> enclave_files(const std::string& enclave_dir);
+// augerd's: the keystore's enclaves/augerd/ (none without a keystore).
+std::vector<SecurityFile> security_files(const Settings& s);
+// Every DDS Security property of a participant with that enclave, as Cyclone DDS takes them in
+// the participant's QoS: the plugins (Debian's libddsc0debian) and "file:" + each enclave file.
+std::vector<std::pair<std::string, std::string>> security_properties(const std::string& enclave_dir);
 
 // ---- ROS 2 names (design.ros2.org, "Topic and Service name mapping to DDS") ----
 

@@ -15,6 +15,7 @@ void register_drive(EffectRegistry& r);         // drive.cpp: screw_dead_band, s
 void register_terrain(EffectRegistry& r);       // terrain.cpp: terrain_slope, resistance_offset, terrain_change
 void register_sensors(EffectRegistry& r);       // sensors.cpp: imu_heading_bias, imu_heading_drift, pose_time_offset
 void register_body(EffectRegistry& r);          // body.cpp: rigid_body_coupling, yaw_time_constant, screw_blocking
+void register_term(EffectRegistry& r);          // term.cpp: term (a discovered term, auger/term_form.hpp)
 
 // Number formatting for describe() texts: "15", "0.12", "3.4e-05".
 std::string fmt(double value);

@@ -119,7 +119,7 @@ TEST_CASE("auger identify on gantry log files: table, --json, same numbers as th
 }
 
 TEST_CASE("identify on the simulator's gantry logs (auger-sim-log --gantry): Table 2 inside the intervals") {
-  // The simulator's rig (sim/robot/log_gen.cpp) is other code than the generator above:
+  // The simulator's rig (sim/robot/log_gen_gantry.cpp) is other code than the generator above:
   // encoder-quantised speed telemetry, its own screw lag and noise. Truth: Table 2.
   struct Case {
     const char* axis;

@@ -1,4 +1,4 @@
-/* The bench's imposed encoder rate (encoder_rate.h), driving sim/encoder.c's pins while the
+/* An imposed encoder rate (encoder_rate.h), driving sim/encoder.c's pins while the
  * part is held. */
 #include "encoder_rate.h"
 

@@ -1,0 +1,274 @@
+// explain's discovered terms (explain_internal.hpp, discover.hpp, docs/workbench.md "Discovered
+// terms"): when the library's best model does not fit a log in form, the missing term is sought in
+// a dictionary of physically meaningful forms that no library effect has, by sparse regression of
+// what a model leaves. Each dictionary term's effect on the simulated residuals is one simulation
+// (the model is linear in a small added force, eqs. (6)-(8)); forward selection picks terms on the
+// training segments while they lower the held-out error; the chosen terms are refitted jointly
+// with the model by simulation error.
+// Two starts: the library's model (its effects may have taken up part of the missing term in their
+// own forms, and the terms then fit what is left), and the paper's model alone (the residual is the
+// missing physics itself), to which the library's effects are then added back one at a time where
+// they pay. The better of the two is proposed; library effects that only stood in for the term
+// leave either way.
+#include <algorithm>
+#include <cstdio>
+#include <limits>
+#include <mutex>
+
+#include "auger/term_form.hpp"
+#include "discover.hpp"
+#include "explain_internal.hpp"
+
+namespace auger::wb::explain_internal {
+
+using namespace search;
+
+namespace {
+
+constexpr int kMaxTerms = 4;
+
+Part term_part(const DictionaryTerm& d, double coefficient) {
+  Part p = make_term_part(d.dof, d.form, d.scale);
+  p.values[0] = coefficient;
+  return p;
+}
+
+bool is_term(const Part& p) { return !p.texts.empty(); }
+bool is_library_effect(const Part& p) { return p.entry && p.texts.empty(); }
+
+double largest(const ChannelValues& v) {
+  double m = 0;
+  for (double x : v)
+    if (std::isfinite(x)) m = std::max(m, x);
+  return m;
+}
+
+}  // namespace
+
+bool Explainer::select_terms_on(const std::vector<Part>& base_parts, const std::vector<DictionaryTerm>& dict,
+                                std::vector<Part>& chosen) {
+  chosen.clear();
+  // The model as the training segments of the search's split fit it: the regression is judged on
+  // segments neither saw.
+  FitOutcome base = refit(fit_on(0), base_parts, 10, 0);
+  ++structures_;
+  if (!std::isfinite(base.cost)) return false;
+  Eigen::VectorXd r_train, r_held;
+  {
+    Workspace w;
+    if (!residuals(fit_on(0), base.parts, r_train, w) || !residuals(judge_[0], base.parts, r_held, w)) return false;
+  }
+  const auto P = static_cast<Eigen::Index>(dict.size());
+  Eigen::MatrixXd S_train = Eigen::MatrixXd::Zero(r_train.size(), P), S_held = Eigen::MatrixXd::Zero(r_held.size(), P);
+  std::vector<std::size_t> all(dict.size());
+  for (std::size_t j = 0; j < all.size(); ++j) all[j] = j;
+  search::run_parallel(opt_.threads, all, [](std::size_t) { return -1; }, [&](std::size_t j) {
+    std::vector<Part> with = base.parts;
+    with.push_back(term_part(dict[j], dict[j].scale));
+    Eigen::VectorXd a, b;
+    Workspace w;
+    if (!residuals(fit_on(0), with, a, w) || !residuals(judge_[0], with, b, w)) return;
+    S_train.col(static_cast<Eigen::Index>(j)) = a - r_train;
+    S_held.col(static_cast<Eigen::Index>(j)) = b - r_held;
+  });
+  structures_ += static_cast<int>(dict.size());
+  // A term chosen from the dictionary pays for the choice among its P columns as well as for its
+  // coefficient (a BIC of 10 plus 2 ln P), and must lower the held-out error by 2 % as an effect must.
+  const double min_bic = -kAddBic + 2.0 * std::log(static_cast<double>(P));
+  const double min_held = 1.0 - (1.0 - kAddHeldout) * (1.0 - kAddHeldout);
+  const Selection sel = select_terms(r_train, S_train, r_held, S_held, n_eff_of(base, fit_on(0)), kMaxTerms, min_held,
+                                     min_bic);
+  progress("explain: discovery: %zu dictionary terms, %zu chosen on the training segments (held-out residual %.0f -> %.0f)",
+           dict.size(), sel.columns.size(), sel.heldout_rss.front(), sel.heldout_rss.back());
+  if (sel.columns.empty()) return false;
+  for (std::size_t k = 0; k < sel.columns.size(); ++k) {
+    const DictionaryTerm& d = dict[static_cast<std::size_t>(sel.columns[k])];
+    detail("explain: discovery:   %s: %s, coefficient %.4g (held-out residual then %.0f)", d.dof.c_str(), d.form.c_str(),
+           sel.coefficients[static_cast<Eigen::Index>(k)] * d.scale, sel.heldout_rss[k + 1]);
+  }
+  // From the linearized coefficients scaled back as far as the simulation says (a large term
+  // changes the motion it depends on, and the linear step overshoots).
+  auto with_terms = [&](double scale) {
+    std::vector<Part> parts;
+    for (std::size_t k = 0; k < sel.columns.size(); ++k) {
+      const DictionaryTerm& d = dict[static_cast<std::size_t>(sel.columns[k])];
+      parts.push_back(term_part(d, scale * sel.coefficients[static_cast<Eigen::Index>(k)] * d.scale));
+    }
+    return parts;
+  };
+  double best_cost = std::numeric_limits<double>::infinity();
+  for (double scale : {1.0, 0.5, 0.25, 0.1}) {
+    std::vector<Part> parts = base.parts;
+    for (const Part& p : with_terms(scale)) parts.push_back(p);
+    Eigen::VectorXd r;
+    Workspace w;
+    if (!residuals(fit_on(0), parts, r, w) || !(r.squaredNorm() < best_cost)) continue;
+    best_cost = r.squaredNorm();
+    chosen = with_terms(scale);
+  }
+  return !chosen.empty();
+}
+
+FitOutcome Explainer::drop_not_paying(FitOutcome with, bool terms, std::vector<RemovedEffect>* stand_ins) {
+  for (bool again = true; again;) {
+    again = false;
+    const double err = compare_error(with.parts);
+    for (std::size_t i = 0; i < with.parts.size(); ++i) {
+      const Part& p = with.parts[i];
+      if (terms ? !is_term(p) : !is_library_effect(p)) continue;
+      // A term that changes the prediction by less than an effect must goes without asking.
+      const bool weak = terms && largest(contribution(with.parts, i)) < kMinContribution;
+      std::vector<Part> without = with.parts;
+      without.erase(without.begin() + static_cast<std::ptrdiff_t>(i));
+      FitOutcome w = refit(all_, without, 12, 1);
+      ++structures_;
+      if (!std::isfinite(w.cost) || (!weak && compare_error(w.parts) > err * (1.0 + kAddHeldout))) continue;
+      if (stand_ins)
+        stand_ins->push_back({label(p, ctx_.size()),
+                              "removed: with the discovered term the model predicts as well without it (it stood in "
+                              "for the missing term)",
+                              kNaN});
+      progress("explain: discovery: %s no longer pays%s; removed", label(p, ctx_.size()).c_str(),
+               terms ? "" : " with the discovered terms");
+      with = std::move(w);
+      again = true;
+      break;
+    }
+  }
+  return with;
+}
+
+bool Explainer::discover(FitOutcome& o, ExplainResult& res) {
+  const std::vector<DictionaryTerm> dict = term_dictionary(ctx_.front().base, ctx_.front().data);
+  if (dict.empty() || !folds_) return false;
+  ChannelValues per_channel;
+  const double err_library = compare_error(o.parts, &per_channel);
+  // Where the library's model is at the noise floor in size (only its residuals' form is off: a
+  // hard dead band for a smooth one), its effects are the finding and stay: a term may only be
+  // added to them. Where it is not, a term may take the place of effects that stood in for it.
+  bool fails_in_size = false;
+  for (double v : per_channel) fails_in_size = fails_in_size || (std::isfinite(v) && v > kVerdictNoise);
+  struct Route {
+    FitOutcome fit;
+    std::vector<RemovedEffect> stand_ins;
+    double err = std::numeric_limits<double>::infinity();
+    int parts = 0;
+  };
+  std::vector<Route> routes;
+  // 1. On the library's model.
+  std::vector<Part> chosen;
+  if (select_terms_on(o.parts, dict, chosen)) {
+    std::vector<Part> parts = o.parts;
+    parts.insert(parts.end(), chosen.begin(), chosen.end());
+    Route r;
+    r.fit = refit(all_, parts, 15, 1);
+    ++structures_;
+    if (std::isfinite(r.fit.cost)) {
+      if (fails_in_size) r.fit = drop_not_paying(std::move(r.fit), false, &r.stand_ins);
+      r.fit = drop_not_paying(std::move(r.fit), true, nullptr);
+      routes.push_back(std::move(r));
+    }
+  }
+  // 2. On the paper's model alone, the library's effects added back where they pay.
+  std::vector<Part> paper;
+  for (const Part& p : o.parts)
+    if (!p.entry) paper.push_back(p);
+  if (fails_in_size && paper.size() != o.parts.size() && select_terms_on(paper, dict, chosen)) {
+    std::vector<Part> parts = paper;
+    parts.insert(parts.end(), chosen.begin(), chosen.end());
+    Route r;
+    r.fit = refit(all_, parts, 15, 1);
+    ++structures_;
+    if (std::isfinite(r.fit.cost)) {
+      // The library's effects added where they pay, then the terms they make redundant taken out,
+      // then those effects that did not pay tried once more (a term they lost to may be gone).
+      std::vector<const Part*> left;
+      for (const Part& e : o.parts)
+        if (is_library_effect(e)) left.push_back(&e);
+      for (int pass = 0; pass < 2 && !left.empty(); ++pass) {
+        std::vector<const Part*> refused;
+        for (const Part* e : left) {
+          std::vector<Part> with = r.fit.parts;
+          with.push_back(*e);
+          FitOutcome w = refit(all_, with, 12, 1);
+          ++structures_;
+          const bool pays = std::isfinite(w.cost) &&
+                            compare_error(w.parts) <= (1.0 - kAddHeldout) * compare_error(r.fit.parts) &&
+                            largest(contribution(w.parts, w.parts.size() - 1)) >= kMinContribution;
+          progress("explain: discovery: %s on the terms found on the paper's model: %s", label(*e, ctx_.size()).c_str(),
+                   pays ? "pays, kept" : "does not pay");
+          if (pays) r.fit = std::move(w);
+          else refused.push_back(e);
+        }
+        r.fit = drop_not_paying(std::move(r.fit), true, nullptr);
+        left = refused;
+      }
+      for (const Part* e : left)
+        r.stand_ins.push_back({label(*e, ctx_.size()),
+                               "removed: with the discovered term the model predicts as well without it (it stood in "
+                               "for the missing term)",
+                               kNaN});
+      routes.push_back(std::move(r));
+    }
+  }
+  for (Route& r : routes) {
+    polish(r.fit);
+    r.err = compare_error(r.fit.parts);
+    for (const Part& p : r.fit.parts) r.parts += p.entry != nullptr;
+  }
+  // The better route; of two within 2 % the one with fewer parts.
+  const Route* best = nullptr;
+  for (const Route& r : routes) {
+    bool any_term = false;
+    for (const Part& p : r.fit.parts) any_term = any_term || is_term(p);
+    if (!any_term) continue;
+    if (!best || r.err < best->err * (1.0 - kAddHeldout) ||
+        (r.err <= best->err * (1.0 + kAddHeldout) && r.parts < best->parts))
+      best = &r;
+  }
+  progress("explain: discovery: the 25 s segments %.3f times the noise floor with the terms, %.3f without",
+           best ? best->err : kNaN, err_library);
+  if (!best || !(best->err <= (1.0 - kAddHeldout) * err_library)) return false;
+  res.removed.insert(res.removed.end(), best->stand_ins.begin(), best->stand_ins.end());
+  const FitOutcome& with = best->fit;
+  // The groups, per dof in the order first chosen, each with the error of the terms so far.
+  const double n = static_cast<double>(with.r.size());
+  const double s2 = with.cost / std::max(1.0, n - with.n_params) * n / n_eff_of(with, all_);
+  const std::vector<FitParam> params = fit_params(with, s2);
+  std::vector<Part> so_far;
+  for (const Part& p : with.parts)
+    if (!is_term(p)) so_far.push_back(p);
+  std::size_t k = 0;
+  for (std::size_t i = 0; i < with.parts.size(); ++i) {
+    const Part& p = with.parts[i];
+    const std::size_t at = k;
+    k += p.specs.size();
+    if (!is_term(p)) continue;
+    const TermForm f(p.texts[0], p.texts[1]);
+    DiscoveredTerm t;
+    t.dof = f.dof_text();
+    t.form = f.form_text();
+    t.inputs = f.input_names();
+    t.coefficient = p.values[0];
+    t.uncertainty = params[at].sigma;
+    t.unit = f.coefficient_unit();
+    t.description = f.describe(p.values[0]);
+    t.contribution = largest(contribution(with.parts, i));
+    auto g = std::find_if(res.discovered.begin(), res.discovered.end(),
+                          [&](const DiscoveredGroup& x) { return x.channel == t.dof; });
+    if (g == res.discovered.end()) {
+      res.discovered.push_back({t.dof, {}, {}});
+      g = res.discovered.end() - 1;
+    }
+    g->terms.push_back(t);
+  }
+  for (DiscoveredGroup& g : res.discovered) {
+    for (const Part& p : with.parts)
+      if (is_term(p) && p.texts[0] == g.channel) so_far.push_back(p);
+    compare_error(so_far, &g.ratio_after);
+  }
+  o = with;
+  return true;
+}
+
+}  // namespace auger::wb::explain_internal

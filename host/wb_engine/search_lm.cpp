@@ -1,0 +1,190 @@
+// Levenberg-Marquardt on the search's problems (fitting.hpp): finite-difference Jacobians in
+// internal coordinates (a parameter over its typical size, or its log), the search kept inside
+// each parameter's physical range, and the Gauss-Newton covariance of a fit's parameters.
+#include "fitting.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Cholesky>
+
+namespace auger::wb {
+namespace search {
+namespace {
+
+// Internal coordinates: value = typical * z, or exp(z) for log-scale parameters.
+double to_value(const ParamSpec& s, double z) { return s.log_scale ? std::exp(z) : s.typical * z; }
+double to_internal(const ParamSpec& s, double v) { return s.log_scale ? std::log(std::max(v, 1e-300)) : v / s.typical; }
+double dvalue_dz(const ParamSpec& s, double z) { return s.log_scale ? std::exp(z) : s.typical; }
+
+struct FreeRef {
+  int part, index;
+};
+
+std::vector<FreeRef> free_refs(const std::vector<Part>& parts) {
+  std::vector<FreeRef> f;
+  for (std::size_t p = 0; p < parts.size(); ++p)
+    for (int i : parts[p].free) f.push_back({static_cast<int>(p), i});
+  return f;
+}
+
+void set_z(std::vector<Part>& parts, const std::vector<FreeRef>& f, const Eigen::VectorXd& z) {
+  for (std::size_t j = 0; j < f.size(); ++j) {
+    Part& p = parts[static_cast<std::size_t>(f[j].part)];
+    const ParamSpec& s = p.specs[static_cast<std::size_t>(f[j].index)];
+    p.values[static_cast<std::size_t>(f[j].index)] =
+        std::clamp(to_value(s, z[static_cast<Eigen::Index>(j)]), search_lower(s), search_upper(s));
+  }
+}
+
+Eigen::VectorXd get_z(const std::vector<Part>& parts, const std::vector<FreeRef>& f) {
+  Eigen::VectorXd z(static_cast<Eigen::Index>(f.size()));
+  for (std::size_t j = 0; j < f.size(); ++j) {
+    const Part& p = parts[static_cast<std::size_t>(f[j].part)];
+    z[static_cast<Eigen::Index>(j)] = to_internal(p.specs[static_cast<std::size_t>(f[j].index)],
+                                                  p.values[static_cast<std::size_t>(f[j].index)]);
+  }
+  return z;
+}
+
+}  // namespace
+
+// The search stays inside a parameter's physical range as well as its bounds: outside it the
+// fit trades one effect against another (sigma and D scaled up together imitate a shorter yaw
+// time constant) and the values mean nothing. A value at such a bound is flagged.
+double search_lower(const ParamSpec& s) { return std::max(s.lower, s.physical_lower); }
+double search_upper(const ParamSpec& s) { return std::min(s.upper, s.physical_upper); }
+
+FitOutcome levenberg_marquardt(const Problem& pr, std::vector<Part> parts, int max_iter) {
+  FitOutcome out;
+  Workspace work;
+  const std::vector<FreeRef> f = free_refs(parts);
+  const auto P = static_cast<Eigen::Index>(f.size());
+  Eigen::VectorXd z = get_z(parts, f);
+  set_z(parts, f, z);  // clamp the start into the bounds
+  z = get_z(parts, f);
+  Eigen::VectorXd r;
+  if (!residuals(pr, parts, r, work)) return out;
+  ++out.sims;
+  double cost = r.squaredNorm();
+  Eigen::MatrixXd J(r.size(), P);
+  double lambda = 1e-3;
+  bool have_j = false;
+  for (int it = 0; it < max_iter && P > 0; ++it) {
+    // Forward differences; steps of a few % of a typical value (hard effects such as dry
+    // friction are piecewise smooth: a larger step sees their slope, not their kinks).
+    for (Eigen::Index j = 0; j < P; ++j) {
+      Eigen::VectorXd zj = z;
+      const double h = 0.03 * std::max(1.0, std::fabs(z[j]));
+      zj[j] += h;
+      std::vector<Part> pj = parts;
+      set_z(pj, f, zj);
+      const double actual = get_z(pj, f)[j] - z[j];  // the bound may cut the step
+      Eigen::VectorXd rj;
+      if (std::fabs(actual) < 1e-12 || !residuals(pr, pj, rj, work)) {
+        zj[j] = z[j] - h;
+        set_z(pj, f, zj);
+        const double back = get_z(pj, f)[j] - z[j];
+        if (std::fabs(back) < 1e-12 || !residuals(pr, pj, rj, work)) {
+          J.col(j).setZero();
+          continue;
+        }
+        J.col(j) = (rj - r) / back;
+      } else {
+        J.col(j) = (rj - r) / actual;
+      }
+      ++out.sims;
+    }
+    have_j = true;
+    const Eigen::MatrixXd A = J.transpose() * J;
+    const Eigen::VectorXd g = J.transpose() * r;
+    bool improved = false;
+    for (int tries = 0; tries < 6; ++tries) {
+      Eigen::MatrixXd Al = A;
+      for (Eigen::Index j = 0; j < P; ++j) Al(j, j) += lambda * std::max(A(j, j), 1e-9);
+      const Eigen::VectorXd step = Al.ldlt().solve(-g);
+      if (!step.allFinite()) {
+        lambda *= 10;
+        continue;
+      }
+      std::vector<Part> trial = parts;
+      set_z(trial, f, z + step);
+      Eigen::VectorXd rt;
+      if (!residuals(pr, trial, rt, work)) {
+        lambda *= 10;
+        continue;
+      }
+      ++out.sims;
+      const double ct = rt.squaredNorm();
+      if (ct < cost) {
+        const double gain = (cost - ct) / std::max(cost, 1e-300);
+        parts = std::move(trial);
+        z = get_z(parts, f);
+        r = std::move(rt);
+        cost = ct;
+        lambda = std::max(lambda / 5, 1e-7);
+        improved = true;
+        if (gain < 1e-5) it = max_iter;  // converged
+        break;
+      }
+      lambda *= 8;
+    }
+    if (!improved) break;
+  }
+  out.parts = std::move(parts);
+  out.cost = cost;
+  out.r = std::move(r);
+  if (P > 0 && have_j) out.JtJ = J.transpose() * J;
+  // Parameters the data cannot see (a zero Jacobian column) do not count in the BIC.
+  double amax = 0;
+  for (Eigen::Index j = 0; j < out.JtJ.rows(); ++j) amax = std::max(amax, out.JtJ(j, j));
+  for (Eigen::Index j = 0; j < out.JtJ.rows(); ++j) out.n_params += out.JtJ(j, j) > 1e-8 * amax && amax > 0;
+  return out;
+}
+
+FitOutcome refit(const Problem& pr, std::vector<Part> parts, int max_iter, int restarts) {
+  FitOutcome o = levenberg_marquardt(pr, std::move(parts), max_iter);
+  for (int restart = 0; restart < restarts && std::isfinite(o.cost); ++restart) {
+    FitOutcome again = levenberg_marquardt(pr, o.parts, max_iter);
+    const bool gained = again.cost < o.cost * (1 - 1e-4);
+    again.sims += o.sims;
+    if (again.cost < o.cost) o = std::move(again);
+    else o.sims = again.sims;
+    if (!gained) break;
+  }
+  return o;
+}
+
+std::vector<FitParam> fit_params(const FitOutcome& o, double s2_scale) {
+  // Gauss-Newton covariance in internal coordinates, scaled by the residual variance and by
+  // n / n_eff (s2_scale): residuals of a simulation are autocorrelated, so the plain formula
+  // would be far too confident.
+  std::vector<FitParam> out;
+  const std::vector<FreeRef> f = free_refs(o.parts);
+  Eigen::MatrixXd cov;
+  if (!f.empty() && o.JtJ.rows() == static_cast<Eigen::Index>(f.size())) {
+    Eigen::MatrixXd A = o.JtJ;
+    for (Eigen::Index j = 0; j < A.rows(); ++j) A(j, j) += 1e-12 * std::max(1.0, A(j, j));
+    cov = A.inverse() * s2_scale;
+  }
+  for (std::size_t p = 0; p < o.parts.size(); ++p) {
+    const Part& part = o.parts[p];
+    std::vector<FitParam> mine;
+    for (std::size_t i = 0; i < part.specs.size(); ++i) {
+      FitParam fp{part.specs[i].name, part.values[i], kNaN, part.specs[i].unit, ""};
+      for (std::size_t j = 0; j < f.size(); ++j)
+        if (f[j].part == static_cast<int>(p) && f[j].index == static_cast<int>(i) && cov.size()) {
+          const double v = cov(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(j));
+          const double z = to_internal(part.specs[i], part.values[i]);
+          fp.sigma = std::sqrt(std::max(v, 0.0)) * dvalue_dz(part.specs[i], z);
+        }
+      mine.push_back(fp);
+    }
+    flag_params(mine, part);
+    out.insert(out.end(), mine.begin(), mine.end());
+  }
+  return out;
+}
+
+}  // namespace search
+}  // namespace auger::wb
