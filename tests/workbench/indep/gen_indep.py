@@ -26,6 +26,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import indep_effects as fx  # noqa: E402
 import indep_effects_env as fe  # noqa: E402
 import indep_outside as fo  # noqa: E402
+import indep_sensors as fs  # noqa: E402
 from indep_drive import (CLOSED_KINDS, OPEN_KINDS, PROVIDES, Controller, manual_plan,  # noqa: E402
                          paper_plan)
 from indep_run import DT_S, Sensors, Visibility, hermite, simulate  # noqa: E402
@@ -41,16 +42,16 @@ FAMILIES = {
     "screw_dead_band": [fx.DeadRampJoin, fx.DeadSmooth, fx.DeadAsymmetric],
     "terrain_slope": [fe.SlopePlane, fe.SlopeHill, fe.SlopeLoadTransfer],
     "resistance_offset": [fe.OffsetFront, fe.OffsetLateral, fe.OffsetSpeed],
-    "pose_time_offset": [fe.LatencyConst, fe.LatencyJitter, fe.LatencyDrift],
-    "imu_heading_bias": [fe.BiasConst, fe.BiasStep, fe.BiasSettling, fe.BiasCompass],
-    "imu_heading_drift": [fe.DriftLinear, fe.DriftRandomWalk, fe.DriftWarmup],
+    "pose_time_offset": [fs.LatencyConst, fs.LatencyJitter, fs.LatencyDrift],
+    "imu_heading_bias": [fs.BiasConst, fs.BiasStep, fs.BiasSettling, fs.BiasCompass],
+    "imu_heading_drift": [fs.DriftLinear, fs.DriftRandomWalk, fs.DriftWarmup],
     "terrain_change": [fe.TerrainAbrupt, fe.TerrainTransition, fe.TerrainPatch],
     "rigid_body_coupling": [fe.CoriolisScaled, fe.CoriolisAddedMass, fe.CoriolisComOffset],
     "yaw_time_constant": [fe.YawInertia, fe.YawTorqueLag, fe.YawSoilSpring],
     "screw_blocking": [fe.BlockHard, fe.BlockSmooth, fe.BlockSinking],
 }
 OUTSIDE = {c.mechanism: c for c in (fo.BackwardWeak, fo.SpeedSquared, fo.Furrows, fo.AngleRipple,
-                                    fo.Sinking, fo.BentScrew, fo.BatterySag, fo.LateralToYaw,
+                                    fo.Sinking, fo.BentScrew, fo.BatterySag, fo.Backlash,
                                     fo.TurnTraction, fo.FieldRows)}
 VIS_MIN = 2.0               # the strongest channel's visibility at the smallest size drawn
 CHANNELS = ("x", "y", "psi", "imu_psi", "imu_r")

@@ -10,8 +10,7 @@ import math
 
 import numpy as np
 
-from indep_model import (B_PSI, C_YAW_M, G_MPS2, I_Z_KGM2, L_X_M, L_Y_M, MASS_KG, POS_M,
-                         TERRAIN, drive_force_n)
+from indep_model import L_X_M, L_Y_M, POS_M, TERRAIN, drive_force_n, yaw_lump
 
 AXES = ("x", "y", "psi")
 # Below these speeds dry friction is a stiff damper (taken implicitly): creep under a drive
@@ -38,6 +37,9 @@ class Effect:
     sensor = False         # acts on a sensor, not on the motion
     variables = ()
     form_string = ""
+    # an internal state (a lag, a sunk screw) that the visibility's replays restart at rest at
+    # each segment's start, as they restart the pose from the truth
+    stateful = False
 
     def __init__(self, rng, env):
         self.env = env
@@ -353,7 +355,6 @@ class SatTotalClip(Effect):
         self.fmax = drive_force_n(self.terrain, "x", 23.0 / s)
 
     def drive(self, X, st, tx, ty, tp, h):
-        from indep_model import yaw_lump
         lam = yaw_lump(self.terrain)
         n = X.sqrt(tx * tx + ty * ty + (lam * tp / math.hypot(L_X_M, L_Y_M)) ** 2) + 1e-12
         k = X.minimum(1.0, self.fmax / n)
@@ -363,6 +364,7 @@ class SatTotalClip(Effect):
 # ---- force_lag ----
 class _Lag(Effect):
     family = "force_lag"
+    stateful = True
     size_name, size_unit = "tau", "s"
 
     def size_max(self):
@@ -408,6 +410,7 @@ class LagTwoStage(_Lag):
 class LagDeadTime(Effect):
     """The drive arrives after a dead time (a transport delay: the soil yields late)."""
     family, form = "force_lag", "dead_time"
+    stateful = True
     size_name, size_unit = "delay", "s"
 
     def size_max(self):

@@ -130,13 +130,16 @@ def test_effect_changes_the_log_by_its_visibility(cls, form):
     if e["family"] in ("pose_time_offset", "imu_heading_bias", "imu_heading_drift"):
         return     # sensors: the visibility is computed from the truth directly
     # the log's true motion against the base model's replay: the effect's own size of error
+    # (within 15 %; 25 % where the replays restart an internal state of the effect at rest)
+    cls_ = [c for c in g.FAMILIES.get(e["family"], [g.OUTSIDE.get(e["mechanism"])]) if c.form == e["form"]][0]
+    tol = 0.25 if cls_.stateful else 0.15
     pose, mask = replay(c["terrain"], [], run, 1, 5)
     starts, seg = segments(c["n_rows"])
     rows = np.minimum(starts[None, :] + np.arange(seg + 1)[:, None], c["n_rows"] - 1)
     tr = np.transpose(run["truth"][rows][:, :, :3], (0, 2, 1))
     for j, ch in enumerate(("x", "y", "psi")):
         got = math.sqrt(np.mean((pose[:, j] - tr[:, j])[mask] ** 2)) / c["sensors"].std[j]
-        assert got == pytest.approx(vis[ch], rel=0.15, abs=0.15), (ch, got, vis)
+        assert got == pytest.approx(vis[ch], rel=tol, abs=0.15), (ch, got, vis)
 
 
 def test_deterministic_per_class_and_seed():
@@ -153,3 +156,54 @@ def test_unknown_class_is_refused():
         g.pick_effects("single:nope", np.random.default_rng(1), None)
     with pytest.raises(ValueError, match="has no form"):
         g.pick_effects("single:force_lag", np.random.default_rng(1), "bogus")
+
+
+def test_backlash_holds_the_screw_for_the_play_after_a_reversal():
+    # a play of 0.25 turn at 10 rpm: the screw stands 1.5 s after the motor reverses, then
+    # follows it at full speed (outside the library: a lost angle, not a lost time)
+    from indep_model import SCALAR
+    from indep_outside import Backlash
+    b = Backlash.__new__(Backlash)
+    b.set_size(0.25)
+    b.reset(SCALAR, None, None)
+    h, out = 0.002, []
+    for k in range(4000):
+        w = 10.0 if k < 1000 else -10.0
+        out.append(b.speed(SCALAR, None, [w] * 4, h)[0])
+    out = np.array(out)
+    # from the middle of the play: 0.125 turn (0.75 s) before the first motion
+    assert np.sum(out[:1000] == 0.0) == pytest.approx(0.75 / h, abs=2)
+    stood = np.sum(out[1000:] == 0.0)
+    assert stood == pytest.approx(1.5 / h, abs=2)
+    assert out[-1] == pytest.approx(-10.0)
+
+
+def test_runner_knows_the_generators_classes():
+    import run_indep as ri
+    assert list(ri.FAMILIES) == list(g.FAMILIES)
+    assert sorted(ri.MECHANISMS) == sorted(g.OUTSIDE)
+
+
+def _truth(*effects):
+    return {"effects": [dict(library=lib, family=f if lib else None, mechanism=None if lib else f,
+                             variable_groups=[["u_mps"]]) for lib, f in effects]}
+
+
+def test_runner_scores_pairs_and_false_discoveries():
+    import run_indep as ri
+    r = {"effects": ["terrain_slope", "quadratic_drag", "imu_heading_bias"], "verdict_kind": "near_noise",
+         "final": {"ratio": {"x": 1.1, "y": 0.9}}}
+    c = ri.Case("pair", 1)
+    ri.score(c, _truth((True, "terrain_slope"), (True, "quadratic_drag")), {}, r, 0.1)
+    assert c.info["false"] == ["imu_heading_bias"] and any("also named" in f for f in c.failures)
+    # an outside log ending near the noise floor with a library effect kept; the discovered
+    # term's inputs miss the mechanism's variable
+    c = ri.Case("outside:sideways_from_forward", 1)
+    r = {"effects": ["terrain_slope"], "verdict_kind": "near_noise", "final": {"ratio": {}},
+         "discovered": [{"terms": [{"inputs": ["v_mps"]}]}]}
+    ri.score(c, _truth((False, "sideways_from_forward")), {}, r, 0.1)
+    assert c.info["noise_with_wrong"] and not c.info["discovered_ok"] and len(c.failures) == 2
+    r.update(effects=[], verdict_kind="outside_library", discovered=[{"terms": [{"inputs": ["u_mps"]}]}])
+    c = ri.Case("outside:sideways_from_forward", 2)
+    ri.score(c, _truth((False, "sideways_from_forward")), {}, r, 0.1)
+    assert not c.failures and c.info["discovered_ok"]
