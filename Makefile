@@ -138,7 +138,7 @@ test-full: test
 	INDEP_ALL_FORMS=1 $(BUILD)/venv/bin/python3 -m pytest -q -p no:cacheprovider \
 	  tests/workbench/indep/test_gen_indep.py
 	$(BUILD)/venv/bin/python3 tests/workbench/indep/run_indep.py --auger $(BUILD)/host/auger/auger \
-	  --seeds 5 --jobs 2
+	  --seeds 5 --jobs 2 --json $(BUILD)/indep-results.json
 
 # The simulated robot on sand driven by augerd: a square and the helix diagonal with each
 # allocator, tracking errors printed (scripts/demo.sh; about 90 s after the build).

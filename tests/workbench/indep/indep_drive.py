@@ -8,7 +8,8 @@ import numpy as np
 
 from indep_model import B_PSI, B_X, B_Y, OMEGA_MAX_RPM, TERRAIN, k_inverse
 
-# Screw-speed patterns of one DOF (MODEL-NOTES' K_i columns: +x, +y left, +psi ccw).
+# Screw-speed patterns of one DOF (docs/model-notes.md "Frames": K_i's columns: +x, +y left,
+# +psi ccw).
 PATTERN = {"x": (-1.0, -1.0, 1.0, 1.0), "y": (-1.0, 1.0, 1.0, -1.0), "psi": (-1.0, -1.0, -1.0, -1.0)}
 OPEN_KINDS = ("paper", "manual")
 CLOSED_KINDS = ("square", "diagonal", "waypoints")

@@ -39,7 +39,7 @@ def test_signs_and_steady_speeds(terrain):
         for _ in range(int(20.0 / 0.002)):
             m.substep(SCALAR, st, w, [x * 0.002 / 60 for x in w], 0.002)
         assert (st.u, st.v, st.r) == pytest.approx((u, v, r), rel=1e-6, abs=1e-12)
-    # MODEL-NOTES' red flag: the sand set gives 0.087 m/s at 15 rpm forward
+    # docs/model-notes.md's red flag: the sand set gives 0.087 m/s at 15 rpm forward
     if terrain == "sand":
         assert steady_velocity("sand", [-15, -15, 15, 15])[0] == pytest.approx(
             4 * 15 * p["sigma_long"] / p["d_x"]) == pytest.approx(0.087, abs=5e-4)
@@ -207,3 +207,12 @@ def test_runner_scores_pairs_and_false_discoveries():
     c = ri.Case("outside:sideways_from_forward", 2)
     ri.score(c, _truth((False, "sideways_from_forward")), {}, r, 0.1)
     assert not c.failures and c.info["discovered_ok"]
+
+
+def test_runner_counts_a_partner_named_beside_the_family_as_false():
+    import run_indep as ri
+    truth = ["screw_dead_band", "paper_params"]
+    assert ri.unmatched(["screw_dead_band", "paper_params"], truth) == []
+    assert ri.unmatched(["coulomb_friction", "quadratic_drag"], truth) == []     # partners
+    assert ri.unmatched(["quadratic_drag", "screw_dead_band", "terrain_change", "paper_params"],
+                        truth) == ["quadratic_drag", "terrain_change"]
