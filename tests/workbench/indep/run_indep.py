@@ -195,6 +195,7 @@ def score(case, truth, d, r, min_shift):
         elif kind == "outside" and wrong:
             case.notes.append("kept %s, verdict %s" % (", ".join(wrong), case.info["verdict"]))
         if "discovered" in r:
+            case.info["discovered_terms"] = sum(len(t.get("terms", [])) for t in r["discovered"])
             inputs = {i for t in r["discovered"] for term in t.get("terms", []) for i in term.get("inputs", [])}
             ok = all(any(v in inputs for v in grp) for grp in outside[0]["variable_groups"])
             case.info["discovered_ok"] = ok
@@ -365,7 +366,7 @@ def totals(args, results, wall):
             ("clean", "clean: nothing named", groups.get("clean", []), lambda r: not r.failures, args.min_clean),
             ("outside", "outside: no noise verdict w/ wrong", outs,
              lambda r: not r.info.get("noise_with_wrong", False) and "named" in r.info, args.min_outside),
-            ("discovered", "outside: discovered inputs right", disc, lambda r: r.info["discovered_ok"],
+            ("discovered", "outside: term proposed, inputs right", disc, lambda r: r.info["discovered_ok"],
              args.min_discovered)]
     t["rows"], bad = [], []
     for key, label, rs, ok, limit in rows:
@@ -375,7 +376,7 @@ def totals(args, results, wall):
             if row["share"] < limit:
                 bad.append(key)
     t["outside_noise_verdict_with_wrong"] = sum(r.info.get("noise_with_wrong", False) for r in outs)
-    t["outside_with_discovered"] = len(disc)
+    t["outside_with_discovered"] = sum(r.info.get("discovered_terms", 0) > 0 for r in disc)
     t["outside_cases"] = len(outs)
     t["false_discovery"] = dict(false=false, named=named, rate=false / named if named else 0.0,
                                 threshold=args.max_fdr)
@@ -401,7 +402,7 @@ def summary(args, results, wall):
             row["label"], row["ok"], row["cases"], 100 * row["share"], 100 * row["threshold"]))
     if t["outside_cases"]:
         print("  outside: %d of %d with a noise verdict and a wrong library effect kept; %d with "
-              "discovered terms" % (t["outside_noise_verdict_with_wrong"], t["outside_cases"],
+              "a discovered term proposed" % (t["outside_noise_verdict_with_wrong"], t["outside_cases"],
                                     t["outside_with_discovered"]))
     fd = t["false_discovery"]
     print("  %-34s %3d / %-3d = %5.1f %%  (threshold %.0f %%)" % ("false-discovery rate", fd["false"],
