@@ -40,6 +40,8 @@ class Effect:
     # an internal state (a lag, a sunk screw) that the visibility's replays restart at rest at
     # each segment's start, as they restart the pose from the truth
     stateful = False
+    # how far the log's own error may stand from the visibility those replays record (test_gen_indep)
+    replay_tolerance = 0.15
 
     def __init__(self, rng, env):
         self.env = env
