@@ -127,7 +127,8 @@ test: deps check-protocol host venv asan fuzz-smoke board
 # blocking thresholds, augerd's load test for a minute (docs/daemon.md "Limits and abuse"), the
 # hidden-effect suite with 10 seeds per effect, at least 9 must pass, and the explain suite:
 # 7 pair classes x 5 seeds (at least 4 of 5 each), 2 clean logs, the firmware-in-the-loop chain
-# on sand and frozen grass, square / diagonal / manual (docs/workbench-suite.md).
+# on sand and frozen grass, square / diagonal / manual, every form of the independent generator
+# and its suite, 5 seeds per class (docs/workbench-suite.md).
 test-full: test
 	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) ctest --output-on-failure -L long
 	$(MAKE) fuzz FUZZ_RUNS=5000000
@@ -138,6 +139,10 @@ test-full: test
 	python3 tests/workbench/hidden/run_explain.py --auger $(BUILD)/host/auger/auger \
 	  --sim-log $(BUILD)/sim/robot/auger-sim-log --sim-drive $(BUILD)/sim/robot/auger-sim-drive \
 	  --seeds 5 --min-frac 0.8 --jobs 2
+	INDEP_ALL_FORMS=1 $(BUILD)/venv/bin/python3 -m pytest -q -p no:cacheprovider \
+	  tests/workbench/indep/test_gen_indep.py
+	$(BUILD)/venv/bin/python3 tests/workbench/indep/run_indep.py --auger $(BUILD)/host/auger/auger \
+	  --seeds 5 --jobs 2 --json $(BUILD)/indep-results.json
 
 # The simulated robot on sand driven by augerd: a square and the helix diagonal with each
 # allocator, tracking errors printed (scripts/demo.sh; about 90 s after the build).
