@@ -23,7 +23,7 @@ namespace {
 
 bool finite(double v) { return std::isfinite(v); }
 
-// The screw speeds between measured samples (docs/workbench.md "Inputs"): a module that reports
+// The screw speeds between measured samples (docs/workbench.md "How the model is run against a log"): a module that reports
 // at 5 Hz leaves 19 empty rows of 20. Held, the speed lagged the truth by half a report period
 // on average (0.1 s: what a force lag or a pose time offset would be fitted to); linear between
 // two reports less than kOmegaInterpolateS apart it is the truth to second order in the speed's

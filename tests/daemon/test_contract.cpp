@@ -31,7 +31,7 @@ TEST_CASE("a status line reads back into the struct it was written from", "[daem
   const std::string plain = format_status(s);
   CHECK(plain == "status t_s=12.345 enabled=1 mode=goto x_m=0.1234 y_m=-0.5000 psi_rad=3.1416 xd_m=1.0000 "
                  "yd_m=2.0000 psid_rad=-0.2500 fault=2:overcurrent loop_dt_s=0.01001 loop_jitter_max_s=0.00042 "
-                 "arrived=1 log_ok=0");
+                 "arrived=1 log_ok=0 poses_rejected=0");
   Status back;
   REQUIRE(parse_status(plain, back) == "");
   CHECK_FALSE(back.all);

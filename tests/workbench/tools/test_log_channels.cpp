@@ -1,5 +1,5 @@
-// Logs as the group's bags import (issue 26 points 4 and 5, docs/workbench.md "Inputs" and "A log
-// without pose"): sensors slower than the 100 Hz grid leave their rows empty between samples, and
+// Logs as the group's bags import (issue 26 points 4 and 5; docs/workbench.md "How the model is run
+// against a log" and "A log without pose"): sensors slower than the 100 Hz grid leave their rows empty between samples, and
 // the noise floor sees only measured samples; a log without pose is compared in the IMU heading
 // alone and says what it cannot check.
 #include <catch2/catch.hpp>
