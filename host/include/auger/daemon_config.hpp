@@ -59,9 +59,10 @@ struct DaemonConfig {
   auger::ros2::Settings ros2;
 
   // [online]: identification of the terrain while driving, off unless enabled (docs/daemon.md
-  // "Online identification"); apply: the controller uses what it identified.
+  // "Online identification"); apply: the controller uses what it identified (off by default: fed
+  // with the EKF's velocity the estimate follows the controller's own model, docs/benchmarks.md).
   auger::OnlineConfig online;
-  bool online_apply = true;
+  bool online_apply = false;
 };
 
 // Reads and checks the file, including the model file (so that a bad model is a start-up error
