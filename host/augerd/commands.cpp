@@ -14,7 +14,7 @@ std::optional<std::string> Daemon::command(const std::string& line) {
   const std::string not_enabled = "error: not enabled (send enable first): " + quote_line(line);
   switch (c.kind) {
     case CommandKind::status:
-      return c.text == "all" ? status_line() + bus_.status_fields(t_s_) + sensors_status() + ros2_status()
+      return c.text == "all" ? status_line() + bus_.status_fields(t_s_) + sensors_status() + ros2_status() + online_status()
                            : status_line();
     case CommandKind::enable: {
       const int bad = bus_.first_not_answering();

@@ -13,6 +13,7 @@
 #include <sys/mman.h>
 
 #include "auger/effect.hpp"
+#include "auger/model_file.hpp"
 #include "clock.hpp"
 #include "auger/log.hpp"
 
@@ -36,6 +37,11 @@ Daemon::Daemon(const DaemonConfig& cfg, auger::Model model)
            [this](int m, const std::string& reason, const std::string& detail) { fault(m, reason, detail); },
            [this](int m, const std::string& what, const std::string& action) { event(m, what, action); }) {
   controller_ = std::make_unique<auger::Controller>(model_, ctrl_cfg_);
+  if (cfg.online.enabled) {
+    online_ = std::make_unique<auger::OnlineEstimator>(model_, cfg.online);
+    for (const auto& t : auger::load_model_file(cfg.model_file).terrains) terrains_.push_back(t.params);
+    applied_terrain_ = cfg.terrain;
+  }
 }
 
 Daemon::~Daemon() = default;
@@ -81,6 +87,7 @@ void Daemon::open_log() {
   lc.flush_interval_s = cfg_.log_flush_interval_s;
   lc.fsync_interval_s = cfg_.log_fsync_interval_s;
   lc.mcap = cfg_.log_mcap;
+  if (online_) lc.more_columns = online_columns();
   log_ = std::make_unique<DataLog>(lc);
   log_->open();
   std::fprintf(stderr, "augerd: logging to %s\n", log_->first_path().c_str());
@@ -175,7 +182,7 @@ void Daemon::write_log(const std::array<double, 4>& cmd_rpm) {
   if (sensors_in_.has_imu_r) s.imu_r_radps = sensors_in_.imu_r_radps;
   if (controller_->enabled()) auger::io::log_reference(controller_->reference().eta_d, s);
   s.loop_dt_s = loop_dt_s_;
-  static thread_local std::vector<double> extra(replay_columns().size());
+  static thread_local std::vector<double> extra(replay_columns().size() + (online_ ? online_columns().size() : 0));
   const auto& eta = controller_->eta_estimate();
   const bool vel = mode_ == Mode::vel, spin = mode_ == Mode::spin;
   const double goal_x = (ctrl_events_ & kEvWaypoints) && traj_logged_ < 0 ? goal_[0] : NAN;
@@ -205,6 +212,7 @@ void Daemon::write_log(const std::array<double, 4>& cmd_rpm) {
                            eta[2]};
   static_assert(sizeof values / sizeof values[0] == 24, "one value per replay column");
   std::copy(std::begin(values), std::end(values), extra.begin());
+  if (online_) online_values(extra.data() + replay_columns().size());
   log_->write(s, extra);
 }
 
@@ -266,6 +274,7 @@ void Daemon::run(volatile const std::sig_atomic_t* stop) {
     std::array<auger::ScrewTelemetry, 4> tel;
     for (int i = 0; i < 4; ++i) tel[std::size_t(i)] = bus_.module(i).tm.controller_input();
     const std::array<double, 4>& ctrl_rpm = controller_->step(t_s_, tel, sensors_in_);
+    if (online_) online_step(tel);
     // The controller refused its own state (an estimate that diverged): a fault like a module's.
     if (!controller_->fault().empty() && !estimator_fault_reported_) {
       estimator_fault_reported_ = true;

@@ -16,6 +16,7 @@
 #include "auger/controller.hpp"
 #include "auger/daemon_log.hpp"
 #include "auger/model.hpp"
+#include "auger/online_estimator.hpp"
 #include "config.hpp"
 #include "daemon_lines.hpp"
 #include "data_log.hpp"
@@ -78,6 +79,12 @@ class Daemon {
   std::string ros2_status() const;  // status all's ros2_* fields ("" without ROS 2)
   void ros2_report() const;         // the exit report's ROS 2 line
 
+  // online_link.cpp: the online estimator, [online] enabled (docs/daemon.md "Online
+  // identification"); with it off (online_ null) none of this runs and the log has no more columns.
+  void online_step(const std::array<auger::ScrewTelemetry, 4>& tel);
+  void online_values(double* out) const;  // this cycle's online_columns()
+  std::string online_status() const;      // status all's online_* fields ("" when off)
+
   // daemon.cpp
   void fault(int module, const std::string& reason_token, const std::string& detail);
   void event(int module, const std::string& what, const std::string& action);
@@ -137,6 +144,12 @@ class Daemon {
   int traj_n_ = 0;          // follow files copied beside the log (…-follow-N.waypoints)
   int traj_logged_ = -1;    // the follow file of this cycle, -1 none
   std::string run_name_;    // augerd-<UTC start>: names the log files of this run
+
+  std::unique_ptr<auger::OnlineEstimator> online_;  // null: [online] off
+  std::vector<auger::TerrainParams> terrains_;       // the model file's, to name the believed terrain
+  bool online_change_ = false;                       // a change detected this cycle
+  bool online_fallback_said_ = false;
+  std::string applied_terrain_;                      // the believed terrain of what the controller uses
 
   // ROS 2 (null unless enabled): what its inputs did, and the time the loop spends on it.
   std::unique_ptr<auger::ros2::Bridge> ros2_;

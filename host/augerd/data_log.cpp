@@ -27,8 +27,14 @@ DataLog::DataLog(DataLogConfig config) : cfg_(std::move(config)) {
 
 DataLog::~DataLog() { close(); }
 
+std::vector<std::string> DataLog::columns() const {
+  std::vector<std::string> c = replay_columns();
+  c.insert(c.end(), cfg_.more_columns.begin(), cfg_.more_columns.end());
+  return c;
+}
+
 void DataLog::open() {
-  formatter_ = std::make_unique<auger::RobotLogWriter>(row_text_, cfg_.metadata, replay_columns());
+  formatter_ = std::make_unique<auger::RobotLogWriter>(row_text_, cfg_.metadata, columns());
   header_ = row_text_.str();
   row_text_.str("");
   events_path_ = cfg_.dir + "/" + cfg_.run + "-events.log";
@@ -118,7 +124,7 @@ void DataLog::start_mcap() {
     return;
   }
   mcap_ = std::make_unique<auger::RobotLogMcapWriter>(mcap_file_, cfg_.metadata,
-                                                      auger::RobotLogMcapWriter::RobotColumnsAnd{replay_columns()});
+                                                      auger::RobotLogMcapWriter::RobotColumnsAnd{columns()});
 }
 
 void DataLog::end_mcap() {

@@ -50,4 +50,17 @@ inline const std::vector<std::string>& replay_columns() {
   return cols;
 }
 
+// With [online] enabled, after the replay columns (docs/daemon.md "Online identification"): the
+// estimated terrain parameters and their standard deviations, the change detector's statistic,
+// 1 in the cycle of a detected change, 1 while the fallback to the configured terrain is latched,
+// and the parameters the controller uses.
+inline const std::vector<std::string>& online_columns() {
+  static const std::vector<std::string> cols = {
+      "on_sigma_long",    "on_sigma_lat",    "on_D_x",    "on_D_y",    "on_D_psi",
+      "on_sd_sigma_long", "on_sd_sigma_lat", "on_sd_D_x", "on_sd_D_y", "on_sd_D_psi",
+      "on_cusum",         "on_change",       "on_fallback",
+      "ctl_sigma_long",   "ctl_sigma_lat",   "ctl_D_x",   "ctl_D_y",   "ctl_D_psi"};
+  return cols;
+}
+
 }  // namespace auger::daemon

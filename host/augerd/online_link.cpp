@@ -1,0 +1,88 @@
+// augerd's online identification (docs/daemon.md "Online identification"): the core's
+// OnlineEstimator fed each cycle after the controller's step, its change events, the parameters
+// it hands the controller, its log columns and status fields. Runs only with [online] enabled.
+#include <cmath>
+#include <cstdio>
+
+#include "daemon.hpp"
+
+namespace augerd {
+
+namespace {
+// The believed terrain's row name, or "unknown" (status all: one token).
+std::string terrain_token(const std::string& believed) {
+  return believed.compare(0, 7, "unknown") == 0 ? "unknown" : believed;
+}
+}  // namespace
+
+void Daemon::online_step(const std::array<auger::ScrewTelemetry, 4>& tel) {
+  // The screw speeds held over the cycle just ended (the latest telemetry; a lost module breaks
+  // the estimator's window) and the EKF's body velocity now, which fuses the IMU and the camera.
+  auger::Vec4 omega_rpm;
+  for (int i = 0; i < 4; ++i) omega_rpm[i] = bus_.module(i).lost ? NAN : tel[std::size_t(i)].omega_rpm;
+  online_change_ = online_->step(omega_rpm, controller_->zeta_estimate(), loop_dt_s_);
+  if (online_change_) {
+    char what[200];
+    std::snprintf(what, sizeof what,
+                  "the ground changed (CUSUM over %.3g): the estimator's memory restarts from sigma_long %.3g, "
+                  "sigma_lat %.3g, D_x %.4g, D_y %.4g, D_psi %.3g",
+                  cfg_.online.cusum_threshold, online_->estimate().value[0], online_->estimate().value[1],
+                  online_->estimate().value[2], online_->estimate().value[3], online_->estimate().value[4]);
+    std::fprintf(stderr, "augerd: t=%.3f s: %s\n", t_s_, what);
+    event(-1, "terrain-change", what);
+  }
+  if (!online_->fallback().empty() && !online_fallback_said_) {
+    // A warning, not a fault: the robot goes on with the configured terrain.
+    online_fallback_said_ = true;
+    const std::string what = "online estimate diverged (" + online_->fallback() + "); the controller uses the configured "
+                             "terrain '" + cfg_.terrain + "' until augerd restarts";
+    std::fprintf(stderr, "augerd: t=%.3f s: warning: %s\n", t_s_, what.c_str());
+    event(-1, "online-fallback", what);
+  }
+  if (cfg_.online_apply && online_->applied_changed()) {
+    // eqs. (6), (7), (22) of the controller's model (it holds a reference to model_): its EKF's
+    // prediction, the allocator's (S B)^+ and the null-space allocator's weights from the next step.
+    auger::set_terrain_parameters(model_, online_->control_parameters());
+    auger::OnlineEstimate used;
+    used.value = online_->control_parameters();
+    used.sd = online_->estimate().sd;
+    const std::string believed = auger::believed_terrain(used, terrains_);
+    if (terrain_token(believed) != applied_terrain_) {
+      applied_terrain_ = terrain_token(believed);
+      event(-1, "terrain-applied", "the controller now uses " + believed);
+    }
+  }
+}
+
+void Daemon::online_values(double* out) const {
+  const auger::OnlineEstimate& e = online_->estimate();
+  for (int k = 0; k < 5; ++k) {
+    out[k] = e.value[k];
+    out[5 + k] = e.sd[k];
+  }
+  out[10] = online_->cusum();
+  out[11] = online_change_ ? 1 : 0;
+  out[12] = online_->fallback().empty() ? 0 : 1;
+  // What the controller's model holds (eqs. (6), (7)).
+  out[13] = model_.terrain.sigma_long;
+  out[14] = model_.terrain.sigma_lat;
+  out[15] = model_.terrain.D_x;
+  out[16] = model_.terrain.D_y;
+  out[17] = model_.terrain.D_psi;
+}
+
+std::string Daemon::online_status() const {
+  if (!online_) return "";
+  const auger::OnlineEstimate& e = online_->estimate();
+  char buf[512];
+  std::snprintf(buf, sizeof buf,
+                " online_terrain=%s on_sigma_long=%.4g on_sigma_lat=%.4g on_D_x=%.5g on_D_y=%.5g on_D_psi=%.4g "
+                "on_sd_sigma_long=%.2g on_sd_sigma_lat=%.2g on_sd_D_x=%.2g on_sd_D_y=%.2g on_sd_D_psi=%.2g "
+                "on_cusum=%.3g on_changes=%llu on_fallback=%d",
+                terrain_token(auger::believed_terrain(e, terrains_)).c_str(), e.value[0], e.value[1], e.value[2],
+                e.value[3], e.value[4], e.sd[0], e.sd[1], e.sd[2], e.sd[3], e.sd[4], online_->cusum(),
+                static_cast<unsigned long long>(online_->changes()), online_->fallback().empty() ? 0 : 1);
+  return buf;
+}
+
+}  // namespace augerd
