@@ -6,7 +6,10 @@
 # allocators run side by side), and prints the tracking error per DOF from augerd's own logs.
 # During the first square augerd also speaks ROS 2 (docs/ros2.md), and a DDS subscriber (the
 # build venv's Cyclone DDS, as a ROS 2 node would subscribe) prints the odometry it receives;
-# DDS stays on loopback (tests/ros2/dds-loopback.xml) on a domain id of this run.
+# DDS stays on loopback (tests/ros2/dds-loopback.xml) on a domain id of this run. Then it drives
+# across a field of sand with a band of frozen grass with augerd's [online] identification, with
+# and without applying it, and prints the true terrain changes beside augerd's alarms
+# (scripts/demo-field.py). About 4 minutes in all.
 #   scripts/demo.sh [BUILD_DIR]      (make demo builds first)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -19,7 +22,7 @@ track=$build/host/track/auger-track
 module_tool=$build/host/tools/auger-module  # sim_start commissions with it
 elf=$root/firmware/build/auger-module.elf
 py=$build/venv/bin/python3  # make venv
-for f in "$sim" "$augerd" "$auger" "$track" "$module_tool" "$elf" "$py"; do
+for f in "$build/sim/robot/auger-sim-drive" "$sim" "$augerd" "$auger" "$track" "$module_tool" "$elf" "$py"; do
   [[ -x $f || -r $f ]] || { echo "demo: $f is missing (make host)" >&2; exit 1; }
 done
 
@@ -119,6 +122,59 @@ echo "\$ auger compare $sand_log"
 echo
 echo "\$ auger explain $sand_log --out explained.toml"
 "$auger" explain "$sand_log" --out explained.toml
+echo
+# Across a field: sand with a 0.7 m band of frozen grass (sim/fields/sand-grass.toml), the 1.5 m
+# square and the 1.5 m helix diagonal of `auger-sim-drive --course-m 1.5` (each crosses the band
+# sand -> frozen grass -> sand), augerd configured for sand with [online] identification
+# (docs/daemon.md "Online identification"): once with `apply = false` (the estimator and detector
+# watch, the controller keeps sand) and once with `apply = true` (the controller takes what was
+# identified). The four runs go side by side (each simulator costs a few % of a core).
+field=$root/sim/fields/sand-grass.toml
+sim_drive=$build/sim/robot/auger-sim-drive
+"$sim_drive" --drive square --course-m 1.5 --seconds 144 --course-out "$work/field-square.csv"
+"$sim_drive" --drive diagonal --course-m 1.5 --seconds 120 --course-out "$work/field-diagonal.csv"
+# run_field NAME COURSE SECONDS APPLY
+run_field() {
+  local d=$work/$1
+  mkdir -p "$d"
+  sim_start "$d" sand $(($3 + 20)) "$field"
+  local sim_pid=$SIM_PID
+  augerd_start "$d" sand "allocator = \"nullspace\"
+gamma_per_s = [0.2, 0.2, 0.2]
+omega_min_rpm = 3.0
+engage_rpm = 1.5" "" "[online]
+enabled = true
+apply = $4"
+  local augerd_pid=$AUGERD_PID
+  "$auger" cmd --socket "$d/commands.sock" enable "follow $work/field-$2.csv" > "$d/commands.out"
+  sleep "$3"
+  "$auger" cmd --socket "$d/commands.sock" "status all" stop >> "$d/commands.out"
+  kill -TERM "$augerd_pid"
+  wait "$augerd_pid" || true
+  kill -TERM "$sim_pid" 2>/dev/null || true
+  wait "$sim_pid" || true
+}
+echo
+echo "== across a field: sand with a band of frozen grass ($field), augerd configured for sand,"
+echo "   [online] on; 1.5 m square (150 s) and diagonal (125 s), each with apply off and on, side by side =="
+pids=()
+run_field field-square-fixed square 150 false & pids+=($!)
+run_field field-square-adapt square 150 true & pids+=($!)
+run_field field-diagonal-fixed diagonal 125 false & pids+=($!)
+run_field field-diagonal-adapt diagonal 125 true & pids+=($!)
+wait "${pids[@]}"
+pids=()
+echo "demo: field runs done ($(($(date +%s) - start)) s)"
+echo
+echo "Terrain changes and augerd's detector (fixed: [online] apply = false; adapt: apply = true):"
+"$py" "$root/scripts/demo-field.py" field-square-fixed field-square-adapt field-diagonal-fixed field-diagonal-adapt
+echo
+echo "Tracking error across the field, the controller's terrain fixed (sand) and adapted online:"
+"$track" field-square-fixed/logs/*.csv field-square-adapt/logs/*.csv field-diagonal-fixed/logs/*.csv \
+  field-diagonal-adapt/logs/*.csv
+echo "[online] is off by default and apply with it: fed the EKF's velocity, which carries the configured"
+echo "terrain's model, the detector alarms on its own and the estimate leans to the configured terrain"
+echo "(docs/daemon.md \"Online identification\"); an alarm between two true changes may be one of those."
 echo
 echo "augerd wrote MCAP beside each CSV log ([log] mcap = true): open $work/${sand_log%.csv}.mcap"
 echo "in Foxglove or PlotJuggler (docs/formats.md)."

@@ -150,6 +150,8 @@ class Daemon {
   bool online_change_ = false;                       // a change detected this cycle
   bool online_fallback_said_ = false;
   std::string applied_terrain_;                      // the believed terrain of what the controller uses
+  std::string believed_said_;                        // the estimate's believed terrain last written as an event
+  double believed_next_t_s_ = 0;                     // when it is looked at next (once a second)
 
   // ROS 2 (null unless enabled): what its inputs did, and the time the loop spends on it.
   std::unique_ptr<auger::ros2::Bridge> ros2_;

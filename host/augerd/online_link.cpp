@@ -39,6 +39,16 @@ void Daemon::online_step(const std::array<auger::ScrewTelemetry, 4>& tel) {
     std::fprintf(stderr, "augerd: t=%.3f s: warning: %s\n", t_s_, what.c_str());
     event(-1, "online-fallback", what);
   }
+  if (t_s_ >= believed_next_t_s_) {
+    // What the estimate says the ground is, whether or not the controller uses it (apply off):
+    // once a second (the name is a string), an event when its row changes.
+    believed_next_t_s_ = t_s_ + 1.0;
+    const std::string believed = auger::believed_terrain(online_->estimate(), terrains_);
+    if (terrain_token(believed) != believed_said_) {
+      believed_said_ = terrain_token(believed);
+      event(-1, "terrain-believed", "the estimate is closest to " + believed);
+    }
+  }
   if (cfg_.online_apply && online_->applied_changed()) {
     // eqs. (6), (7), (22) of the controller's model (it holds a reference to model_): its EKF's
     // prediction, the allocator's (S B)^+ and the null-space allocator's weights from the next step.
