@@ -165,14 +165,14 @@ int track(const Model& sand, const Model& grass, const ModelFile& file, int runs
                         {"sand, frozen grass from 40 s", &sand, &grass, 40, "sand", &sand}};
   for (const Case& k : cases) {
     const ControllerConfig cc = controller_config(file, k.configured_name);
-    for (const bool true_velocity : {false, true}) {
+    for (const int velocity : {kEkfVelocity, kTrueVelocity, kKinematicVelocity}) {
       double fixed_m = 0, online_m = 0, fixed_rad = 0, online_rad = 0, sigma = 0;
       std::uint64_t changes = 0;
       for (int r = 0; r < runs; ++r) {
         const unsigned seed = 1u + unsigned(r);
         const TrackingRun f = online_tracking_run(*k.before, *k.after, k.change_at_s, *k.configured, cc, false, 120, seed);
         const TrackingRun o =
-            online_tracking_run(*k.before, *k.after, k.change_at_s, *k.configured, cc, true, 120, seed, true_velocity);
+            online_tracking_run(*k.before, *k.after, k.change_at_s, *k.configured, cc, true, 120, seed, velocity);
         fixed_m += f.rms_m / runs;
         online_m += o.rms_m / runs;
         fixed_rad += f.rms_rad / runs;
@@ -181,7 +181,10 @@ int track(const Model& sand, const Model& grass, const ModelFile& file, int runs
         changes += o.changes;
       }
       std::printf("| %s | %s | %s | %.2f mm | %.2f mm | %.2f mrad | %.2f mrad | %llu | %.3f N/rpm |\n", k.truth,
-                  k.configured_name, true_velocity ? "true + 0.5 mm/s" : "the EKF's (as augerd)", 1e3 * fixed_m,
+                  k.configured_name,
+                  velocity == kTrueVelocity        ? "true + 0.5 mm/s"
+                  : velocity == kKinematicVelocity ? "kinematic (camera + IMU)"
+                                                   : "the EKF's (as augerd)", 1e3 * fixed_m,
                   1e3 * online_m, 1e3 * fixed_rad, 1e3 * online_rad, static_cast<unsigned long long>(changes), sigma);
     }
   }

@@ -11,6 +11,7 @@
 
 #include "auger/controller.hpp"
 #include "auger/dynamics.hpp"
+#include "auger/kinematic_velocity.hpp"
 #include "auger/model.hpp"
 #include "auger/online_estimator.hpp"
 
@@ -71,18 +72,25 @@ class OnlineDrive {
 // is `before` and then `after` from change_at_s; a camera pose (2 mm, 2 mrad) every third cycle
 // and the IMU (heading 5 mrad, rate 5 mrad/s) every cycle, ideal screws. With `online` the
 // estimator runs on the controller's EKF velocity and its parameters go into the controller's
-// model as augerd does (host/augerd/online_link.cpp); true_velocity: on the true velocity with
-// 0.5 mm/s of noise instead (what a velocity independent of the model would give). The tracking error is the true pose against
-// the reference eq. (18), from 5 s on.
+// model as augerd does (host/augerd/online_link.cpp). velocity kTrueVelocity: on the true
+// velocity with 0.5 mm/s of noise instead (what a velocity independent of the model would give);
+// kKinematicVelocity: on KinematicVelocity's (the camera and IMU alone, no terrain model) with
+// the drag held at the configured values (drag_prior_rel_sd 0.01), as augerd's
+// velocity = "kinematic". The tracking error is the true pose against the reference eq. (18),
+// from 5 s on.
 struct TrackingRun {
   double rms_m = 0, rms_rad = 0;  // position and heading error, RMS
   std::uint64_t changes = 0;
   Vec5 used = Vec5::Zero();  // the controller's terrain at the end
 };
 
+enum VelocitySource : int { kEkfVelocity = 0, kTrueVelocity = 1, kKinematicVelocity = 2 };
+
 inline TrackingRun online_tracking_run(const Model& before, const Model& after, double change_at_s,
                                        const Model& configured, const ControllerConfig& cc, bool online,
-                                       double seconds, unsigned seed, bool true_velocity = false) {
+                                       double seconds, unsigned seed, int velocity = kEkfVelocity) {
+  const bool true_velocity = velocity == kTrueVelocity;
+  KinematicVelocity kin;
   constexpr double dt = 0.01;
   Model model = configured;  // the controller's, updated in place
   Controller c(model, cc);
@@ -95,6 +103,12 @@ inline TrackingRun online_tracking_run(const Model& before, const Model& after, 
   OnlineConfig oc;
   oc.enabled = online;
   if (true_velocity) oc.velocity_sd = Vec3(0.0005, 0.0005, 0.00125);
+  if (velocity == kKinematicVelocity) {
+    // The kinematic filter's velocity error here: 4-6 mm/s RMS in u and v (its own SD 5.7 mm/s).
+    // The drag held at the configured values: slow tracking identifies sigma / D only.
+    oc.velocity_sd = Vec3(0.006, 0.006, 0.005);
+    oc.drag_prior_rel_sd = 0.01;
+  }
   OnlineEstimator est(configured, oc);
   DynamicsData data(before);
   Vec3 eta = Vec3::Zero(), zeta = Vec3::Zero();
@@ -117,11 +131,13 @@ inline TrackingRun online_tracking_run(const Model& before, const Model& after, 
     s.imu_r_radps = zeta.z() + 0.005 * n(rng);
     for (int i = 0; i < 4; ++i) tel[std::size_t(i)] = {sp[std::size_t(i)], true};
     sp = c.step(t_s + dt, tel, s);
-    // The EKF's velocity (as augerd), or the true one with 0.5 mm/s of noise (a velocity sensor
-    // independent of the model).
-    const Vec3 v = true_velocity ? Vec3(zeta + Vec3(0.0005 * n(rng), 0.0005 * n(rng), 0.00125 * n(rng)))
-                                 : c.zeta_estimate();
-    if (online) est.step(omega_rpm, v, dt);
+    // The EKF's velocity (as augerd), the true one with 0.5 mm/s of noise (a velocity sensor
+    // independent of the model), or the kinematic filter's.
+    const Vec3 v_kin = kin.step(s, dt);
+    const Vec3 v = true_velocity                    ? Vec3(zeta + Vec3(0.0005 * n(rng), 0.0005 * n(rng), 0.00125 * n(rng)))
+                   : velocity == kKinematicVelocity ? v_kin
+                                                    : c.zeta_estimate();
+    if (online && v.allFinite()) est.step(omega_rpm, v, dt);
     if (online && est.applied_changed()) set_terrain_parameters(model, est.control_parameters());
     if (t_s >= 5.0) {
       const Vec3 e = eta - c.reference().eta_d;

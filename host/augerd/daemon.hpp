@@ -16,6 +16,7 @@
 #include "auger/controller.hpp"
 #include "auger/daemon_log.hpp"
 #include "auger/model.hpp"
+#include "auger/kinematic_velocity.hpp"
 #include "auger/online_estimator.hpp"
 #include "config.hpp"
 #include "daemon_lines.hpp"
@@ -150,6 +151,7 @@ class Daemon {
   bool online_change_ = false;                       // a change detected this cycle
   bool online_fallback_said_ = false;
   std::string applied_terrain_;                      // the believed terrain of what the controller uses
+  auger::KinematicVelocity online_kin_;              // [online] velocity = "kinematic"
   std::string believed_said_;                        // the estimate's believed terrain last written as an event
   double believed_next_t_s_ = 0;                     // when it is looked at next (once a second)
 

@@ -20,7 +20,11 @@ void Daemon::online_step(const std::array<auger::ScrewTelemetry, 4>& tel) {
   // the estimator's window) and the EKF's body velocity now, which fuses the IMU and the camera.
   auger::Vec4 omega_rpm;
   for (int i = 0; i < 4; ++i) omega_rpm[i] = bus_.module(i).lost ? NAN : tel[std::size_t(i)].omega_rpm;
-  online_change_ = online_->step(omega_rpm, controller_->zeta_estimate(), loop_dt_s_);
+  // Or, with velocity = "kinematic", the velocity of the camera's positions and the IMU's rate
+  // alone (this cycle's sensors), which owes nothing to the configured terrain; none before the
+  // first camera pose.
+  const auger::Vec3 zeta = cfg_.online_kinematic ? online_kin_.step(sensors_in_, loop_dt_s_) : controller_->zeta_estimate();
+  online_change_ = zeta.allFinite() && online_->step(omega_rpm, zeta, loop_dt_s_);
   if (online_change_) {
     char what[200];
     std::snprintf(what, sizeof what,

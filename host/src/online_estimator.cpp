@@ -31,12 +31,13 @@ OnlineEstimator::OnlineEstimator(const Model& model, const OnlineConfig& config)
     lo_rel_[k] = kRanges[k].lower / ref_[k];
     hi_rel_[k] = kRanges[k].upper / ref_[k];
   }
-  if (!(cfg_.window_s > 0) || !(cfg_.memory_s > 0) || !(cfg_.prior_rel_sd > 0) ||
+  if (!(cfg_.window_s > 0) || !(cfg_.memory_s > 0) || !(cfg_.prior_rel_sd > 0) || !(cfg_.drag_prior_rel_sd > 0) ||
       !(cfg_.cusum_ratio > 1) || !(cfg_.cusum_threshold > 0) || !(cfg_.velocity_sd.minCoeff() > 0))
-    throw std::invalid_argument("online estimation: window_s, prior_rel_sd, velocity_sd > 0, memory_s > 0, "
+    throw std::invalid_argument("online estimation: window_s, prior_rel_sd, drag_prior_rel_sd, velocity_sd > 0, memory_s > 0, "
                                 "cusum_ratio > 1, cusum_threshold > 0");
   fallback_.reserve(64);  // latching a reason later allocates nothing
   P0_ = Mat5::Identity() * (cfg_.prior_rel_sd * cfg_.prior_rel_sd);
+  for (int k = kDx; k <= kDpsi; ++k) P0_(k, k) = cfg_.drag_prior_rel_sd * cfg_.drag_prior_rel_sd;
   // Noise of M_j (z_end - z_start) / W from the two end velocities.
   for (int j = 0; j < 3; ++j) {
     const double sd = M_[j] * std::sqrt(2.0) * cfg_.velocity_sd[j] / cfg_.window_s;

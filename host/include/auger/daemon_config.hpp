@@ -63,6 +63,9 @@ struct DaemonConfig {
   // with the EKF's velocity the estimate follows the controller's own model, docs/benchmarks.md).
   auger::OnlineConfig online;
   bool online_apply = false;
+  // velocity = "kinematic": the estimator is fed auger::KinematicVelocity's body velocity (the
+  // camera and IMU alone, no terrain model) instead of the EKF's.
+  bool online_kinematic = false;
 };
 
 // Reads and checks the file, including the model file (so that a bad model is a start-up error

@@ -60,6 +60,11 @@ struct OnlineConfig {
   // Prior SD of each parameter, relative to its configured value; the covariance returns to it
   // at a detected change (the memory restart).
   double prior_rel_sd = 0.5;
+  // The same for D_x, D_y, D_psi. Small (0.01) holds the drag at its configured values and lets
+  // sigma alone move: slow tracking makes almost no accelerations, so its data identify the
+  // steady speed per rpm, sigma / D, and not the two apart (docs/daemon.md); the feedforward
+  // and the allocation need that ratio.
+  double drag_prior_rel_sd = 0.5;
   // CUSUM on the normalised innovation (OnlineEstimator::step): the per-DOF log-likelihood ratio
   // of an innovation variance cusum_ratio times the model's, summed, alarm above the threshold.
   double cusum_ratio = 4.0;
