@@ -1,6 +1,7 @@
 // auger monitor: a live terminal view of augerd (`status all` polled every --period seconds):
 // per module speed and setpoint, current, voltage, PWM, status and fault bits by name, link
-// error counters; the estimated pose and reference, the sensors, the loop period and jitter.
+// error counters; the estimated pose and reference, the sensors, the loop period and jitter;
+// with augerd's [online], the believed terrain and the estimate.
 // Faults in reverse video (and red where the terminal has colours). Plain ncurses: works over
 // ssh, no mouse; resizes; `q` quits. docs/operator.md.
 #include <curses.h>
@@ -83,6 +84,21 @@ void draw(const Status& kv, const std::string& socket, const std::string& error,
              field(kv, m + "host_header_errors").c_str(), field(kv, m + "host_bytes_skipped").c_str(),
              lost ? "  LOST" : "");
     if (bad) attroff(highlight);
+  }
+  if (kv.count("online_terrain")) {
+    // augerd's [online] (docs/daemon.md "Online identification"): the terrain the estimate is
+    // closest to, the estimate with its SDs, the detector; fallback highlighted like a fault.
+    mvprintw(row++, 0, "ground (online): %s  sigma_long=%s+-%s sigma_lat=%s+-%s N/rpm  D_x=%s+-%s D_y=%s+-%s N/(m/s)",
+             field(kv, "online_terrain").c_str(), field(kv, "on_sigma_long").c_str(),
+             field(kv, "on_sd_sigma_long").c_str(), field(kv, "on_sigma_lat").c_str(),
+             field(kv, "on_sd_sigma_lat").c_str(), field(kv, "on_D_x").c_str(), field(kv, "on_sd_D_x").c_str(),
+             field(kv, "on_D_y").c_str(), field(kv, "on_sd_D_y").c_str());
+    const bool fallback = field(kv, "on_fallback") == "1";
+    mvprintw(row, 0, "  CUSUM %s, %s changes detected", field(kv, "on_cusum").c_str(), field(kv, "on_changes").c_str());
+    if (fallback) attron(highlight);
+    printw("%s", fallback ? "  FALLBACK to the configured terrain" : "");
+    if (fallback) attroff(highlight);
+    ++row;
   }
   ++row;
   mvprintw(row++, 0, "omega/setpt rpm; state: EN enabled, SP setpoint fresh, DEF defaults, SAT duty-limited, EE eeprom busy");
