@@ -15,6 +15,8 @@
 #   make bench-protocol   XOR byte vs CRC-16 corruption figures (docs/protocol.md)
 #   make bench-firmware   firmware cycles, edge rates, CPU load, simulation speed (docs/benchmarks.md)
 #   make bench-host       instructions and time per host controller step (callgrind)
+#   make bench-online     the online estimator's cost per cycle (x86, aarch64 under qemu) and its
+#                         change detector's delay / false-alarm curve (docs/benchmarks.md)
 #   make bench-robot      speed of the whole simulated robot in lock-step
 #   make bench-ros2       what augerd's ROS 2 interface costs its 100 Hz loop, under load
 #   make bench-explain    auger explain on 240 s and 10 min logs (wall and CPU seconds)
@@ -38,7 +40,7 @@ AVR_CFLAGS := -mmcu=atmega328p -DF_CPU=16000000UL -std=c99 -Os -Wall -Wextra -We
 HOST_WARN := -Wall -Wextra -Werror -pedantic
 
 .PHONY: all deps firmware flash host asan check-protocol fuzz fuzz-smoke test test-full demo \
-        bench-protocol bench-firmware bench-host bench-robot bench-ros2 bench-explain bench-import pid-units \
+        bench-protocol bench-firmware bench-host bench-online bench-robot bench-ros2 bench-explain bench-import pid-units \
         clean venv \
         board board-deps board-test install uninstall flash-all bench-board
 
@@ -157,6 +159,9 @@ bench-firmware: host
 
 bench-host: host
 	scripts/bench-host-step.sh $(BUILD)
+
+bench-online: host
+	scripts/bench-online.sh $(BUILD) 200 10
 
 bench-robot: host
 	$(BUILD)/bench/robot_speed 20 2

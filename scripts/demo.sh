@@ -6,7 +6,10 @@
 # allocators run side by side), and prints the tracking error per DOF from augerd's own logs.
 # During the first square augerd also speaks ROS 2 (docs/ros2.md), and a DDS subscriber (the
 # build venv's Cyclone DDS, as a ROS 2 node would subscribe) prints the odometry it receives;
-# DDS stays on loopback (tests/ros2/dds-loopback.xml) on a domain id of this run.
+# DDS stays on loopback (tests/ros2/dds-loopback.xml) on a domain id of this run. Then it drives
+# across a field of sand with a band of frozen grass with augerd's [online] identification, with
+# and without applying it, and prints the true terrain changes beside augerd's alarms
+# (scripts/demo-field.py). About 4 minutes in all.
 #   scripts/demo.sh [BUILD_DIR]      (make demo builds first)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -19,7 +22,7 @@ track=$build/host/track/auger-track
 module_tool=$build/host/tools/auger-module  # sim_start commissions with it
 elf=$root/firmware/build/auger-module.elf
 py=$build/venv/bin/python3  # make venv
-for f in "$sim" "$augerd" "$auger" "$track" "$module_tool" "$elf" "$py"; do
+for f in "$build/sim/robot/auger-sim-drive" "$sim" "$augerd" "$auger" "$track" "$module_tool" "$elf" "$py"; do
   [[ -x $f || -r $f ]] || { echo "demo: $f is missing (make host)" >&2; exit 1; }
 done
 
@@ -119,6 +122,49 @@ echo "\$ auger compare $sand_log"
 echo
 echo "\$ auger explain $sand_log --out explained.toml"
 "$auger" explain "$sand_log" --out explained.toml
+echo
+# Across a field: sand with a 0.7 m band of frozen grass (sim/fields/sand-grass.toml), the 1.5 m
+# square and the 1.5 m helix diagonal of `auger-sim-drive --course-m 1.5` (each crosses the band
+# sand -> frozen grass -> sand), augerd configured for sand with [online] identification in the
+# best setting measured (docs/daemon.md "Online identification": the camera's and IMU's velocity,
+# the drag held, sigma identified): once with `apply = false` (the estimator and detector watch,
+# the controller keeps sand) and once with `apply = true` (the controller takes what was
+# identified). The four runs go side by side (each simulator costs a few % of a core).
+field=$root/sim/fields/sand-grass.toml
+sim_drive=$build/sim/robot/auger-sim-drive
+"$sim_drive" --drive square --course-m 1.5 --seconds 144 --course-out "$work/field-square.csv"
+"$sim_drive" --drive diagonal --course-m 1.5 --seconds 120 --course-out "$work/field-diagonal.csv"
+# run_field NAME COURSE SECONDS APPLY
+run_field() {
+  follow_run "$work/$1" "$work/field-$2.csv" "$3" "$field" "[online]
+enabled = true
+apply = $4
+velocity = \"kinematic\"
+velocity_sd = [0.012, 0.012, 0.01]
+drag_prior_rel_sd = 0.01
+cusum_threshold = 40"
+}
+echo
+echo "== across a field: sand with a band of frozen grass ($field), augerd configured for sand,"
+echo "   [online] on (velocity = \"kinematic\", the drag held); 1.5 m square (150 s) and diagonal (125 s),"
+echo "   each with apply off (fixed) and on (adapt), side by side =="
+pids=()
+run_field field-square-fixed square 150 false & pids+=($!)
+run_field field-square-adapt square 150 true & pids+=($!)
+run_field field-diagonal-fixed diagonal 125 false & pids+=($!)
+run_field field-diagonal-adapt diagonal 125 true & pids+=($!)
+wait "${pids[@]}"
+pids=()
+echo "demo: field runs done ($(($(date +%s) - start)) s)"
+echo
+echo "Terrain changes and augerd's detector (fixed: [online] apply = false; adapt: apply = true):"
+"$py" "$root/scripts/demo-field.py" field-square-fixed field-square-adapt field-diagonal-fixed field-diagonal-adapt
+echo
+echo "Tracking error across the field, the controller's terrain fixed (sand) and adapted online:"
+"$track" field-square-fixed/logs/*.csv field-square-adapt/logs/*.csv field-diagonal-fixed/logs/*.csv \
+  field-diagonal-adapt/logs/*.csv
+echo "[online] and its apply are off by default: on uniform sand the diagonal tracks worse with apply on,"
+echo "and the detector misses most changes and alarms on uniform ground (docs/daemon.md \"Online identification\")."
 echo
 echo "augerd wrote MCAP beside each CSV log ([log] mcap = true): open $work/${sand_log%.csv}.mcap"
 echo "in Foxglove or PlotJuggler (docs/formats.md)."

@@ -72,3 +72,27 @@ augerd_start() {
   AUGERD_PID=$!
   sim_wait_for "$d/commands.sock" || { cat "$d/augerd.out" >&2; return 1; }
 }
+
+# follow_run DIR COURSE_CSV SECONDS FIELD SECTIONS : the simulated robot (on FIELD, or on sand
+# when FIELD is "") and augerd configured for sand as `make demo` runs it (null-space allocator,
+# gamma 0.2 1/s) with SECTIONS at the end of its configuration (e.g. [online]); augerd follows
+# COURSE_CSV for SECONDS, then `status all` and `stop` (answers in DIR/commands.out), and both
+# stop. Needs AUGER_BUILD's host/auger/auger.
+follow_run() {
+  local d=$1 course=$2 seconds=$3 field=$4 sections=$5 sim_pid augerd_pid
+  mkdir -p "$d"
+  sim_start "$d" sand $((seconds + 20)) "$field" || return 1
+  sim_pid=$SIM_PID
+  augerd_start "$d" sand 'allocator = "nullspace"
+gamma_per_s = [0.2, 0.2, 0.2]
+omega_min_rpm = 3.0
+engage_rpm = 1.5' "" "$sections" || return 1
+  augerd_pid=$AUGERD_PID
+  "$AUGER_BUILD/host/auger/auger" cmd --socket "$d/commands.sock" enable "follow $course" > "$d/commands.out"
+  sleep "$seconds"
+  "$AUGER_BUILD/host/auger/auger" cmd --socket "$d/commands.sock" "status all" stop >> "$d/commands.out"
+  kill -TERM "$augerd_pid"
+  wait "$augerd_pid" || true
+  kill -TERM "$sim_pid" 2>/dev/null || true
+  wait "$sim_pid" || true
+}

@@ -221,6 +221,7 @@ auger::daemon::Status Daemon::status(bool all) const {
   s.pose_age_s = t_s_ - last_pose_t_s_;
   s.cam_x_m = last_pose_[0], s.cam_y_m = last_pose_[1], s.cam_psi_rad = last_pose_[2];
   ros2_status(s);
+  online_status(s);
   return s;
 }
 

@@ -13,6 +13,7 @@
 #include <sys/mman.h>
 
 #include "auger/effect.hpp"
+#include "auger/model_file.hpp"
 #include "clock.hpp"
 #include "auger/log.hpp"
 
@@ -45,6 +46,11 @@ Daemon::Daemon(const DaemonConfig& cfg, auger::Model model)
              event(m, what, action);
            }) {
   controller_ = std::make_unique<auger::Controller>(model_, ctrl_cfg_);
+  if (cfg.online.enabled) {
+    online_ = std::make_unique<auger::OnlineEstimator>(model_, cfg.online);
+    for (const auto& t : auger::load_model_file(cfg.model_file).terrains) terrains_.push_back(t.params);
+    applied_terrain_ = cfg.terrain;
+  }
 }
 
 Daemon::~Daemon() = default;
@@ -90,6 +96,7 @@ void Daemon::open_log() {
   lc.flush_interval_s = cfg_.log_flush_interval_s;
   lc.fsync_interval_s = cfg_.log_fsync_interval_s;
   lc.mcap = cfg_.log_mcap;
+  if (online_) lc.more_columns = auger::daemon::online_columns();
   log_ = std::make_unique<DataLog>(lc);
   log_->open();
   std::fprintf(stderr, "augerd: logging to %s\n", log_->first_path().c_str());
@@ -220,6 +227,11 @@ void Daemon::write_log(const std::array<double, 4>& cmd_rpm) {
   row.psie_rad = eta[2];
   static thread_local std::vector<double> extra;
   auger::daemon::log_row_values(row, extra);
+  if (online_) {
+    const std::size_t n = extra.size();
+    extra.resize(n + auger::daemon::online_columns().size());
+    online_values(extra.data() + n);
+  }
   log_->write(s, extra);
 }
 
@@ -282,6 +294,7 @@ void Daemon::run(volatile const std::sig_atomic_t* stop) {
     for (int i = 0; i < 4; ++i) tel[std::size_t(i)] = bus_.module(i).tm.controller_input();
     const std::array<double, 4>& ctrl_rpm = controller_->step(t_s_, tel, sensors_in_);
     pose_gate_events();
+    if (online_) online_step(tel);
     // The controller refused its own state (an estimate that diverged): a fault like a module's.
     if (!controller_->fault().empty() && !estimator_fault_reported_) {
       estimator_fault_reported_ = true;

@@ -15,6 +15,8 @@
 
 #include "auger/controller.hpp"
 #include "auger/model.hpp"
+#include "auger/kinematic_velocity.hpp"
+#include "auger/online_estimator.hpp"
 #include "config.hpp"
 #include "daemon_lines.hpp"
 #include "daemon_log.hpp"
@@ -99,6 +101,12 @@ class Daemon {
   void ros2_status(auger::daemon::Status& s) const;  // status all's ros2_* fields (none without ROS 2)
   void ros2_report() const;         // the exit report's ROS 2 line
 
+  // online_link.cpp: the online estimator, [online] enabled (docs/daemon.md "Online
+  // identification"); with it off (online_ null) none of this runs and the log has no more columns.
+  void online_step(const std::array<auger::ScrewTelemetry, 4>& tel);
+  void online_values(double* out) const;  // this cycle's online_columns()
+  void online_status(auger::daemon::Status& s) const;  // status all's online fields (none when off)
+
   // daemon.cpp
   void fault(int module, const std::string& reason_token, const std::string& detail);
   void event(int module, const std::string& what, const std::string& action);
@@ -165,6 +173,15 @@ class Daemon {
   int traj_n_ = 0;          // follow files copied beside the log (…-follow-N.waypoints)
   int traj_logged_ = -1;    // the follow file of this cycle, -1 none
   std::string run_name_;    // augerd-<UTC start>: names the log files of this run
+
+  std::unique_ptr<auger::OnlineEstimator> online_;  // null: [online] off
+  std::vector<auger::TerrainParams> terrains_;       // the model file's, to name the believed terrain
+  bool online_change_ = false;                       // a change detected this cycle
+  bool online_fallback_said_ = false;
+  std::string applied_terrain_;                      // the believed terrain of what the controller uses
+  auger::KinematicVelocity online_kin_;              // [online] velocity = "kinematic"
+  std::string believed_said_;                        // the estimate's believed terrain last written as an event
+  double believed_next_t_s_ = 0;                     // when it is looked at next (once a second)
 
   // ROS 2 (null unless enabled): what its inputs did, and the time the loop spends on it.
   std::unique_ptr<auger::ros2::Bridge> ros2_;

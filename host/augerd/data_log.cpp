@@ -33,8 +33,14 @@ DataLog::DataLog(DataLogConfig config) : cfg_(std::move(config)) {
 
 DataLog::~DataLog() { close(); }
 
+std::vector<std::string> DataLog::columns() const {
+  std::vector<std::string> c = replay_columns();
+  c.insert(c.end(), cfg_.more_columns.begin(), cfg_.more_columns.end());
+  return c;
+}
+
 void DataLog::open() {
-  formatter_ = std::make_unique<auger::RobotLogWriter>(row_text_, cfg_.metadata, replay_columns());
+  formatter_ = std::make_unique<auger::RobotLogWriter>(row_text_, cfg_.metadata, columns());
   header_ = row_text_.str();
   row_text_.str("");
   events_path_ = cfg_.dir + "/" + cfg_.run + "-events.log";
@@ -129,7 +135,7 @@ void DataLog::start_mcap() {
   mcap_data_end_ = 0;
   mcap_tail_.clear();
   mcap_ = std::make_unique<auger::RobotLogMcapWriter>(mcap_sink_, cfg_.metadata,
-                                                      auger::RobotLogMcapWriter::RobotColumnsAnd{replay_columns()});
+                                                      auger::RobotLogMcapWriter::RobotColumnsAnd{columns()});
   mcap_->flush();
   if (!mcap_write(false)) end_mcap(false);  // complete from the start: header, schemas, channels, summary
   mcap_checkpoint_s_ = synced_at_s_;

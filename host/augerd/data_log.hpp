@@ -49,6 +49,9 @@ struct DataLogConfig {
   double retry_s = 10.0;                     // a new file after a write error, this often
   std::size_t max_queued_bytes = 16u << 20;  // rows waiting for the disk beyond this are dropped
   bool mcap = false;                         // an MCAP file beside each CSV file
+  // The columns after the replay columns (the online estimate's, when [online] enabled); the
+  // extra values of write() are the replay columns' then these.
+  std::vector<std::string> more_columns;
   // The system call that writes (tests inject a full disk here).
   std::function<ssize_t(int fd, const void* buf, std::size_t n)> write = nullptr;
   // The MCAP file is written only while the file system keeps this much free for the CSV file
@@ -73,6 +76,7 @@ class DataLog {
   void event(const std::string& line);
   // Writes what is queued, syncs, closes, joins the thread.
   void close();
+  std::vector<std::string> columns() const;  // after docs/log-format.md's: replay_columns() then more_columns
 
   struct Stats {
     std::uint64_t rows_written = 0, rows_lost = 0, files = 0, failures = 0;

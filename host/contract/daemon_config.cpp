@@ -194,6 +194,25 @@ void read_ros2(const Reader& r, const toml::table& t, const std::string& path, b
                " command the robot (docs/ros2.md)");
 }
 
+// [online] (docs/daemon.md "Online identification"): off unless enabled = true.
+void read_online(const Reader& r, const toml::table& t, DaemonConfig& c) {
+  auger::OnlineConfig& o = c.online;
+  r.keys(t, "[online]",
+         {{"enabled", [&](const toml::node& v) { o.enabled = r.boolean(v, "enabled"); }},
+          {"apply", [&](const toml::node& v) { c.online_apply = r.boolean(v, "apply"); }},
+          {"velocity_sd", [&](const toml::node& v) { o.velocity_sd = r.vec3(v, "velocity_sd", 1e-5, 1); }},
+          {"memory_s", [&](const toml::node& v) { o.memory_s = r.number(v, "memory_s", 0.5, 600); }},
+          {"cusum_threshold", [&](const toml::node& v) { o.cusum_threshold = r.number(v, "cusum_threshold", 1, 1000); }},
+          {"apply_rel_sd", [&](const toml::node& v) { o.apply_rel_sd = r.number(v, "apply_rel_sd", 0.001, 1); }},
+          {"drag_prior_rel_sd",
+           [&](const toml::node& v) { o.drag_prior_rel_sd = r.number(v, "drag_prior_rel_sd", 1e-4, 10); }},
+          {"velocity", [&](const toml::node& v) {
+             const std::string s = r.text(v, "velocity");
+             if (s != "ekf" && s != "kinematic") r.fail(v, "velocity must be \"ekf\" or \"kinematic\", not \"" + s + "\"");
+             c.online_kinematic = s == "kinematic";
+           }}});
+}
+
 // What the tables leave to the checks made after the model file is read: which required keys
 // came, and the [control] values that apply over the model file's defaults.
 struct Pending {
@@ -371,6 +390,8 @@ void apply_model(DaemonConfig& c, const Pending& p) {
   if (!model.find_terrain(c.terrain))
     throw ConfigError(c.path, 1, 1, "terrain '" + c.terrain + "' is not in " + c.model_file);
   c.controller = auger::controller_config(model, c.terrain);
+  if (c.online.enabled && !(model.find_terrain(c.terrain)->params.D_psi > 0))
+    throw ConfigError(c.path, 1, 1, "[online] enabled needs D_psi of terrain '" + c.terrain + "' in " + c.model_file);
   for (auto& f : p.control_overrides) f();
   if (p.allocator_text == "pinv") c.controller.allocator.kind = auger::AllocatorKind::pseudo_inverse;
   if (p.allocator_text == "nullspace") c.controller.allocator.kind = auger::AllocatorKind::null_space;
@@ -426,6 +447,7 @@ DaemonConfig read_daemon_config(const std::string& path, bool ros2_available, bo
            [&](const toml::node& n) {
              read_ros2(r, r.table(n, "ros2"), path, ros2_available, ros2_security_stated, c.ros2);
            }},
+          {"online", [&](const toml::node& n) { read_online(r, r.table(n, "online"), c); }},
           {"log", section(read_log, "log")}});
   check_tables(c, p);
   apply_model(c, p);

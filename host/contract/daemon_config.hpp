@@ -9,6 +9,7 @@
 
 #include "auger/controller.hpp"
 #include "auger/model.hpp"
+#include "auger/online_estimator.hpp"
 #include "ros2_settings.hpp"
 
 namespace auger {
@@ -56,6 +57,15 @@ struct DaemonConfig {
 
   // [ros2]: the ROS 2 interface on DDS, off unless enabled (docs/ros2.md)
   auger::ros2::Settings ros2;
+
+  // [online]: identification of the terrain while driving, off unless enabled (docs/daemon.md
+  // "Online identification"); apply: the controller uses what it identified (off by default: fed
+  // with the EKF's velocity the estimate follows the controller's own model, docs/benchmarks.md).
+  auger::OnlineConfig online;
+  bool online_apply = false;
+  // velocity = "kinematic": the estimator is fed auger::KinematicVelocity's body velocity (the
+  // camera and IMU alone, no terrain model) instead of the EKF's.
+  bool online_kinematic = false;
 };
 
 // Reads and checks the file, including the model file (so that a bad model is a start-up error

@@ -65,6 +65,15 @@ const std::vector<LogColumn>& log_row_columns() {
   return cols;
 }
 
+const std::vector<std::string>& online_columns() {
+  static const std::vector<std::string> cols = {
+      "on_sigma_long",    "on_sigma_lat",    "on_D_x",    "on_D_y",    "on_D_psi",
+      "on_sd_sigma_long", "on_sd_sigma_lat", "on_sd_D_x", "on_sd_D_y", "on_sd_D_psi",
+      "on_cusum",         "on_change",       "on_fallback",
+      "ctl_sigma_long",   "ctl_sigma_lat",   "ctl_D_x",   "ctl_D_y",   "ctl_D_psi"};
+  return cols;
+}
+
 const std::vector<std::string>& replay_columns() {
   static const std::vector<std::string> names = [] {
     std::vector<std::string> n;

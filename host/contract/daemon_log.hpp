@@ -88,6 +88,11 @@ struct LogColumn {
 const std::vector<LogColumn>& log_row_columns();
 // The names alone (the writers' header).
 const std::vector<std::string>& replay_columns();
+// With [online] enabled, after the replay columns (docs/daemon.md "Online identification"): the
+// estimated terrain parameters and their standard deviations, the change detector's statistic,
+// 1 in the cycle of a detected change, 1 while the fallback to the configured terrain is latched,
+// and the parameters the controller uses.
+const std::vector<std::string>& online_columns();
 // The row's values in that order (values resized to the columns).
 void log_row_values(const LogRow& row, std::vector<double>& values);
 

@@ -91,6 +91,18 @@ const std::vector<Field<Status>>& ros2_fields() {
   return f;
 }
 
+const std::vector<Field<Status>>& online_fields() {
+  static const std::vector<Field<Status>> f = {
+      {"online_terrain", "%s", &Status::online_terrain},     {"on_sigma_long", "%.4g", &Status::on_sigma_long},
+      {"on_sigma_lat", "%.4g", &Status::on_sigma_lat},         {"on_D_x", "%.5g", &Status::on_D_x},
+      {"on_D_y", "%.5g", &Status::on_D_y},                     {"on_D_psi", "%.4g", &Status::on_D_psi},
+      {"on_sd_sigma_long", "%.2g", &Status::on_sd_sigma_long}, {"on_sd_sigma_lat", "%.2g", &Status::on_sd_sigma_lat},
+      {"on_sd_D_x", "%.2g", &Status::on_sd_D_x},               {"on_sd_D_y", "%.2g", &Status::on_sd_D_y},
+      {"on_sd_D_psi", "%.2g", &Status::on_sd_D_psi},           {"on_cusum", "%.3g", &Status::on_cusum},
+      {"on_changes", "%ld", &Status::on_changes},              {"on_fallback", "%d", &Status::on_fallback}};
+  return f;
+}
+
 template <class S>
 void write(const S& s, const std::vector<Field<S>>& fields, const std::string& prefix, std::string& out) {
   char buf[256];
@@ -169,6 +181,7 @@ std::string format_status(const Status& s) {
   for (int i = 0; i < 4; ++i) write(s.modules[std::size_t(i)], module_fields(), "m" + std::to_string(i) + "_", out);
   write(s, sensor_fields(), "", out);
   if (s.ros2) write(s, ros2_fields(), "", out);
+  if (s.online) write(s, online_fields(), "", out);
   return out;
 }
 
@@ -183,6 +196,8 @@ std::string parse_status(const std::string& line, Status& out) {
   if (s.all && err.empty()) err = read(kv, sensor_fields(), "", s);
   s.ros2 = s.all && kv.count("ros2_applied") > 0;
   if (s.ros2 && err.empty()) err = read(kv, ros2_fields(), "", s);
+  s.online = s.all && kv.count("online_terrain") > 0;
+  if (s.online && err.empty()) err = read(kv, online_fields(), "", s);
   if (!err.empty()) return err;
   out = s;
   return "";

@@ -1,6 +1,7 @@
 // auger monitor: a live terminal view of augerd (`status all` polled every --period seconds):
 // per module speed and setpoint, current, voltage, PWM, status and fault bits by name, link
-// error counters; the estimated pose and reference, the sensors, the loop period and jitter.
+// error counters; the estimated pose and reference, the sensors, the loop period and jitter;
+// with augerd's [online], the believed terrain and the estimate.
 // Faults in reverse video (and red where the terminal has colours). Plain ncurses: works over
 // ssh, no mouse; resizes; `q` quits. docs/operator.md.
 #include <curses.h>
@@ -79,6 +80,19 @@ void draw(const Status& st, const std::string& socket, const std::string& error,
              m.faults.c_str(), m.rx_errors, m.encoder_errors, m.host_crc_errors, m.host_header_errors,
              m.host_bytes_skipped, m.lost ? "  LOST" : "");
     if (bad) attroff(highlight);
+  }
+  if (st.online) {
+    // augerd's [online] (docs/daemon.md "Online identification"): the terrain the estimate is
+    // closest to, the estimate with its SDs, the detector; fallback highlighted like a fault.
+    mvprintw(row++, 0, "ground (online): %s  sigma_long=%.4g+-%.2g sigma_lat=%.4g+-%.2g N/rpm  D_x=%.5g+-%.2g D_y=%.5g+-%.2g N/(m/s)",
+             st.online_terrain.c_str(), st.on_sigma_long, st.on_sd_sigma_long, st.on_sigma_lat, st.on_sd_sigma_lat,
+             st.on_D_x, st.on_sd_D_x, st.on_D_y, st.on_sd_D_y);
+    const bool fallback = st.on_fallback;
+    mvprintw(row, 0, "  CUSUM %.3g, %ld changes detected", st.on_cusum, st.on_changes);
+    if (fallback) attron(highlight);
+    printw("%s", fallback ? "  FALLBACK to the configured terrain" : "");
+    if (fallback) attroff(highlight);
+    ++row;
   }
   ++row;
   mvprintw(row++, 0, "omega/setpt rpm; state: EN enabled, SP setpoint fresh, DEF defaults, SAT duty-limited, EE eeprom busy");

@@ -77,13 +77,9 @@ Model make_model(const RobotParams& robot, const TerrainParams& terrain,
   m.K_i = inverse_kinematics_matrix(robot, m.screws);
   m.K_f = forward_kinematics_matrix(m.K_i);
   m.B = allocation_matrix(robot, m.screws);
-  m.sigma << terrain.sigma_long, terrain.sigma_lat, terrain.sigma_lat;
-  m.SB = m.sigma.asDiagonal() * m.B;
-  // Full row rank 3: (S B)^+ = (S B)^T (S B (S B)^T)^-1, eq. (22).
-  m.SB_pinv = m.SB.transpose() * (m.SB * m.SB.transpose()).inverse();
+  apply_terrain(m);
   m.null_space = Vec4(-1, 1, -1, 1) * 0.5;
   m.M_diag << robot.m_kg, robot.m_kg, robot.I_z_kgm2;
-  m.D_diag << terrain.D_x, terrain.D_y, terrain.D_psi;
   m.effects = std::move(effects);
   for (const auto& e : m.effects) {
     m.effect_state_offset.push_back(m.effect_state_size);
@@ -93,6 +89,15 @@ Model make_model(const RobotParams& robot, const TerrainParams& terrain,
   positive(m.M_diag[0], "the effective mass");
   positive(m.M_diag[2], "the effective yaw inertia");
   return m;
+}
+
+void apply_terrain(Model& m) {
+  const TerrainParams& t = m.terrain;
+  m.sigma << t.sigma_long, t.sigma_lat, t.sigma_lat;  // eq. (7)
+  m.SB = m.sigma.asDiagonal() * m.B;
+  // Full row rank 3: (S B)^+ = (S B)^T (S B (S B)^T)^-1, eq. (22).
+  m.SB_pinv = m.SB.transpose() * (m.SB * m.SB.transpose()).inverse();
+  m.D_diag << t.D_x, t.D_y, t.D_psi;  // eq. (6)
 }
 
 double yaw_lumping(const Model& m) {

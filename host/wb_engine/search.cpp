@@ -4,6 +4,7 @@
 // starting points, on training segments; judged on held-out segments.
 #include "fitting.hpp"
 
+#include "auger/online_estimator.hpp"
 #include "auger/term_form.hpp"
 
 #include <algorithm>
@@ -39,11 +40,15 @@ std::vector<ParamSpec> paper_specs(const Model& m, const Dataset& d) {
     const double phi = std::isfinite(v) && v > 0 ? std::min(abs_hi, v * 3.0) : abs_hi;
     return s.physical(plo, phi);
   };
-  std::vector<ParamSpec> s = {spec("sigma_long", t.sigma_long, "eq. (7), N per rpm", "N/rpm", 1e-3, 100, 0.02, 3),
-                              spec("sigma_lat", t.sigma_lat, "eq. (7), N per rpm", "N/rpm", 1e-3, 100, 0.01, 2),
-                              spec("D_x", t.D_x, "eq. (6)", "N/(m/s)", 1, 1e5, 10, 5000),
-                              spec("D_y", t.D_y, "eq. (6)", "N/(m/s)", 1, 1e5, 5, 5000),
-                              spec("D_psi", t.D_psi, "eq. (6)", "N m/(rad/s)", 0.01, 1e4, 0.2, 200)};
+  // The absolute limits are the core's (auger/online_estimator.hpp), which clamps the online
+  // estimate to them.
+  auto r = [](int k) { return terrain_range(k); };
+  std::vector<ParamSpec> s = {
+      spec("sigma_long", t.sigma_long, "eq. (7), N per rpm", "N/rpm", 1e-3, 100, r(0).lower, r(0).upper),
+      spec("sigma_lat", t.sigma_lat, "eq. (7), N per rpm", "N/rpm", 1e-3, 100, r(1).lower, r(1).upper),
+      spec("D_x", t.D_x, "eq. (6)", "N/(m/s)", 1, 1e5, r(2).lower, r(2).upper),
+      spec("D_y", t.D_y, "eq. (6)", "N/(m/s)", 1, 1e5, r(3).lower, r(3).upper),
+      spec("D_psi", t.D_psi, "eq. (6)", "N m/(rad/s)", 0.01, 1e4, r(4).lower, r(4).upper)};
   if (d.gantry) {
     const bool lon = d.axis == "longitudinal";
     s[lon ? 1 : 0].fitted = false;

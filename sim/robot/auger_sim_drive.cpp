@@ -42,6 +42,7 @@ const auger::CommandLine kCli{
      {"--elf", "PATH", "the firmware image (default " AUGER_DEFAULT_ELF ")"},
      {"--threads", "N", "simulation threads (default 1)"},
      {"--truth-out", "FILE", "write the true pose and the ground under the robot there"},
+     {"--course-out", "FILE", "write the course as augerd's follow file (t_s,x_m,y_m,psi_rad); alone: nothing else"},
      {"--camera-corr-s", "S", "correlation time of the camera's noise (default 0.3 s)"},
      {"--camera-latency-s", "S", "the camera's capture-to-delivery latency (default 0.03 s)"}},
     "Exit 2: bad usage.\n"};
@@ -88,11 +89,45 @@ class Joystick {
   auger::Vec3 target_ = auger::Vec3::Zero(), stick_ = auger::Vec3::Zero();
 };
 
+// The square (a corner every 12 s per 0.5 m) or the helix diagonal (back and forth, 20 s a leg per
+// 0.5 m) of --course-m, as `follow` waypoints (t from the start of following).
+std::vector<auger::Waypoint> course(const std::string& drive, double course_m, double seconds, const auger::Model& m) {
+  using auger::Vec3;
+  std::vector<auger::Waypoint> wps;
+  const double scale = course_m / 0.5;  // the demo's courses are 0.5 m
+  const double leg_s = (drive == "square" ? 12.0 : 20.0) * scale;
+  // A leg longer than the demo's is a ramp of 0.1 m set-point steps over its first 3/4
+  // share, then a hold: the reference model (eq. (18), time constant 1 / gamma = 5 s) then
+  // moves at nearly the ramp's mean speed, arrives, and dwells only at the corners and ends,
+  // not on its way (e.g. on a field's edge).
+  const int steps = scale > 1 ? static_cast<int>(std::ceil(course_m / 0.1 - 1e-9)) : 1;
+  const double ramp = scale > 1 ? 0.75 : 1.0;
+  const double diag = std::atan2(m.terrain.sigma_lat / m.terrain.D_y, m.terrain.sigma_long / m.terrain.D_x);
+  Vec3 from = Vec3::Zero();
+  for (int k = 1; (k - 1) * leg_s + ramp * leg_s / steps <= seconds; ++k) {
+    Vec3 p = Vec3::Zero();
+    if (drive == "square") {
+      static const double corners[4][2] = {{0.5, 0}, {0.5, 0.5}, {0, 0.5}, {0, 0}};
+      p << corners[(k - 1) % 4][0] * scale, corners[(k - 1) % 4][1] * scale, 0;
+    } else if (k % 2 == 1) {
+      p << course_m * std::cos(diag), course_m * std::sin(diag), 0;
+    }
+    for (int j = 1; j < steps; ++j) {
+      const double t = (k - 1) * leg_s + j * ramp * leg_s / steps;
+      if (t <= seconds) wps.push_back({t, from + (p - from) * (static_cast<double>(j) / steps)});
+    }
+    const double t_end = steps > 1 ? (k - 1) * leg_s + ramp * leg_s : k * leg_s;
+    if (t_end <= seconds) wps.push_back({t_end, p});
+    from = p;
+  }
+  return wps;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   using namespace auger;
-  std::string out_path, truth_path, drive = "square", terrain, screws = "fil", field_path;
+  std::string out_path, truth_path, course_path, drive = "square", terrain, screws = "fil", field_path;
   std::string model_path = AUGER_DEFAULT_MODEL, elf = AUGER_DEFAULT_ELF;
   double seconds = 240, blocking_rpm = -1, course_m = 0.5;
   std::uint64_t seed = 1;
@@ -109,6 +144,7 @@ int main(int argc, char** argv) {
     auto val = [&value = value] { return value.c_str(); };
     if (a == "--out") out_path = val();
     else if (a == "--truth-out") truth_path = val();
+    else if (a == "--course-out") course_path = val();
     else if (a == "--drive") drive = val();
     else if (a == "--terrain") terrain = val();
     else if (a == "--field") field_path = val();
@@ -123,7 +159,7 @@ int main(int argc, char** argv) {
     else if (a == "--camera-corr-s") camera.noise_corr_s = number("--camera-corr-s", val());
     else if (a == "--camera-latency-s") camera.latency_s = number("--camera-latency-s", val());
   }
-  if (out_path.empty() || !(seconds > 0) || !(course_m > 0) || (drive != "square" && drive != "diagonal" && drive != "manual") ||
+  if ((out_path.empty() && course_path.empty()) || (drive == "manual" && !course_path.empty()) || !(seconds > 0) || !(course_m > 0) || (drive != "square" && drive != "diagonal" && drive != "manual") ||
       (screws != "fil" && screws != "ideal") || threads < 1) {
     usage(stderr);
     return 2;
@@ -135,6 +171,23 @@ int main(int argc, char** argv) {
     if (!field_path.empty()) field = sim::load_field_for_run(field_path, file, blocking_rpm, terrain);
     if (terrain.empty()) terrain = "sand";
     const Model m = build_model(file, terrain);
+    if (!course_path.empty()) {
+      // The same course for augerd (`auger cmd follow`, scripts/demo.sh): held at the start
+      // until the first waypoint.
+      std::ofstream c(course_path);
+      c << "t_s,x_m,y_m,psi_rad\n0,0,0,0\n";
+      char line[128];
+      for (const Waypoint& w : course(drive, course_m, seconds, m)) {
+        std::snprintf(line, sizeof line, "%.3f,%.4f,%.4f,%.4f\n", w.t_s, w.eta_p[0], w.eta_p[1], w.eta_p[2]);
+        c << line;
+      }
+      c.close();
+      if (!c) {
+        std::fprintf(stderr, "auger-sim-drive: cannot write %s\n", course_path.c_str());
+        return 1;
+      }
+      if (out_path.empty()) return 0;
+    }
     ControllerConfig cc = controller_config(file, terrain);
     // As the demo configures augerd (scripts/demo.sh): the null-space allocator keeps every screw
     // above the blocking threshold once it engages.
@@ -203,35 +256,8 @@ int main(int argc, char** argv) {
       });
     } else {
       s.set_controller(&controller);
-      std::vector<Waypoint> wps;
-      const double scale = course_m / 0.5;  // the demo's courses are 0.5 m
-      const double leg_s = (drive == "square" ? 12.0 : 20.0) * scale;
-      // A leg longer than the demo's is a ramp of 0.1 m set-point steps over its first 3/4
-      // share, then a hold: the reference model (eq. (18), time constant 1 / gamma = 5 s) then
-      // moves at nearly the ramp's mean speed, arrives, and dwells only at the corners and ends,
-      // not on its way (e.g. on a field's edge).
-      const int steps = scale > 1 ? static_cast<int>(std::ceil(course_m / 0.1 - 1e-9)) : 1;
-      const double ramp = scale > 1 ? 0.75 : 1.0;
-      const double diag = std::atan2(m.terrain.sigma_lat / m.terrain.D_y, m.terrain.sigma_long / m.terrain.D_x);
-      Vec3 from = Vec3::Zero();
-      for (int k = 1; (k - 1) * leg_s + ramp * leg_s / steps <= seconds; ++k) {
-        Vec3 p = Vec3::Zero();
-        if (drive == "square") {
-          static const double corners[4][2] = {{0.5, 0}, {0.5, 0.5}, {0, 0.5}, {0, 0}};
-          p << corners[(k - 1) % 4][0] * scale, corners[(k - 1) % 4][1] * scale, 0;
-        } else if (k % 2 == 1) {
-          p << course_m * std::cos(diag), course_m * std::sin(diag), 0;
-        }
-        for (int j = 1; j < steps; ++j) {
-          const double t = (k - 1) * leg_s + j * ramp * leg_s / steps;
-          if (t <= seconds) wps.push_back({t, from + (p - from) * (static_cast<double>(j) / steps)});
-        }
-        const double t_end = steps > 1 ? (k - 1) * leg_s + ramp * leg_s : k * leg_s;
-        if (t_end <= seconds) wps.push_back({t_end, p});
-        from = p;
-      }
       s.run_until(boot_s);
-      controller.set_waypoints(wps);
+      controller.set_waypoints(course(drive, course_m, seconds, m));
       controller.set_enabled(true);
     }
     s.run_until(seconds);

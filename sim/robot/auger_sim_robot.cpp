@@ -163,6 +163,8 @@ int main(int argc, char** argv) {
     for (int i = 0; i < 4; ++i)
       std::printf("%d %s %s\n", i, simmod_pty_link(sched.modules(), i), simmod_pty_path(sched.modules(), i));
     std::fflush(stdout);
+    // The truth log's clock against augerd's (its log's t0_unix_s): scripts/demo.sh pairs them.
+    std::fprintf(stderr, "auger-sim-robot: simulated t = 0 s at unix time %.6f s\n", t0_unix_s);
 
     std::ofstream log;
     if (!log_path.empty()) {

@@ -38,7 +38,9 @@
 #include <thread>
 #include <vector>
 
+#include "daemon_log.hpp"
 #include "auger/log.hpp"
+#include "auger/online_estimator.hpp"
 #include "auger/model_file.hpp"
 
 extern char** environ;
@@ -726,6 +728,66 @@ TEST_CASE("augerd start-up errors", "[daemon]") {
     INFO(r.second);
     CHECK(r.second.find(old_module + ": the module (firmware 0.1.0) speaks protocol 1, augerd protocol 2: refusing "
                         "it. Flash the firmware of this version") != std::string::npos);
+  }
+}
+
+// Issue 29 point 6: [online] off writes exactly today's columns and status; on adds the
+// estimate's columns (auger::daemon::online_columns()) and status all's online fields.
+TEST_CASE("augerd's [online]: off leaves the log as it was, on logs the estimate", "[daemon]") {
+  for (const bool online : {false, true}) {
+    const std::string dir = make_dir(online ? "online_on" : "online_off");
+    RemoveDir cleanup{dir};
+    SimRig rig(dir, {0, 1, 2, 3}, {0, 1, 2, 3});
+    const std::string cfg = dir + "/augerd.toml";
+    std::ofstream(cfg) << config_text(dir, {rig.port(0), rig.port(1), rig.port(2), rig.port(3)}) +
+                              (online ? "[online]\nenabled = true\n" : "[online]\nenabled = false\n");
+    Daemon d(cfg, dir + "/augerd.err");
+    const std::string cmd = dir + "/cmd.sock";
+    REQUIRE(wait_until([&] { return access(cmd.c_str(), F_OK) == 0; }, 5.0));
+    INFO("online " << online << ": " << d.stderr_text());
+    REQUIRE(talk(cmd, "enable\n", 1) == "ok");
+    {
+      VelFeeder feed(cmd, "vel 0.03 0 0");
+      sleep_s(1.0);
+    }
+    const std::string all = talk(cmd, "status all\n", 1);
+    INFO(all);
+    CHECK((all.find(" online_terrain=") != std::string::npos) == online);
+    if (online) {
+      CHECK(std::isfinite(status_value(all, "on_sigma_long")));
+      CHECK(status_value(all, "on_fallback") == 0);
+    }
+    kill(d.pid, SIGTERM);
+    CHECK(d.wait_exit(2.0) == 0);
+    FILE* p = popen(("ls " + dir + "/log/*.csv").c_str(), "r");
+    REQUIRE(p);
+    char b[512];
+    std::string path;
+    if (fgets(b, sizeof b, p)) path = std::string(b, strcspn(b, "\n"));
+    pclose(p);
+    auger::RobotLogReader reader(path);
+    std::vector<std::string> expected = auger::robot_log_columns();
+    for (const auto& c : auger::daemon::replay_columns()) expected.push_back(c);
+    if (online)
+      for (const auto& c : auger::daemon::online_columns()) expected.push_back(c);
+    CHECK(reader.csv().columns() == expected);
+    auger::RobotSample s;
+    int rows = 0;
+    double sigma = NAN, ctl_D_x = NAN;  // of the last row
+    while (reader.next(s)) {
+      ++rows;
+      if (online) {
+        sigma = reader.csv().value(reader.csv().column_index("on_sigma_long"));
+        ctl_D_x = reader.csv().value(reader.csv().column_index("ctl_D_x"));
+      }
+    }
+    CHECK(rows > 50);
+    if (online) {
+      // The estimate within the physical range; the controller's model has a drag.
+      CHECK(sigma >= auger::terrain_range(auger::kSigmaLong).lower);
+      CHECK(sigma <= auger::terrain_range(auger::kSigmaLong).upper);
+      CHECK(ctl_D_x > 0);
+    }
   }
 }
 

@@ -327,6 +327,33 @@ TEST_CASE("configuration file", "[daemon][unit]") {
   }
 }
 
+TEST_CASE("configuration: [online] is off by default; its keys and errors", "[daemon][unit]") {
+  const std::string p = write_tmp(kGood);
+  CHECK_FALSE(load_daemon_config(p).online.enabled);
+  CHECK_FALSE(load_daemon_config(p).online_apply);
+  unlink(p.c_str());
+  const std::string on = write_tmp(kGood + "[online]\nenabled = true\nvelocity_sd = [0.001, 0.001, 0.003]\n"
+                                           "cusum_threshold = 20\napply = true\n");
+  const DaemonConfig c = load_daemon_config(on);
+  unlink(on.c_str());
+  CHECK(c.online.enabled);
+  CHECK(c.online.velocity_sd[2] == 0.003);
+  CHECK(c.online.cusum_threshold == 20);
+  CHECK(c.online_apply);
+  expect_config_error(kGood + "[online]\nenabled = 1\n", ":17:11: 'enabled' must be true or false");
+  expect_config_error(kGood + "[online]\nforgetting = 0.9\n", ":17:");
+  expect_config_error(kGood + "[online]\nvelocity_sd = [0, 0.1, 0.1]\n", ":17:");
+  // The model-free velocity and the held drag (docs/daemon.md "Online identification").
+  CHECK_FALSE(c.online_kinematic);
+  const std::string kin = write_tmp(kGood + "[online]\nenabled = true\nvelocity = \"kinematic\"\ndrag_prior_rel_sd = 0.01\n");
+  const DaemonConfig k = load_daemon_config(kin);
+  unlink(kin.c_str());
+  CHECK(k.online_kinematic);
+  CHECK(k.online.drag_prior_rel_sd == 0.01);
+  expect_config_error(kGood + "[online]\nvelocity = \"camera\"\n", ":17:12: velocity must be \"ekf\" or \"kinematic\"");
+  expect_config_error(kGood + "[online]\ndrag_prior_rel_sd = 0\n", ":17:");
+}
+
 TEST_CASE("module words for augerd's messages and event log", "[daemon][unit]") {
   using namespace auger::io;
   CHECK(reset_cause_text(PROTO_RC_POWER_ON) == "power-on");

@@ -91,6 +91,10 @@ struct Model {
   std::size_t effect_state_size = 0;
 };
 
+// S, S B, (S B)^+ and D (eqs. (6), (7), (22)) from model.terrain; no heap allocation (the online
+// estimator's parameters reach the controller through it, online_estimator.hpp).
+void apply_terrain(Model& model);
+
 // Builds every matrix from the parameters; throws std::invalid_argument on non-physical values.
 Model make_model(const RobotParams& robot, const TerrainParams& terrain,
                  std::vector<std::shared_ptr<const Effect>> effects = {});

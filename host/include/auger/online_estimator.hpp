@@ -1,0 +1,178 @@
+// Online identification of the terrain parameters sigma_long, sigma_lat, D_x, D_y, D_psi of
+// eqs. (6)-(7) while the robot drives, with a change detector that restarts the estimator's
+// memory when the ground changes (docs/daemon.md "Online identification").
+//
+// Why recursive least squares on the generalized forces and not the EKF's state augmented with
+// the parameters: eq. (6) is linear in the five parameters once the velocity is known,
+// M zeta_dot = -D zeta + S B omega, so each cycle gives three scalar linear equations (one per DOF)
+// and RLS is their exact recursive solution: no linearisation, a 5x5 covariance that means what
+// it says, and every update costs a fixed few hundred flops. An augmented EKF (11 states) would
+// couple the parameters to the pose filter's tuning (its process noise decides how fast sigma
+// may move), make a wrong parameter drag the pose estimate, and cost an 11x11 update per
+// measurement; the controller's EKF (estimation.hpp) stays as it is and feeds this module its
+// velocity.
+//
+// The regression over a window [t_0, t_0 + W] of whole cycles (omega held over each, the modules'
+// zero-order hold), eq. (6) integrated exactly on both sides per DOF j:
+//   M_j (z_j(t_0 + W) - z_j(t_0)) / W = -D_j zbar_j + sigma_j fbar_j,
+// with fbar_j the mean of (B omega)_j and zbar_j the mean velocity over the window (trapezoid per
+// cycle: 0.3 % off in a step response with the shortest time constant, m / D_x = 0.05 s, at
+// 10 ms). Only the window's end velocities enter the left side, so its noise falls as 1/W: a
+// 0.1 s window carries ten times the information per second of one-cycle differences (whose
+// noise, M sqrt(2) sd / 10 ms, is 8 N at 2 mm/s, as large as the transients that tell sigma from
+// D), and one detector decision every 0.1 s is fine-grained enough for a 0.5 s delay.
+// Parameters are estimated relative to the configured terrain (theta_rel = 1: as configured), so
+// the five are of one scale in the covariance.
+//
+// No allocation after construction: fixed-size Eigen types only (a test counts allocations).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "auger/model.hpp"
+
+namespace auger {
+
+using Vec5 = Eigen::Matrix<double, 5, 1>;
+using Mat5 = Eigen::Matrix<double, 5, 5>;
+
+// Order of the parameter vector.
+enum OnlineParam { kSigmaLong = 0, kSigmaLat = 1, kDx = 2, kDy = 3, kDpsi = 4 };
+const char* online_param_name(int k);
+
+struct OnlineConfig {
+  bool enabled = false;  // augerd's `[online] enabled` (off: augerd as before, docs/daemon.md)
+  // Memory of the directional forgetting (only the information along the regressor is
+  // forgotten): each informative window scales it by exp(-window_s / memory_s).
+  double memory_s = 5.0;
+  double window_s = 0.1;  // the regression's window (whole cycles; one RLS and detector update each)
+  // SD of the fused body velocity fed in each cycle (m/s, m/s, rad/s): the noise of the
+  // regression's left side is M sqrt(2) sd / W. The detector adapts its scale (below).
+  Vec3 velocity_sd = Vec3(0.002, 0.002, 0.005);
+  // A DOF's equation updates only when the generalized force it predicts (either term) is at
+  // least this many noise SDs: standing still or one-DOF driving leaves the other DOFs' parameters
+  // (and their covariance) untouched.
+  double excitation_sd = 2.0;
+  // Prior SD of each parameter, relative to its configured value; the covariance returns to it
+  // at a detected change (the memory restart).
+  double prior_rel_sd = 0.5;
+  // The same for D_x, D_y, D_psi. Small (0.01) holds the drag at its configured values and lets
+  // sigma alone move: slow tracking makes almost no accelerations, so its data identify the
+  // steady speed per rpm, sigma / D, and not the two apart (docs/daemon.md); the feedforward
+  // and the allocation need that ratio.
+  double drag_prior_rel_sd = 0.5;
+  // CUSUM on the normalised innovation (OnlineEstimator::step): the per-DOF log-likelihood ratio
+  // of an innovation variance cusum_ratio times the model's, summed, alarm above the threshold.
+  double cusum_ratio = 4.0;
+  double cusum_threshold = 16.0;  // docs/benchmarks.md: no false alarm in 20 h, median delay 0.15-0.2 s
+  double holdoff_s = 0.5;         // after a change: the detector waits while the estimate settles
+  double noise_adapt_s = 20.0;    // time constant of the detector's noise scale (no change pending)
+  // Divergence (fallback to the configured terrain, latched): a parameter held at its physical
+  // bound this long, or more than max_changes detections within change_window_s.
+  double bound_hold_s = 2.0;
+  int max_changes = 5;
+  double change_window_s = 10.0;
+  // The controller takes an estimated parameter once its SD is below this share of its value.
+  double apply_rel_sd = 0.1;
+};
+
+// The physical range of each terrain parameter for this robot (a 29 kg robot on soil, at most
+// 23 rpm): the workbench's fits outside it are flagged, the online estimate is clamped to it.
+// Tables 2-3 span sigma 0.09-0.81 N/rpm and D 23-560 N/(m/s).
+struct TerrainRange {
+  double lower, upper;
+};
+const TerrainRange& terrain_range(int k);  // k: OnlineParam
+
+struct OnlineEstimate {
+  Vec5 value = Vec5::Zero();   // sigma_long, sigma_lat (N/rpm), D_x, D_y (N/(m/s)), D_psi (N m/(rad/s))
+  Vec5 sd = Vec5::Zero();      // their standard deviations (same units)
+  Vec5 informed = Vec5::Zero();  // 1 where the data have informed the parameter since the last restart
+};
+
+class OnlineEstimator {
+ public:
+  // The configured terrain (the prior and the fallback) and the model's mass and B are taken
+  // from the model; throws std::invalid_argument if the terrain has no D_psi.
+  OnlineEstimator(const Model& model, const OnlineConfig& config);
+
+  // Back to the configured terrain with the prior covariance; clears the fallback.
+  void reset();
+
+  // One cycle: the screw speeds held over the cycle just ended (rpm), the fused body velocity at
+  // its end (u, v in m/s, r in rad/s), dt_s its length. Returns true when a change was detected
+  // in this cycle (the covariance has been reset). No heap allocation.
+  bool step(const Vec4& omega_rpm, const Vec3& zeta, double dt_s);
+
+  // The current estimate (physical units).
+  const OnlineEstimate& estimate() const { return est_; }
+  // What the controller should use: the configured terrain in fallback; else each parameter's
+  // estimate once its SD is below apply_rel_sd of its value, else the value last applied.
+  const Vec5& control_parameters() const { return applied_; }
+  // True when control_parameters() changed in the last step.
+  bool applied_changed() const { return applied_changed_; }
+  const Vec5& configured() const { return ref_; }
+
+  double cusum() const { return g_; }                 // the detector's statistic (alarm at threshold)
+  double last_nis() const { return nis_; }            // this cycle's summed normalised innovation squared
+  int last_rows() const { return rows_; }             // DOFs informative this cycle (0..3)
+  // The regression's noise SD per DOF as adapted, over the configured one (1: as configured).
+  Vec3 noise_scale() const { return noise_var_.cwiseQuotient(noise_var0_).cwiseSqrt(); }
+  std::uint64_t changes() const { return changes_; }  // detections since construction
+  double last_change_t_s() const { return last_change_t_s_; }  // estimator time of the last one (NaN none)
+  double t_s() const { return t_s_; }                 // the estimator's clock (sum of dt_s)
+  // Latched when the estimate diverged (the reason, "" none): control_parameters() are then the
+  // configured terrain until reset().
+  const std::string& fallback() const { return fallback_; }
+  const OnlineConfig& config() const { return cfg_; }
+
+ private:
+  void restart_memory();
+  void enter_fallback(const char* why);
+  void end_window();
+  double update_row(int dof, const Vec5& phi, double y, bool adapt);
+
+  OnlineConfig cfg_;
+  Vec3 M_;                        // eq. (8) (with the effects' inertia)
+  Eigen::Matrix<double, 3, 4> B_;  // eq. (10)
+  Vec5 ref_;                      // configured terrain (physical)
+  Vec5 lo_rel_, hi_rel_;          // physical ranges, relative to ref_
+  Mat5 P0_;
+  Vec5 theta_;                    // relative to ref_
+  Mat5 P_;
+  Vec3 noise_var_;                // per DOF: the regression's noise variance (adapted)
+  Vec3 noise_var0_;
+  OnlineEstimate est_;
+  Vec5 applied_;
+  bool applied_changed_ = false;
+  Vec3 zeta_start_ = Vec3::Zero();  // the window's start velocity, and its sums
+  Vec3 zeta_prev_ = Vec3::Zero();
+  Vec3 f_sum_ = Vec3::Zero(), z_sum_ = Vec3::Zero();
+  double w_s_ = 0;
+  bool have_prev_ = false;
+  double g_ = 0, nis_ = 0;
+  int rows_ = 0;
+  double t_s_ = 0, holdoff_until_s_ = 0;
+  double last_change_t_s_;
+  std::uint64_t changes_ = 0;
+  static constexpr int kChangeRing = 16;
+  double change_times_[kChangeRing];
+  Vec5 at_bound_s_ = Vec5::Zero();
+  std::string fallback_;
+};
+
+// The terrain the estimate is closest to: the name of a row of `terrains` whose every parameter
+// lies within max(3 SD, 15 %) of the estimate (the closest by the largest relative difference),
+// else "unknown, sigma_long 0.41 N/rpm, sigma_lat ..., D_x ..., D_y ..., D_psi ...".
+// Not for the 100 Hz path (builds a string).
+std::string believed_terrain(const OnlineEstimate& estimate, const std::vector<TerrainParams>& terrains);
+
+// Sets a model's terrain parameters in place (S, S B, (S B)^+, D of eqs. (6), (7), (22)) without
+// allocating; the effects and the mass stay. Throws std::invalid_argument on non-physical values.
+void set_terrain_parameters(Model& model, const Vec5& params);
+
+}  // namespace auger

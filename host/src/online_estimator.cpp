@@ -1,0 +1,256 @@
+// Online identification of eqs. (6)-(7)'s terrain parameters (RLS with directional forgetting)
+// and the change detector on its innovation (CUSUM); online_estimator.hpp says why these.
+#include "auger/online_estimator.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+namespace auger {
+
+namespace {
+const char* const kNames[5] = {"sigma_long", "sigma_lat", "D_x", "D_y", "D_psi"};
+const char* const kUnits[5] = {"N/rpm", "N/rpm", "N/(m/s)", "N/(m/s)", "N m/(rad/s)"};
+// Absolute limits for a 29 kg robot (the workbench flags fits outside them, host/wb_engine/search.cpp).
+const TerrainRange kRanges[5] = {{0.02, 3}, {0.01, 2}, {10, 5000}, {5, 5000}, {0.2, 200}};
+constexpr double kNisClip = 25.0;  // one wild window adds at most this much per DOF (5 SD)
+}  // namespace
+
+const char* online_param_name(int k) { return kNames[k]; }
+const TerrainRange& terrain_range(int k) { return kRanges[k]; }
+
+OnlineEstimator::OnlineEstimator(const Model& model, const OnlineConfig& config)
+    : cfg_(config), M_(model.M_diag), B_(model.B) {
+  const TerrainParams& t = model.terrain;
+  if (!std::isfinite(t.D_psi) || !(t.D_psi > 0))
+    throw std::invalid_argument("online estimation needs the terrain's D_psi (terrain '" + t.name + "' has none)");
+  // The configured terrain is the reference, whatever the model was set to since.
+  ref_ << t.sigma_long, t.sigma_lat, t.D_x, t.D_y, t.D_psi;
+  for (int k = 0; k < 5; ++k) {
+    lo_rel_[k] = kRanges[k].lower / ref_[k];
+    hi_rel_[k] = kRanges[k].upper / ref_[k];
+  }
+  if (!(cfg_.window_s > 0) || !(cfg_.memory_s > 0) || !(cfg_.prior_rel_sd > 0) || !(cfg_.drag_prior_rel_sd > 0) ||
+      !(cfg_.cusum_ratio > 1) || !(cfg_.cusum_threshold > 0) || !(cfg_.velocity_sd.minCoeff() > 0))
+    throw std::invalid_argument("online estimation: window_s, prior_rel_sd, drag_prior_rel_sd, velocity_sd > 0, memory_s > 0, "
+                                "cusum_ratio > 1, cusum_threshold > 0");
+  fallback_.reserve(64);  // latching a reason later allocates nothing
+  P0_ = Mat5::Identity() * (cfg_.prior_rel_sd * cfg_.prior_rel_sd);
+  for (int k = kDx; k <= kDpsi; ++k) P0_(k, k) = cfg_.drag_prior_rel_sd * cfg_.drag_prior_rel_sd;
+  // Noise of M_j (z_end - z_start) / W from the two end velocities.
+  for (int j = 0; j < 3; ++j) {
+    const double sd = M_[j] * std::sqrt(2.0) * cfg_.velocity_sd[j] / cfg_.window_s;
+    noise_var0_[j] = sd * sd;
+  }
+  reset();
+}
+
+void OnlineEstimator::reset() {
+  theta_.setOnes();
+  applied_ = ref_;
+  applied_changed_ = false;
+  noise_var_ = noise_var0_;
+  have_prev_ = false;
+  g_ = nis_ = 0;
+  rows_ = 0;
+  t_s_ = 0;
+  last_change_t_s_ = std::nan("");
+  for (double& c : change_times_) c = -1e300;
+  at_bound_s_.setZero();
+  fallback_.clear();
+  restart_memory();
+  // The detector starts once the noise scale has been seen for a while.
+  holdoff_until_s_ = std::max(2.0, cfg_.holdoff_s);
+}
+
+void OnlineEstimator::restart_memory() {
+  P_ = P0_;
+  g_ = 0;
+  est_.value = theta_.cwiseProduct(ref_);
+  est_.sd = P_.diagonal().cwiseSqrt().cwiseProduct(ref_);
+  est_.informed.setZero();
+}
+
+void OnlineEstimator::enter_fallback(const char* why) {
+  if (fallback_.empty()) fallback_ = why;  // latched: the first reason (no allocation: short, SSO)
+  theta_.setOnes();
+  applied_changed_ = applied_ != ref_;
+  applied_ = ref_;
+  restart_memory();
+}
+
+// One scalar RLS update with directional forgetting (Kulhavy): the information along phi is
+// scaled by the forgetting factor, the rest of the covariance stays, so a parameter the data do
+// not inform keeps its uncertainty instead of winding up. Returns the normalised innovation
+// squared of the prediction before the update.
+double OnlineEstimator::update_row(int j, const Vec5& phi, double y, bool adapt) {
+  const double r = noise_var_[j];
+  const double e = y - phi.dot(theta_);
+  Vec5 Pphi = P_ * phi;
+  double s = phi.dot(Pphi);
+  const double nis = e * e / (r + s);
+  if (s > 1e-12 * r) {
+    const double lambda = std::exp(-cfg_.window_s / cfg_.memory_s);
+    P_ += ((1.0 - lambda) / (lambda * s)) * (Pphi * Pphi.transpose());
+    Pphi /= lambda;  // P phi after the forgetting: phi^T P phi grew by 1 / lambda, along Pphi
+    s /= lambda;
+  }
+  const Vec5 K = Pphi / (r + s);
+  theta_ += K * e;
+  P_ -= K * Pphi.transpose();
+  P_ = 0.5 * (P_ + P_.transpose());
+  // Never more uncertain than the prior (the forgetting cannot wind up a direction for good).
+  for (int k = 0; k < 5; ++k) {
+    if (P_(k, k) > P0_(k, k)) {
+      const double c = std::sqrt(P0_(k, k) / P_(k, k));
+      P_.row(k) *= c;
+      P_.col(k) *= c;
+    }
+  }
+  // The detector's noise scale follows the innovations slowly, while no change is pending: the
+  // model's small steady mismatches are noise to it, a change is not.
+  if (adapt) {
+    const double a = cfg_.window_s / cfg_.noise_adapt_s;
+    noise_var_[j] = std::clamp((1 - a) * noise_var_[j] + a * std::max(0.0, e * e - s), 0.05 * noise_var0_[j],
+                               100.0 * noise_var0_[j]);
+  }
+  return std::min(nis, kNisClip);
+}
+
+bool OnlineEstimator::step(const Vec4& omega_rpm, const Vec3& zeta, double dt_s) {
+  applied_changed_ = false;
+  // A stalled loop or a non-finite input breaks the window: its integral would be wrong.
+  if (!(dt_s > 0) || dt_s > 5 * cfg_.window_s || !omega_rpm.allFinite() || !zeta.allFinite()) {
+    have_prev_ = false;
+    return false;
+  }
+  t_s_ += dt_s;
+  if (!have_prev_) {
+    zeta_start_ = zeta_prev_ = zeta;
+    f_sum_.setZero();
+    z_sum_.setZero();
+    w_s_ = 0;
+    have_prev_ = true;
+    return false;
+  }
+  f_sum_ += (B_ * omega_rpm) * dt_s;            // eq. (7) without S: (B omega) held over the cycle
+  z_sum_ += 0.5 * (zeta_prev_ + zeta) * dt_s;  // trapezoid
+  zeta_prev_ = zeta;
+  w_s_ += dt_s;
+  if (w_s_ < cfg_.window_s - 1e-9) return false;
+  const std::uint64_t before = changes_;
+  end_window();
+  zeta_start_ = zeta;
+  f_sum_.setZero();
+  z_sum_.setZero();
+  w_s_ = 0;
+  return changes_ != before;
+}
+
+void OnlineEstimator::end_window() {
+  const Vec3 fbar = f_sum_ / w_s_, zbar = z_sum_ / w_s_;
+  const Vec3 y = M_.cwiseProduct(zeta_prev_ - zeta_start_) / w_s_;
+  const bool detecting = t_s_ >= holdoff_until_s_;
+  const bool adapt = detecting && g_ < 0.25 * cfg_.cusum_threshold;
+  const double rho = cfg_.cusum_ratio, log_rho = std::log(rho);
+  double llr = 0;
+  rows_ = 0;
+  nis_ = 0;
+  for (int j = 0; j < 3; ++j) {
+    const int si = j == 0 ? kSigmaLong : kSigmaLat, di = kDx + j;
+    Vec5 phi = Vec5::Zero();
+    phi[si] = ref_[si] * fbar[j];
+    phi[di] = -ref_[di] * zbar[j];
+    // Excitation: a DOF whose drive force and drag are both within the noise says nothing.
+    const double level = cfg_.excitation_sd * std::sqrt(noise_var_[j]);
+    if (std::max(std::fabs(phi[si] * theta_[si]), std::fabs(phi[di] * theta_[di])) < level) continue;
+    const double nis = update_row(j, phi, y[j], adapt);
+    nis_ += nis;
+    ++rows_;
+    // CUSUM increment: log-likelihood ratio of an innovation variance rho times the model's.
+    llr += 0.5 * (nis * (1.0 - 1.0 / rho) - log_rho);
+  }
+  // Clamp to the physical ranges; a parameter held at a bound is a symptom of divergence.
+  for (int k = 0; k < 5; ++k) {
+    const double c = std::clamp(theta_[k], lo_rel_[k], hi_rel_[k]);
+    at_bound_s_[k] = c != theta_[k] ? at_bound_s_[k] + w_s_ : 0.0;
+    theta_[k] = c;
+  }
+  if (!theta_.allFinite() || !P_.allFinite()) {
+    enter_fallback("the estimate became non-finite");
+    return;
+  }
+  if (at_bound_s_.maxCoeff() >= cfg_.bound_hold_s) {
+    at_bound_s_.setZero();
+    enter_fallback("a parameter stayed at its physical bound");
+    return;
+  }
+  est_.value = theta_.cwiseProduct(ref_);
+  est_.sd = P_.diagonal().cwiseSqrt().cwiseProduct(ref_);
+  for (int k = 0; k < 5; ++k)
+    if (P_(k, k) < 0.25 * P0_(k, k)) est_.informed[k] = 1;
+
+  if (rows_ > 0 && detecting) g_ = std::max(0.0, g_ + llr);
+  if (g_ > cfg_.cusum_threshold) {
+    ++changes_;
+    last_change_t_s_ = t_s_;
+    change_times_[changes_ % kChangeRing] = t_s_;
+    holdoff_until_s_ = t_s_ + cfg_.holdoff_s;
+    restart_memory();
+    const int n = std::min(cfg_.max_changes + 1, kChangeRing);
+    if (changes_ >= std::uint64_t(n) &&
+        t_s_ - change_times_[(changes_ - std::uint64_t(n) + 1) % kChangeRing] < cfg_.change_window_s) {
+      enter_fallback("changes detected too often");
+      return;
+    }
+  }
+  if (!fallback_.empty()) return;  // the configured terrain until reset()
+  for (int k = 0; k < 5; ++k) {
+    const double v = est_.value[k], sd = est_.sd[k];
+    if (est_.informed[k] > 0 && sd < cfg_.apply_rel_sd * v && std::fabs(v - applied_[k]) > std::max(2 * sd, 0.01 * v)) {
+      applied_[k] = v;
+      applied_changed_ = true;
+    }
+  }
+}
+
+std::string believed_terrain(const OnlineEstimate& e, const std::vector<TerrainParams>& terrains) {
+  const TerrainParams* best = nullptr;
+  double best_d = 1e300;
+  for (const TerrainParams& t : terrains) {
+    const double v[5] = {t.sigma_long, t.sigma_lat, t.D_x, t.D_y, t.D_psi};
+    double worst = 0;  // the largest difference in units of the tolerance
+    for (int k = 0; k < 5; ++k) {
+      if (!std::isfinite(v[k])) {
+        worst = 1e300;
+        break;
+      }
+      const double tol = std::max(3 * e.sd[k], 0.15 * std::fabs(e.value[k]));
+      worst = std::max(worst, std::fabs(e.value[k] - v[k]) / tol);
+    }
+    if (worst <= 1 && worst < best_d) best_d = worst, best = &t;
+  }
+  if (best) return best->name;
+  std::string s = "unknown";
+  char buf[64];
+  for (int k = 0; k < 5; ++k) {
+    std::snprintf(buf, sizeof buf, ", %s %.3g %s", kNames[k], e.value[k], kUnits[k]);
+    s += buf;
+  }
+  return s;
+}
+
+void set_terrain_parameters(Model& m, const Vec5& p) {
+  for (int k = 0; k < 5; ++k)
+    if (!(p[k] > 0) || !std::isfinite(p[k]))
+      throw std::invalid_argument(std::string("terrain parameter ") + kNames[k] + " must be finite and > 0");
+  m.terrain.sigma_long = p[kSigmaLong];
+  m.terrain.sigma_lat = p[kSigmaLat];
+  m.terrain.D_x = p[kDx];
+  m.terrain.D_y = p[kDy];
+  m.terrain.D_psi = p[kDpsi];
+  apply_terrain(m);
+}
+
+}  // namespace auger

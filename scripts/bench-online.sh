@@ -1,0 +1,66 @@
+#!/usr/bin/env bash
+# The online estimator and change detector (docs/benchmarks.md "Online identification",
+# `make bench-online`):
+# 1. cost per 10 ms cycle of OnlineEstimator::step on this machine: wall time, and x86-64
+#    instructions from callgrind (a 60 000-cycle run minus a 20 000-cycle run, over 40 000);
+# 2. the same instruction count for the board's CPU class: bench/online_bench.cpp built with the
+#    board's compiler and flags (cmake/toolchain-aarch64.cmake) and run under qemu-user, which
+#    logs every translated block (in_asm) and every execution of one (exec, nochain);
+# 3. the detection delay / false-alarm curve over the detector's threshold (online_bench curve).
+# Usage: scripts/bench-online.sh [BUILD (build)] [RUNS (40)] [HOURS (1)] [VELOCITY_SD_MPS ...]
+set -euo pipefail
+build=${1:-build} runs=${2:-40} hours=${3:-1}
+shift $(( $# < 3 ? $# : 3 ))
+noises=("${@:-0.0005 0.002}")
+# shellcheck disable=SC2206 # the default is two words
+noises=(${noises[*]})
+src=$(cd "$(dirname "$0")/.." && pwd)
+bin=$build/bench/online_bench
+[[ -x $bin ]] || { echo "bench-online: $bin not built (cmake --build $build --target online_bench)" >&2; exit 1; }
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+
+echo "## Cost per cycle"
+"$bin" cost 200000
+if command -v valgrind >/dev/null; then
+  ir() {
+    valgrind --tool=callgrind --callgrind-out-file="$tmp/cg" "$bin" cost "$1" >/dev/null 2>&1
+    callgrind_annotate "$tmp/cg" 2>/dev/null | awk '/PROGRAM TOTALS/ && !d {gsub(",", "", $1); print $1; d = 1}'
+  }
+  echo "x86-64 instructions per cycle (callgrind): $(( ($(ir 60000) - $(ir 20000)) / 40000 ))"
+else
+  echo "x86-64 instructions: valgrind missing (make deps)"
+fi
+
+if command -v qemu-aarch64 >/dev/null && command -v aarch64-linux-gnu-g++ >/dev/null; then
+  # The core's sources and the bench, as the board build compiles them (Release: -O3 -DNDEBUG).
+  aarch64-linux-gnu-g++ -std=c++17 -O3 -DNDEBUG -mcpu=cortex-a53 -ffp-contract=off -Wall -Wextra -Werror \
+    -I"$src/host/include" -I"$src/bench" -isystem /usr/include/eigen3 -isystem /usr/include \
+    -DAUGER_MODELS_DIR="\"$src/models\"" -DAUGER_VERSION="\"bench\"" \
+    "$src/bench/online_bench.cpp" "$src"/host/src/*.cpp "$src"/host/src/effects/*.cpp -o "$tmp/online_bench_a64"
+  # Instructions of a run: each executed block times its size (blocks are logged translated once).
+  a64() {
+    rm -f "$tmp/fifo"; mkfifo "$tmp/fifo"
+    awk 'function key(s) { sub(/^0x/, "", s); sub(/^0+/, "", s); return s }
+         /^IN:/ {blk = 1; pc = ""; n = 0; next}
+         blk && /^0x[0-9a-f]+:/ {if (pc == "") pc = key(substr($1, 1, length($1) - 1)); n++; next}
+         blk {if (pc != "") size[pc] = n; blk = 0}
+         /^Trace / {split($0, a, "/"); total += size[key(a[2])]}
+         END {printf "%.0f\n", total}' "$tmp/fifo" > "$tmp/count" &
+    local ap=$!
+    qemu-aarch64 -L /usr/aarch64-linux-gnu -d in_asm,exec,nochain -D "$tmp/fifo" "$tmp/online_bench_a64" cost "$1" \
+      >/dev/null
+    wait "$ap"
+    cat "$tmp/count"
+  }
+  echo "aarch64 instructions per cycle (qemu-user, Cortex-A53 flags): $(( ($(a64 6000) - $(a64 2000)) / 4000 ))"
+else
+  echo "aarch64 instructions: qemu-aarch64 or aarch64-linux-gnu-g++ missing (make deps)"
+fi
+
+echo
+echo "## Detection delay and false alarms over the threshold"
+for sd in "${noises[@]}"; do
+  echo
+  "$bin" curve "$runs" "$hours" "$sd"
+done

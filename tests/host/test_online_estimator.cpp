@@ -1,0 +1,261 @@
+// The online estimator (auger/online_estimator.hpp) on data of the core's own model
+// (bench/online_drive.hpp): re-identification after a terrain change, the detector's delay and
+// silence on uniform ground, excitation awareness, clamping and the fallback, no allocation.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <random>
+
+#include "alloc_counter.hpp"
+#include "auger/kinematic_velocity.hpp"
+#include "auger/model_file.hpp"
+#include "auger/online_estimator.hpp"
+#include "online_drive.hpp"
+
+using namespace auger;
+
+namespace {
+struct Terrains {
+  ModelFile file = load_model_file(AUGER_MODELS_DIR "/robot.toml");
+  Model sand = build_model(file, "sand");
+  Model grass = build_model(file, "frozen_grass");
+};
+Vec5 params(const Model& m) {
+  Vec5 p;
+  p << m.terrain.sigma_long, m.terrain.sigma_lat, m.terrain.D_x, m.terrain.D_y, m.terrain.D_psi;
+  return p;
+}
+// Drives and feeds the estimator for a number of cycles.
+void drive_for(OnlineDrive& drive, OnlineEstimator& est, long cycles) {
+  for (long k = 0; k < cycles; ++k) {
+    drive.next();
+    est.step(drive.omega_rpm, drive.zeta_meas, OnlineDrive::kDt);
+  }
+}
+OnlineConfig on() {
+  OnlineConfig c;
+  c.enabled = true;
+  return c;
+}
+}  // namespace
+
+// The velocity fed in with 0.5 mm/s of noise and the estimator configured for it: the 3 s aim
+// of issue 29 holds; with 2 mm/s the data of 3 s do not carry 5 % (docs/benchmarks.md), and the
+// estimate's SD says so: the error stays within 3 SD.
+TEST_CASE("online: a change sand -> frozen grass is detected within 0.5 s and re-identified within 5 % in 3 s") {
+  Terrains t;
+  const Vec5 truth = params(t.grass);
+  for (double vel_sd : {0.0005, 0.002}) {
+    for (unsigned seed = 1; seed <= 5; ++seed) {
+      OnlineDriveOptions o;
+      o.change_at_s = 20.0;
+      o.seed = seed;
+      o.velocity_sd = Vec3(vel_sd, vel_sd, 2.5 * vel_sd);
+      OnlineDrive drive(t.sand, t.grass, o);
+      OnlineConfig c = on();
+      c.velocity_sd = o.velocity_sd;
+      OnlineEstimator est(t.sand, c);
+      double detected_s = NAN;
+      while (drive.t_s() < 23.0 - 1e-9) {
+        drive.next();
+        if (est.step(drive.omega_rpm, drive.zeta_meas, OnlineDrive::kDt)) {
+          INFO("seed " << seed << ": a change at " << drive.t_s() << " s");
+          REQUIRE(drive.changed());  // no false alarm before the change
+          if (std::isnan(detected_s)) detected_s = drive.t_s();
+        }
+      }
+      INFO("velocity SD " << vel_sd << " m/s, seed " << seed);
+      REQUIRE(std::isfinite(detected_s));
+      // One seed's robot barely moves after the change at 2 mm/s: the detector waits for data.
+      CHECK(detected_s - 20.0 <= (vel_sd < 0.001 ? 0.5 : 1.5));
+      CHECK(est.changes() == 1);
+      const Vec5 err = (est.estimate().value - truth).cwiseAbs();
+      INFO("relative errors " << err.cwiseQuotient(truth).transpose() << ", SDs "
+                              << est.estimate().sd.cwiseQuotient(truth).transpose());
+      CHECK((err.array() <= 3 * est.estimate().sd.array()).all());
+      if (vel_sd < 0.001) {
+        // 3 s after the change: every parameter within 5 % of frozen grass, and the controller
+        // has taken them (certain enough; an applied value moves again only by more than 2 SD,
+        // so it may lag the estimate by that: 10 %).
+        CHECK(err.cwiseQuotient(truth).maxCoeff() < 0.05);
+        CHECK((est.control_parameters() - truth).cwiseQuotient(truth).cwiseAbs().maxCoeff() < 0.1);
+      }
+      CHECK(est.fallback().empty());
+    }
+  }
+}
+
+TEST_CASE("online: no false alarm in 20 minutes on uniform sand, and the estimate stays on sand") {
+  Terrains t;
+  OnlineDriveOptions o;
+  o.seed = 11;
+  OnlineDrive drive(t.sand, t.sand, o);
+  OnlineEstimator est(t.sand, on());
+  drive_for(drive, est, 20 * 60 * 100);
+  CHECK(est.changes() == 0);
+  CHECK(est.fallback().empty());
+  const Vec5 rel = (est.estimate().value - params(t.sand)).cwiseQuotient(params(t.sand)).cwiseAbs();
+  INFO("relative errors " << rel.transpose());
+  CHECK(rel.maxCoeff() < 0.05);
+  CHECK(believed_terrain(est.estimate(), {t.sand.terrain, t.grass.terrain}) == "sand");
+}
+
+TEST_CASE("online: standing still and forward-only driving leave the uninformed parameters alone") {
+  Terrains t;
+  OnlineEstimator est(t.sand, on());
+  const Vec5 prior_sd = est.estimate().sd;
+  for (int k = 0; k < 500; ++k) est.step(Vec4::Zero(), Vec3(0.0005, -0.0003, 0.001), 0.01);  // noise only
+  CHECK(est.estimate().sd == prior_sd);
+  CHECK(est.estimate().value == params(t.sand));
+  CHECK(est.last_rows() == 0);
+
+  // Forward only on frozen grass: sigma_long and D_x move to the truth, lateral and yaw stay.
+  OnlineDriveOptions o;
+  o.forward_only = true;
+  OnlineDrive drive(t.grass, t.grass, o);
+  OnlineEstimator fwd(t.sand, on());
+  drive_for(drive, fwd, 1000);
+  const OnlineEstimate& e = fwd.estimate();
+  CHECK(std::fabs(e.value[kSigmaLong] / t.grass.terrain.sigma_long - 1) < 0.05);
+  CHECK(std::fabs(e.value[kDx] / t.grass.terrain.D_x - 1) < 0.05);
+  CHECK(e.informed[kSigmaLong] == 1);
+  CHECK(e.informed[kDy] == 0);
+  CHECK(e.informed[kDpsi] == 0);
+  // Not informed: the configured value and the prior SD, not wound up by the forgetting.
+  CHECK(e.value[kDy] == t.sand.terrain.D_y);
+  CHECK(e.sd[kDy] == prior_sd[kDy]);
+  CHECK(e.sd[kSigmaLat] == prior_sd[kSigmaLat]);
+  CHECK(fwd.control_parameters()[kDy] == t.sand.terrain.D_y);
+}
+
+TEST_CASE("online: the estimate stays in the physical range; divergence falls back to the configured terrain") {
+  Terrains t;
+  // A velocity 20 times what the screws can give (a broken velocity source): sigma/D would go far
+  // out of range; it is clamped, and held at the bound it latches the fallback.
+  OnlineEstimator est(t.sand, on());
+  OnlineDriveOptions o;
+  OnlineDrive drive(t.sand, t.sand, o);
+  for (int k = 0; k < 1500; ++k) {
+    drive.next();
+    est.step(drive.omega_rpm, 20.0 * drive.zeta_meas, OnlineDrive::kDt);
+    for (int p = 0; p < 5; ++p) {
+      REQUIRE(est.estimate().value[p] >= terrain_range(p).lower);
+      REQUIRE(est.estimate().value[p] <= terrain_range(p).upper);
+    }
+  }
+  REQUIRE_FALSE(est.fallback().empty());
+  INFO(est.fallback());
+  CHECK(est.control_parameters() == params(t.sand));  // the configured terrain
+  // Latched: good data afterwards do not clear it; reset() does.
+  drive_for(drive, est, 500);
+  CHECK_FALSE(est.fallback().empty());
+  CHECK(est.control_parameters() == params(t.sand));
+  est.reset();
+  CHECK(est.fallback().empty());
+
+  // Non-finite input is skipped, never reaches the estimate.
+  OnlineEstimator nan_in(t.sand, on());
+  for (int k = 0; k < 100; ++k) nan_in.step(Vec4::Constant(10), Vec3(NAN, 0, 0), 0.01);
+  CHECK(nan_in.estimate().value.allFinite());
+  CHECK(nan_in.fallback().empty());
+}
+
+TEST_CASE("online: the believed terrain names the closest row or says unknown with the values") {
+  Terrains t;
+  OnlineEstimate e;
+  e.value = params(t.grass) * 1.05;
+  e.sd = params(t.grass) * 0.01;
+  CHECK(believed_terrain(e, {t.sand.terrain, t.grass.terrain}) == "frozen_grass");
+  e.value = params(t.grass) * 2.0;
+  const std::string s = believed_terrain(e, {t.sand.terrain, t.grass.terrain});
+  CHECK_THAT(s, Catch::StartsWith("unknown, sigma_long 0.8 N/rpm"));
+  CHECK_THAT(s, Catch::Contains("D_psi 9.04 N m/(rad/s)"));
+}
+
+TEST_CASE("online: set_terrain_parameters gives the model make_model would build") {
+  Terrains t;
+  Model m = t.sand;
+  alloc_counter::start();
+  set_terrain_parameters(m, params(t.grass));
+  CHECK(alloc_counter::stop() == 0);
+  CHECK(m.SB.isApprox(t.grass.SB));
+  CHECK(m.SB_pinv.isApprox(t.grass.SB_pinv));
+  CHECK(m.D_diag == t.grass.D_diag);
+  CHECK_THROWS(set_terrain_parameters(m, Vec5::Zero()));
+}
+
+TEST_CASE("online: a step allocates nothing on the heap, change and fallback included") {
+  Terrains t;
+  OnlineDrive drive(t.sand, t.grass, OnlineDriveOptions{5.0});  // a change at 5 s
+  OnlineEstimator est(t.sand, on());
+  alloc_counter::start();
+  drive_for(drive, est, 800);
+  for (int k = 0; k < 800; ++k) est.step(drive.omega_rpm, Vec3(5, 5, 5), OnlineDrive::kDt);  // diverges
+  const long n = alloc_counter::stop();
+  CHECK(est.changes() >= 1);
+  CHECK_FALSE(est.fallback().empty());
+  CHECK(n == 0);
+}
+
+// Issue 29 point 3 on the core's model (online_tracking_run, ideal screws): with a velocity that
+// does not come from the controller's model, the identified parameters in the controller's model
+// cut the tracking error after a change and cost nothing on uniform ground. Fed with the EKF's
+// own velocity the estimate follows the configured model instead (docs/benchmarks.md), which is
+// why augerd's `[online] apply` is off by default.
+TEST_CASE("online: the controller with the identified terrain tracks better after a change, never worse on uniform ground") {
+  Terrains t;
+  const ControllerConfig cc = controller_config(t.file, "sand");
+  double fixed_change = 0, online_change = 0, fixed_uniform = 0, online_uniform = 0;
+  for (unsigned seed = 1; seed <= 2; ++seed) {
+    fixed_change += online_tracking_run(t.sand, t.grass, 40, t.sand, cc, false, 120, seed).rms_m;
+    const TrackingRun o = online_tracking_run(t.sand, t.grass, 40, t.sand, cc, true, 120, seed, true);
+    online_change += o.rms_m;
+    CHECK(std::fabs(o.used[kSigmaLong] / t.grass.terrain.sigma_long - 1) < 0.1);  // the controller is on grass
+    fixed_uniform += online_tracking_run(t.sand, t.sand, 1e9, t.sand, cc, false, 120, seed).rms_m;
+    online_uniform += online_tracking_run(t.sand, t.sand, 1e9, t.sand, cc, true, 120, seed, true).rms_m;
+  }
+  INFO("tracking RMS across the change: fixed " << fixed_change / 2 << " m, online " << online_change / 2
+                                                << " m; uniform sand: fixed " << fixed_uniform / 2 << " m, online "
+                                                << online_uniform / 2 << " m");
+  CHECK(online_change < 0.8 * fixed_change);
+  CHECK(online_uniform <= 1.02 * fixed_uniform);
+}
+
+// The terrain-free velocity (auger/kinematic_velocity.hpp): a robot driving an arc (0.05 m/s
+// forward, 0.02 m/s sideways, 0.1 rad/s), the camera (2 mm, 2 mrad) every third cycle, the IMU's
+// rate (5 mrad/s) every cycle: the body velocity it gives is within 3 of its SDs of the truth
+// (the turn from world to body, eq. (1)), and a step allocates nothing.
+TEST_CASE("online: the kinematic velocity follows an arc from the camera and IMU alone") {
+  KinematicVelocity kin;
+  std::mt19937 rng(3);
+  std::normal_distribution<double> n(0, 1);
+  const Vec3 zeta(0.05, 0.02, 0.1);
+  Vec3 eta = Vec3::Zero();
+  const double dt = 0.01;
+  Vec3 err2 = Vec3::Zero();
+  long counted = 0;
+  for (int k = 0; k < 3000; ++k) {
+    const double c = std::cos(eta.z()), s = std::sin(eta.z());
+    eta += dt * Vec3(c * zeta.x() - s * zeta.y(), s * zeta.x() + c * zeta.y(), zeta.z());
+    SensorInput in;
+    in.has_pose = k % 3 == 0;
+    in.pose = eta + Vec3(0.002 * n(rng), 0.002 * n(rng), 0.002 * n(rng));
+    in.pose_cov = Mat3::Identity() * 4e-6;
+    in.has_imu_r = true;
+    in.imu_r_radps = zeta.z() + 0.005 * n(rng);
+    alloc_counter::start();
+    const Vec3 v = kin.step(in, dt);
+    REQUIRE(alloc_counter::stop() == 0);
+    if (k >= 1000) {
+      err2 += (v - zeta).cwiseAbs2();
+      ++counted;
+    }
+  }
+  const Vec3 rms = (err2 / double(counted)).cwiseSqrt();
+  const Vec3 sd = kin.body_velocity_sd();
+  INFO("RMS error " << rms.transpose() << ", SD " << sd.transpose());
+  CHECK(rms.x() < 3 * sd.x());
+  CHECK(rms.y() < 3 * sd.y());
+  CHECK(rms.z() < 3 * sd.z());
+  CHECK(sd.x() < 0.01);  // 2 mm at 33 Hz: below 1 cm/s
+}
