@@ -617,7 +617,7 @@ double param_of(const ExplainResult& r, const std::string& effect, const std::st
 
 }  // namespace
 
-TEST_CASE("explain: a change of terrain inside a held-out segment is placed there, not anywhere in the gap") {
+TEST_CASE("explain: a change of terrain inside a held-out segment is placed there, not anywhere in the gap", "[slow]") {
   // 90 s: segments of 12.9 s, every third held out; 71 s lies in the held-out 64.3-77.1 s, where
   // no training segment can say when the terrain changed.
   SynthOptions o;
@@ -637,7 +637,7 @@ TEST_CASE("explain: a change of terrain inside a held-out segment is placed ther
   for (int c = 0; c < kChannels; ++c) CHECK(r.final_ratio[static_cast<std::size_t>(c)] < 1.2);
 }
 
-TEST_CASE("explain: several logs of one robot are explained together with shared parameters") {
+TEST_CASE("explain: several logs of one robot are explained together with shared parameters", "[slow]") {
   SynthOptions o;
   o.seconds = 60;
   const Model truth = make_model(RobotParams{}, kSand, {std::make_shared<CoulombFriction>(Vec3(8, 5, 0.3))});
