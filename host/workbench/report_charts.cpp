@@ -51,11 +51,10 @@ std::vector<std::size_t> rows_to_keep(const Chart& c, std::size_t max_rows) {
       if (best < n) keep.push_back(best);
     }
   }
-  // The edges of a gap in a series drawn with gaps, so that thinning never bridges it.
+  // A break and the rows around it, so that thinning never bridges it.
   for (const auto& s : c.series)
-    if (s.gaps)
-      for (std::size_t i = 1; i < n; ++i)
-        if (std::isfinite(s.y[i]) != std::isfinite(s.y[i - 1])) keep.push_back(i - 1), keep.push_back(i);
+    for (std::size_t i : s.breaks)
+      for (std::size_t j = i > 0 ? i - 1 : 0; j <= i + 1 && j < n; ++j) keep.push_back(j);
   std::sort(keep.begin(), keep.end());
   keep.erase(std::unique(keep.begin(), keep.end()), keep.end());
   return keep;
@@ -69,6 +68,9 @@ const char* kInit = R"JS(
   var groups = {};
   window.augerCharts = {};
   specs.forEach(function (s) {
+    // A break (ChartSeries::breaks) comes as the string 'break': NaN is dygraphs' explicit gap in
+    // a line that otherwise joins its values across rows without one (null).
+    s.data.forEach(function (r) { for (var i = 1; i < r.length; ++i) if (r[i] === 'break') r[i] = NaN; });
     var series = {};
     s.styles.forEach(function (st, i) {
       var o = {};
@@ -77,7 +79,6 @@ const char* kInit = R"JS(
       else if (st === 'dashed') { o.strokePattern = [6, 3]; o.strokeWidth = 1.2; }
       else if (st === 'step') { o.stepPlot = true; o.strokeWidth = 1.6; }
       else { o.strokeWidth = 1.4; }
-      if (s.gaps[i]) o.connectSeparatedPoints = false;
       series[s.labels[i + 1]] = o;
     });
     var opts = {
@@ -157,25 +158,28 @@ std::string ChartSet::add(Chart c, std::size_t max_rows) {
   const std::vector<std::size_t> rows = rows_to_keep(c, max_rows);
   using nlohmann::ordered_json;
   ordered_json labels = ordered_json::array({c.xlabel}), styles = ordered_json::array(),
-               colors = ordered_json::array(), bands = ordered_json::array(), data = ordered_json::array(),
-               gaps = ordered_json::array();
+               colors = ordered_json::array(), bands = ordered_json::array(), data = ordered_json::array();
+  std::vector<std::vector<bool>> is_break;
   for (const auto& s : c.series) {
-    gaps.push_back(s.gaps);
+    is_break.emplace_back(c.x.size(), false);
+    for (std::size_t i : s.breaks)
+      if (i < c.x.size()) is_break.back()[i] = true;
     labels.push_back(s.label);
     styles.push_back(s.style);
     colors.push_back(s.color);
   }
   for (const auto& b : c.bands) bands.push_back(ordered_json::array({json_number(b.x0, 6), json_number(b.x1, 6), b.label}));
   for (std::size_t r : rows) {
-    // A row with no value at all only widens the x-range: drop it.
+    // A row with no value and no break only widens the x-range: drop it.
     bool any = false;
-    for (const auto& s : c.series) any = any || std::isfinite(s.y[r]);
+    for (std::size_t i = 0; i < c.series.size(); ++i) any = any || std::isfinite(c.series[i].y[r]) || is_break[i][r];
     if (!any) continue;
     ordered_json row = ordered_json::array({json_number(c.x[r], 6)});
-    for (const auto& s : c.series) row.push_back(json_number(s.y[r], 6));
+    for (std::size_t i = 0; i < c.series.size(); ++i)
+      row.push_back(is_break[i][r] ? ordered_json("break") : json_number(c.series[i].y[r], 6));
     data.push_back(std::move(row));
   }
-  ordered_json j = {{"id", id},         {"labels", labels}, {"styles", styles},   {"colors", colors}, {"gaps", gaps},
+  ordered_json j = {{"id", id},         {"labels", labels}, {"styles", styles},   {"colors", colors},
                     {"xlabel", c.xlabel}, {"ylabel", c.ylabel}, {"group", c.group}, {"height", c.height_px},
                     {"integer_x", c.integer_x}, {"log_y", c.log_y}, {"bands", bands}, {"data", data}};
   specs_.push_back(json_for_script(j));

@@ -15,9 +15,10 @@ struct ChartSeries {
   // "line", "thin" (a lighter, thinner line), "dashed", "points", "step" (constant until the next value)
   std::string style = "line";
   std::string color;  // CSS colour, "" = dygraphs' own
-  // A NaN breaks the line (a model run restarted from the measured pose: no chord between the
-  // runs); otherwise the line joins the values around it (a series measured on other rows).
-  bool gaps = false;
+  // Rows where the line stops and starts anew (a model run restarted from the measured pose: no
+  // chord between the runs); the row's own value is not drawn. Elsewhere a NaN is only "no value
+  // on this row" and the line joins the values around it (a series measured on other rows).
+  std::vector<std::size_t> breaks = {};
 };
 
 struct ChartBand {  // a shaded x-interval with a label (the worst windows)

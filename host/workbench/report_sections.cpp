@@ -62,11 +62,17 @@ std::vector<double> predicted(const Dataset& d, const Prediction& p, int c) {
     if (std::isfinite(q)) prev = q;
     v[k] = q;
   }
-  // Each restart from the measured pose begins a line of its own: the row before it is left
-  // empty, so no chord joins one run's end to the next one's start (drawn with gaps).
-  for (std::size_t i = 1; i < p.segment_start.size(); ++i)
-    if (p.segment_start[i] > 0 && p.segment_start[i] <= d.size()) v[p.segment_start[i] - 1] = kNaN;
   return v;
+}
+
+// The rows where a run restarted from the measured pose ends: each run is a line of its own, so
+// no chord joins one run's end to the next one's start (ChartSeries::breaks, and a NaN row for
+// the path's gnuplot lines).
+std::vector<std::size_t> restarts(const Dataset& d, const Prediction& p) {
+  std::vector<std::size_t> rows;
+  for (std::size_t i = 1; i < p.segment_start.size(); ++i)
+    if (p.segment_start[i] > 0 && p.segment_start[i] < d.size()) rows.push_back(p.segment_start[i] - 1);
+  return rows;
 }
 
 // The measured heading drawn on the model's branch (model + wrapped difference), so measured
@@ -185,13 +191,13 @@ Section model_section(const Findings& f, Gnuplot& gp, ChartSet& charts) {
     Chart ch = time_chart(d, c, "measured and model", channel_label(c));
     const auto seg = predicted(d, cmp.segments, c), ol = predicted(d, cmp.open_loop, c);
     ch.series = {{"measured", measured(d, seg, c), "points", kMeasured},
-                 {"model, segments of 25 s", seg, "line", kSegments, true},
-                 {"model, open loop", ol, "dashed", kOpenLoop, true}};
+                 {"model, segments of 25 s", seg, "line", kSegments, restarts(d, cmp.segments)},
+                 {"model, open loop", ol, "dashed", kOpenLoop}};
     h << charts.add(std::move(ch));
   }
   if (d.active[kX] && d.active[kY]) {
     // The canvas takes the path's own aspect ratio (set size ratio -1), so no band of it is empty.
-    const auto sx = predicted(d, cmp.segments, kX), sy = predicted(d, cmp.segments, kY);
+    auto sx = predicted(d, cmp.segments, kX), sy = predicted(d, cmp.segments, kY);
     const auto ox = predicted(d, cmp.open_loop, kX), oy = predicted(d, cmp.open_loop, kY);
     std::vector<double> mx(d.size(), kNaN), my(d.size(), kNaN), ax(d.size(), kNaN), ay(d.size(), kNaN);
     double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
@@ -205,9 +211,12 @@ Section model_section(const Findings& f, Gnuplot& gp, ChartSet& charts) {
     std::vector<std::size_t> rows;
     const std::size_t step = std::max<std::size_t>(1, d.size() / 4000);
     for (std::size_t k = 0; k < d.size(); k += step) rows.push_back(k);
-    for (const auto* p : {&cmp.segments, &f.after.segments})  // the breaks between runs (predicted())
-      for (std::size_t i = 1; i < p->segment_start.size(); ++i)
-        if (p->segment_start[i] > 0 && p->segment_start[i] <= d.size()) rows.push_back(p->segment_start[i] - 1);
+    // gnuplot ends a line at an undefined value: one per restart, kept through the thinning.
+    auto end_lines = [&](const Prediction& p, std::vector<double>& vx, std::vector<double>& vy) {
+      for (std::size_t r : restarts(d, p)) rows.push_back(r), vx[r] = vy[r] = kNaN;
+    };
+    end_lines(cmp.segments, sx, sy);
+    if (after) end_lines(f.after.segments, ax, ay);
     std::sort(rows.begin(), rows.end());
     rows.erase(std::unique(rows.begin(), rows.end()), rows.end());
     auto pick = [&](const std::vector<double>& v) {
@@ -263,9 +272,11 @@ Section error_section(const Findings& f, ChartSet& charts) {
       for (std::size_t i = k; i < d.size() && d.t_s[i] <= w.t_end_s; ++i)
         if (std::isfinite(d.meas[i][cc])) step[i] = w.ratio_to_noise;
     }
-    ch.series = {{"error, re-initialised every 5 s", error_ratio(d, win, cmp.segment_floor, c), "line", "#ff7f0e"},
+    ch.series = {{"error, re-initialised every 5 s", error_ratio(d, win, cmp.segment_floor, c), "line",
+                            "#ff7f0e", restarts(d, win)},
                  {"RMS of each 5 s window", step, "step", "#8c2d04"},
-                 {"error, segments of 25 s", error_ratio(d, cmp.segments, cmp.segment_floor, c), "thin", "#aaaaaa"}};
+                 {"error, segments of 25 s", error_ratio(d, cmp.segments, cmp.segment_floor, c), "thin",
+                            "#aaaaaa", restarts(d, cmp.segments)}};
     int n = 0;
     for (const auto& w : cmp.worst) {
       ++n;
@@ -392,15 +403,17 @@ Section before_after_section(const Findings& f, ChartSet& charts) {
     Chart ch = time_chart(d, c, "before and after", channel_label(c));
     const auto before = predicted(d, cmp.segments, c), after = predicted(d, f.after.segments, c);
     ch.series = {{"measured", measured(d, before, c), "points", kMeasured},
-                 {"before", before, "line", kSegments, true},
-                 {"after", after, "line", kAfter, true}};
+                 {"before", before, "line", kSegments, restarts(d, cmp.segments)},
+                 {"after", after, "line", kAfter, restarts(d, f.after.segments)}};
     h << charts.add(std::move(ch));
   }
   for (int c : f.chans) {
     Chart ch = time_chart(d, c, "error before and after", error_label(c));
     ch.height_px = 160;
-    ch.series = {{"before", error_ratio(d, cmp.segments, cmp.segment_floor, c), "thin", "#999999"},
-                 {"after", error_ratio(d, f.after.segments, cmp.segment_floor, c), "line", kAfter}};
+    ch.series = {{"before", error_ratio(d, cmp.segments, cmp.segment_floor, c), "thin", "#999999",
+                            restarts(d, cmp.segments)},
+                 {"after", error_ratio(d, f.after.segments, cmp.segment_floor, c), "line", kAfter,
+                            restarts(d, f.after.segments)}};
     h << charts.add(std::move(ch));
   }
   return {"before-after", "Before and after", h.str()};

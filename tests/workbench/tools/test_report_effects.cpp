@@ -1,7 +1,8 @@
 // auger report draws what was fitted where it acts (issue 26 point 6, docs/workbench-tools.md):
 // a one-screw traction loss as that screw's drive force against its own speed, screw blocking as
-// the resistance against one screw's speed near zero, each 25 s run of the model as a line of its
-// own (no chord at a restart), and the heading regimes over every row. Checked in the page's DOM
+// the resistance against one screw's speed near zero, each run of the model (25 s, 5 s windows) as a
+// line of its own in every chart (no chord at a restart), every legend above its chart
+// naming each series, and the heading regimes over every row. Checked in the page's DOM
 // in headless Chromium (tools/browser_check.py).
 #include <catch2/catch.hpp>
 
@@ -57,17 +58,34 @@ TEST_CASE("report: a one-screw traction loss drawn per screw, 25 s runs without 
     const xmax = g ? g.getValue(g.numRows() - 1, 0) : 0;
     const lost = g ? at(column(g, 'after, screw 2'), xmax) : null;
     const others = g ? at(column(g, 'after, screws 0, 1, 3'), xmax) : null;
-    // The x chart's 25 s runs: a gap (null) before each restart, and the series drawn with gaps.
-    const x = chart('x: measured and model'), seg = column(x, 'model, segments of 25 s');
-    let gaps = 0;
-    for (let i = 1; i < seg.length; ++i) if (seg[i][1] === null && seg[i - 1][1] !== null) ++gaps;
+    // Each run restarted from the measured pose ends in a break (NaN: dygraphs' explicit gap;
+    // a row without a value is null and is bridged), in every chart that draws model runs.
+    const breaks = (prefix, label) => column(chart(prefix), label).filter(p => Number.isNaN(p[1])).length;
+    const runs = {segments: breaks('x: measured and model', 'model, segments of 25 s'),
+                  before: breaks('x: before and after', 'before'), after: breaks('x: before and after', 'after'),
+                  error_before: breaks('x: error before and after', 'before'),
+                  windows: breaks('x: error in noise floors', 'error, re-initialised every 5 s'),
+                  window_segments: breaks('x: error in noise floors', 'error, segments of 25 s')};
+    const x = chart('x: measured and model');
+    runs.t_last = x.getValue(x.numRows() - 1, 0);
+    // Every chart's legend above its plot, not over it or over another legend, naming each series.
+    const legends = Object.keys(C).map(id => {
+      const l = document.getElementById(id + '-legend'), r = l.getBoundingClientRect();
+      const top = document.getElementById(id).getBoundingClientRect().top;
+      return {id: id, above: r.height > 0 && r.bottom <= top + 0.5, r: r,
+              named: C[id].getLabels().slice(1).every(lb => l.textContent.includes(lb))};
+    });
+    const legend_faults = legends.filter((a, i) => !a.above || !a.named ||
+      legends.some((b, j) => j !== i && a.r.top < b.r.bottom && b.r.top < a.r.bottom &&
+                             a.r.left < b.r.right && b.r.left < a.r.right)).map(a => a.id);
     // The heading regimes of the page's table.
     let heading = 0;
     document.querySelectorAll('#error table tr').forEach(tr => {
       const td = tr.querySelectorAll('td');
       if (td.length > 2 && td[0].textContent === 'heading') heading += parseFloat(td[2].textContent);
     });
-    return {labels: labels, lost: lost, others: others, gaps: gaps,
+    return {labels: labels, lost: lost, others: others, runs: runs, legend_faults: legend_faults,
+            charts: legends.length,
             connected: x.getOption('connectSeparatedPoints', 'model, segments of 25 s'), heading_s: heading};
   })()))JS";
   std::string rj;
@@ -79,9 +97,18 @@ TEST_CASE("report: a one-screw traction loss drawn per screw, 25 s runs without 
   const double share = tools_test::json_number(dir, b, "d['eval']['lost'] / d['eval']['others']");
   CHECK(share > 0.4);
   CHECK(share < 0.6);
-  // 60 s in runs of 25 s: two restarts after the first start, each its own line.
-  CHECK(tools_test::json_number(dir, b, "d['eval']['gaps']") == 2);
-  CHECK(tools_test::json_eval(dir, b, "d['eval']['connected']") == "False");
+  // 60 s (its last row at 60.00 s) in runs of 25 s: two restarts after the first start, each its
+  // own line; in 5 s windows twelve.
+  REQUIRE(tools_test::json_number(dir, b, "d['eval']['runs']['t_last']") == Approx(60.0));
+  for (const char* s : {"segments", "before", "after", "error_before", "window_segments"}) {
+    INFO(s);
+    CHECK(tools_test::json_number(dir, b, std::string("d['eval']['runs']['") + s + "']") == 2);
+  }
+  CHECK(tools_test::json_number(dir, b, "d['eval']['runs']['windows']") == 12);
+  CHECK(tools_test::json_eval(dir, b, "d['eval']['legend_faults']") == "[]");
+  CHECK(tools_test::json_number(dir, b, "d['eval']['charts']") > 20);
+  // Rows without a value (the camera's gaps) are bridged, not broken.
+  CHECK(tools_test::json_eval(dir, b, "d['eval']['connected']") == "True");
   // Heading regimes over every row (a 20 Hz camera's rows alone were a fifth of the log).
   CHECK(tools_test::json_number(dir, b, "d['eval']['heading_s']") == Approx(60.0).margin(0.2));
   const auto cmp = tools_test::run_auger(dir, "compare " + dir + "/log.csv --json");
