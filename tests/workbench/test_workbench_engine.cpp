@@ -431,7 +431,7 @@ ModelChoice with_effects(std::vector<std::shared_ptr<const Effect>> effects) {
 
 }  // namespace
 
-TEST_CASE("explain: two effects at once are both named, jointly fitted, and the error falls to the noise") {
+TEST_CASE("explain: two effects at once are both named, jointly fitted, and the error falls to the noise", "[slow]") {
   SynthOptions o;
   o.seconds = 90;
   const Model truth = make_model(RobotParams{}, kSand,
