@@ -167,17 +167,48 @@ std::string Daemon::sensor(const SensorMessage& m, const std::string& line) {
            " s (clocks in sync?): " + quote_line(line);
   if (age_s > 2.0)
     return "error: timestamp " + std::to_string(m.t_unix_s) + " is " + std::to_string(age_s) + " s old: " + quote_line(line);
-  auger::daemon::to_sensor_input(m, t_loop_s, sensors_in_);
   if (m.kind == SensorKind::pose) {
-    pose_sd_ = auger::Vec3(m.sx_m, m.sy_m, m.spsi_rad);
-    last_pose_ = sensors_in_.pose;
+    auger::SensorInput p;
+    auger::daemon::to_sensor_input(m, t_loop_s, p);
+    queue_pose(p, auger::Vec3(m.sx_m, m.sy_m, m.spsi_rad));
+    last_pose_ = p.pose;
     last_pose_t_s_ = t_loop_s;
   } else {
+    auger::daemon::to_sensor_input(m, t_loop_s, sensors_in_);
     last_imu_t_s_ = t_loop_s;
     last_imu_psi_rad_ = m.imu_psi_rad;
     last_imu_r_radps_ = m.imu_r_radps;
   }
   return "";
+}
+
+void Daemon::queue_pose(const auger::SensorInput& in, const auger::Vec3& sd) {
+  if (pose_queue_n_ == kPoseQueue) {
+    pose_queue_head_ = (pose_queue_head_ + 1) % kPoseQueue, --pose_queue_n_;
+    ++poses_dropped_;
+    if (!poses_dropped_said_) {
+      poses_dropped_said_ = true;
+      event(-1, "poses-dropped",
+            "camera poses arrive faster than the 100 Hz loop takes them: the oldest of " + std::to_string(kPoseQueue) +
+                " waiting is dropped (said once per run of drops)");
+    }
+  }
+  pose_queue_[std::size_t((pose_queue_head_ + pose_queue_n_) % kPoseQueue)] = {in, sd};
+  ++pose_queue_n_;
+}
+
+void Daemon::take_queued_pose() {
+  if (pose_queue_n_ == 0) {
+    poses_dropped_said_ = false;
+    return;
+  }
+  const QueuedPose& q = pose_queue_[std::size_t(pose_queue_head_)];
+  sensors_in_.has_pose = true;
+  sensors_in_.pose = q.in.pose;
+  sensors_in_.pose_cov = q.in.pose_cov;
+  sensors_in_.pose_t_s = q.in.pose_t_s;
+  pose_sd_ = q.sd;
+  pose_queue_head_ = (pose_queue_head_ + 1) % kPoseQueue, --pose_queue_n_;
 }
 
 // A goto or follow has arrived once its waypoint clock is past the last waypoint and the

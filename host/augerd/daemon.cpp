@@ -289,6 +289,7 @@ void Daemon::run(volatile const std::sig_atomic_t* stop) {
     sensors_->serve(t_s_, [this](const std::string& l) -> std::optional<std::string> { return sensor(l); });
     follow_loaded();
     if (ros2_) ros2_inputs();
+    take_queued_pose();
 
     std::array<auger::ScrewTelemetry, 4> tel;
     for (int i = 0; i < 4; ++i) tel[std::size_t(i)] = bus_.module(i).tm.controller_input();

@@ -163,6 +163,22 @@ class Daemon {
 
   auger::SensorInput sensors_in_;
   auger::Vec3 pose_sd_ = auger::Vec3::Constant(NAN);  // standard deviations of this cycle's pose
+  // Camera poses not yet given to the estimator. Several may arrive in one cycle (a burst after
+  // a network stall, two sources): each reaches the estimator, one per cycle in arrival order,
+  // compared with the prediction for its own capture time, so the log's row holds exactly the
+  // pose the estimator took (auger replay reproduces augerd). Fixed size, no allocation: beyond
+  // kPoseQueue waiting (a source faster than the loop) the oldest is dropped and counted.
+  struct QueuedPose {
+    auger::SensorInput in;  // its pose fields
+    auger::Vec3 sd;
+  };
+  static constexpr int kPoseQueue = 8;
+  std::array<QueuedPose, kPoseQueue> pose_queue_{};
+  int pose_queue_head_ = 0, pose_queue_n_ = 0;
+  long poses_dropped_ = 0;
+  bool poses_dropped_said_ = false;
+  void queue_pose(const auger::SensorInput& in, const auger::Vec3& sd);
+  void take_queued_pose();  // the oldest into sensors_in_, before the controller's step
   // Latest sensor values whenever they came (status all: calib and teleop checks).
   double last_imu_t_s_ = NAN, last_imu_r_radps_ = NAN, last_imu_psi_rad_ = NAN;
   double last_pose_t_s_ = NAN;

@@ -69,7 +69,7 @@ void Daemon::ros2_inputs() {
       std::snprintf(line, sizeof line, "imu %.17g %.17g %.17g", m.t_unix_s, m.imu_psi_rad, m.imu_r_radps);
     apply(sensor(m, line), what);
   };
-  if (in.has_pose) sense(in.pose, "pose");
+  for (int i = 0; i < in.n_poses; ++i) sense(in.poses[std::size_t(i)], "pose");
   if (in.has_imu) sense(in.imu, "imu");
 }
 

@@ -299,7 +299,11 @@ void CycloneBridge::pose_in(double t, const geometry_msgs_msg_dds__Pose_& p, con
   std::string why;
   if (!yaw_from_quaternion(p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w, yaw, why))
     return refuse("pose: " + why);
-  auger::daemon::SensorMessage& m = in_.pose;
+  if (in_.n_poses == Inputs::kMaxPoses) {  // the oldest goes (counted among `received`, superseded)
+    std::move(in_.poses.begin() + 1, in_.poses.end(), in_.poses.begin());
+    --in_.n_poses;
+  }
+  auger::daemon::SensorMessage& m = in_.poses[std::size_t(in_.n_poses++)];
   m = auger::daemon::SensorMessage{};
   m.kind = auger::daemon::SensorKind::pose;
   m.t_unix_s = t;
@@ -310,7 +314,6 @@ void CycloneBridge::pose_in(double t, const geometry_msgs_msg_dds__Pose_& p, con
   m.sy_m = sd[1];
   m.spsi_rad = sd[2];
   if (variance) m.var_x_m2 = variance[0], m.var_y_m2 = variance[1], m.var_psi_rad2 = variance[2];
-  in_.has_pose = true;
 }
 
 void CycloneBridge::take_pose(dds_entity_t r) {

@@ -50,14 +50,16 @@ struct Snapshot {
   std::array<char, 200> last_refusal{};         // why the last one was refused
 };
 
-// Inputs since the last poll: the newest of each kind (the loop uses one per cycle anyway),
-// converted to `vel`'s quantities and the sensors socket's messages (whose values augerd checks
-// as a line's: daemon_lines.hpp check_command, check_sensor).
+// Inputs since the last poll, converted to `vel`'s quantities and the sensors socket's messages
+// (whose values augerd checks as a line's: daemon_lines.hpp check_command, check_sensor): the
+// newest command and IMU sample (the loop uses one per cycle), but every pose, oldest first, up
+// to kMaxPoses (augerd's estimator takes each, one per cycle; beyond that the oldest go).
 struct Inputs {
+  static constexpr int kMaxPoses = 8;
   bool has_vel = false;
   double u_mps = 0, v_mps = 0, r_radps = 0;
-  bool has_pose = false;
-  auger::daemon::SensorMessage pose;  // PoseWithCovarianceStamped: with its variances
+  int n_poses = 0;
+  std::array<auger::daemon::SensorMessage, kMaxPoses> poses;  // PoseWithCovarianceStamped: with its variances
   bool has_imu = false;
   auger::daemon::SensorMessage imu;
   long received = 0;   // messages taken, the superseded ones included
