@@ -45,7 +45,7 @@ constexpr double kVerdictNoise = 1.2;
 // Adding an effect must gain this much in BIC (strong evidence, Kass and Raftery) and lower the
 // held-out error by this share.
 constexpr double kAddBic = -10.0;
-constexpr double kAddHeldout = 0.02;
+constexpr double kAddHeldout = kHeldOutGain;
 constexpr int kFolds = 3;
 using FoldValues = std::array<double, kFolds>;
 // An effect (or a discovered term) stays in the final model only when it changes the prediction

@@ -48,6 +48,15 @@ struct Candidate {
   std::vector<FittedEffect> refitted;  // diagnose --model: the model's effects, refitted with it
 };
 
+// A candidate lowers the held-out error when it predicts the held-out segments at least this
+// share better than the model without it: the gain explain asks of a step, so that diagnose's
+// first candidate is one explain could take (docs/workbench.md "diagnose", 3). One rule for the
+// ranking, its groups in the text, JSON and report.
+constexpr double kHeldOutGain = 0.02;
+inline bool lowers_heldout(const Candidate& c, double nominal_heldout_ratio) {
+  return c.heldout_ratio < (1.0 - kHeldOutGain) * nominal_heldout_ratio;
+}
+
 struct DiagnoseOptions {
   std::vector<std::string> only;  // restrict to these effect ids (empty = the whole library)
   int threads = 2;

@@ -22,11 +22,11 @@ constexpr const char* kStickSlip = "stick_slip_friction";
 // ---------------------------------------------------------------- diagnose
 namespace {
 
-// Ranking of candidates (docs/workbench.md "diagnose", 3): those that improve the held-out error
-// come first; among them plausible fits before implausible ones (a value outside or at the end
-// of its physical range); then by delta BIC.
+// Ranking of candidates (docs/workbench.md "diagnose", 3): those that lower the held-out error
+// (lowers_heldout) come first; among them plausible fits before implausible ones (a value
+// outside or at the end of its physical range); then by delta BIC.
 bool ranks_before(const Candidate& a, const Candidate& b, double nominal_heldout) {
-  const bool ga = a.heldout_ratio < nominal_heldout, gb = b.heldout_ratio < nominal_heldout;
+  const bool ga = lowers_heldout(a, nominal_heldout), gb = lowers_heldout(b, nominal_heldout);
   if (ga != gb) return ga;
   if (ga && a.implausible != b.implausible) return !a.implausible;
   return a.delta_bic < b.delta_bic;

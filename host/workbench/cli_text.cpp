@@ -78,7 +78,7 @@ void json_fitted(Json& j, const char* key, const std::vector<FittedEffect>& effe
 }
 
 RankGroup rank_group(const Candidate& c, double nominal_heldout_ratio) {
-  if (!(c.heldout_ratio < nominal_heldout_ratio)) return RankGroup::kNoImprovement;
+  if (!lowers_heldout(c, nominal_heldout_ratio)) return RankGroup::kNoImprovement;
   return c.implausible ? RankGroup::kImprovesImplausible : RankGroup::kImproves;
 }
 
@@ -93,15 +93,17 @@ const char* rank_group_id(RankGroup g) {
 
 const char* rank_group_words(RankGroup g) {
   switch (g) {
-    case RankGroup::kImproves: return "lower the held-out error, plausible fit";
-    case RankGroup::kImprovesImplausible: return "lower the held-out error, but a fitted value is at or beyond its physical range";
-    case RankGroup::kNoImprovement: return "do not lower the held-out error (a training-data gain that does not carry over)";
+    case RankGroup::kImproves: return "lower the held-out error by 2 % or more, plausible fit";
+    case RankGroup::kImprovesImplausible:
+      return "lower the held-out error by 2 % or more, but a fitted value is at or beyond its physical range";
+    case RankGroup::kNoImprovement:
+      return "do not lower the held-out error by 2 % (a training-data gain that does not carry over)";
   }
   return "";
 }
 
 const char* const kRankingRule =
-    "candidates that lower the held-out error come first, plausible fits before those with a value at or "
+    "candidates that lower the held-out error by 2 % or more (as explain asks of a step) come first, plausible fits before those with a value at or "
     "beyond its physical range (a parameter flagged only as not identified does not move a candidate); "
     "within each of these groups and among the rest, lower delta BIC first";
 

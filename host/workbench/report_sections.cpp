@@ -360,8 +360,8 @@ Section ranking_section(const Findings& f, Gnuplot& gp) {
       << "<figcaption>Every candidate of diagnose, in rank order: delta BIC (top) and the held-out error (bottom; the "
          "dashed line is the model without any: "
       << fixed(dg.nominal_heldout_ratio, 3)
-      << " times the noise floor). Blue: lowers the held-out error, plausible fit; orange: lowers it, but a fitted "
-         "value is flagged; grey: does not lower it.</figcaption></figure>\n";
+      << " times the noise floor). Blue: lowers the held-out error by 2 % or more, plausible fit; orange: lowers it, "
+         "but a fitted value is flagged; grey: does not lower it by 2 %.</figcaption></figure>\n";
   }
   if (!dg.where.empty()) {
     h << "<p>Where what remains after the best candidate is largest (5 s windows):</p><table><tr><th>t start (s)</th>"
