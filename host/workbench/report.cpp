@@ -156,7 +156,7 @@ int run_report(int argc, char** argv) {
     }
     if (!d.online_value.empty()) {
       step("fit --add paper_params (the offline fit beside augerd's online estimate)");
-      const FitResult r = fit(d, mc, {"paper_params"}, progress);
+      const FitResult r = fit(d, mc, {"paper_params"}, progress, {}, online_held(d));
       f.offline = r.effects.front().params;
     }
     f.effect_given = !effect_arg.empty();
@@ -250,7 +250,7 @@ int run_report(int argc, char** argv) {
         for (const OnlineAgreement& o : online_agreement(d, d.size() - 1, f.offline))
           j.begin_object().str("name", o.name).str("unit", o.unit).num("online", o.online).num("online_sd", o.online_sd)
               .num("offline", o.offline).num("offline_sd", o.offline_sd).boolean("held", o.held)
-              .boolean("via_ratio", o.via_ratio).num("z", o.z).end_object();
+              .boolean("informed", o.informed).num("z", o.z).end_object();
         j.end_array();
       }
       j.begin_array("warnings");

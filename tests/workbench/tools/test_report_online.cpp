@@ -2,6 +2,7 @@
 // "report"): the on_* columns drawn over time with their +-SD band beside the offline fit of the
 // same log (auger fit LOG --add paper_params), and their agreement in combined SDs. Checked in
 // the page's DOM in headless Chromium (tools/browser_check.py), and online_agreement directly.
+// The on-robot agreement (augerd's FIL log against the offline fit): tests/daemon/online_agreement.sh.
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -50,7 +51,8 @@ TEST_CASE("report: augerd's online estimate over time with its SD band, beside t
   INFO(r.err);
   REQUIRE(r.code == 0);
   CHECK(tools_test::json_eval(dir, r.out, "'online' in d['sections']") == "True");
-  const auto fit = tools_test::run_auger(dir, "fit " + log + " --add paper_params --json");
+  // D_x held online (its SD 1 %), so held in the offline fit too.
+  const auto fit = tools_test::run_auger(dir, "fit " + log + " --add paper_params --hold D_x --json");
   REQUIRE(fit.code == 0);
   const auto offline = [&](const std::string& p) {
     return tools_test::json_number(
@@ -93,46 +95,44 @@ TEST_CASE("report: augerd's online estimate over time with its SD band, beside t
   const double off = offline("sigma_long");
   CHECK(tools_test::json_number(dir, b, "d['eval']['off']") == Approx(off).epsilon(1e-6));
   CHECK(tools_test::json_number(dir, b, "d['eval']['off_hi']") > off);
-  // The table: D_x held (not compared), sigma_long through its DOF's ratio; sigma_lat's z from the
-  // values at the end (0.247 +- 0.0247 online).
-  CHECK_THAT(tools_test::json_eval(dir, b, "d['eval']['rows']['D_x'][2]"), Catch::StartsWith("held online"));
-  CHECK_THAT(tools_test::json_eval(dir, b, "d['eval']['rows']['sigma_long'][2]"), Catch::Contains("compared as sigma / D"));
-  CHECK(tools_test::json_eval(dir, b, "'sigma_long / D_x' in d['eval']['rows']") == "True");
-  CHECK(tools_test::json_eval(dir, b, "'sigma_lat / D_y' in d['eval']['rows']") == "False");
-  const double z = tools_test::json_number(dir, b, "d['eval']['rows']['sigma_lat'][2]");
-  const double lat = offline("sigma_lat");
+  // The table: D_x held on both sides (not compared); sigma_long's z from the values at the end
+  // (0.8 +- 0.02 online) and the fit's.
+  CHECK_THAT(tools_test::json_eval(dir, b, "d['eval']['rows']['D_x'][2]"), Catch::StartsWith("held online and offline"));
+  CHECK(tools_test::json_number(dir, fit.out, "[e['params']['D_x'] for e in d['effects']][0]") == Approx(560.33));
+  const double z = tools_test::json_number(dir, b, "d['eval']['rows']['sigma_long'][2]");
   const double sd_off = tools_test::json_number(
-      dir, fit.out, "[e['params_sigma']['sigma_lat'] for e in d['effects'] if e['effect'] == 'paper_params'][0]");
-  CHECK(z == Approx(std::fabs(0.247 - lat) / std::hypot(0.0247, sd_off)).epsilon(0.02));
+      dir, fit.out, "[e['params_sigma']['sigma_long'] for e in d['effects'] if e['effect'] == 'paper_params'][0]");
+  CHECK(z == Approx(std::fabs(0.8 - off) / std::hypot(0.02, sd_off)).epsilon(0.02));
+  CHECK(tools_test::json_eval(dir, r.out, "[o['name'] for o in d['online'] if o['held']]") == "['D_x']");
 }
 
-TEST_CASE("report: online_agreement compares estimated parameters, and sigma / D where D was held") {
+TEST_CASE("report: online_agreement compares what was estimated online; held parameters are named") {
   auger::wb::Dataset d;
   d.path = "log.csv";
   d.t_s = {0, 1};
   d.online_value = {{0.5, 0.25, 560, 320, 11.5}, {0.44, 0.25, 560, 320, 11.5}};
-  d.online_sd = {{0.4, 0.12, 5.6, 3.2, 0.115}, {0.01, 0.1, 5.6, 3.2, 0.115}};  // all of D held (1 %)
+  d.online_sd = {{0.25, 0.12, 5.6, 3.2, 0.115}, {0.01, 0.1, 5.6, 3.2, 0.115}};  // all of D held (1 %)
+  CHECK(auger::wb::online_held(d) == std::vector<std::string>{"D_x", "D_y", "D_psi"});
   const std::vector<auger::wb::FitParam> off = {{"sigma_long", 0.40, 0.02, "N/rpm", ""}, {"sigma_lat", 0.16, 0.01, "N/rpm", ""},
-                                                {"D_x", 509.81, 20, "N/(m/s)", ""},      {"D_y", 210.5, 10, "N/(m/s)", ""},
-                                                {"D_psi", 4.52, 0.3, "N m/(rad/s)", ""}};
+                                                {"D_x", 560, auger::wb::kNaN, "N/(m/s)", ""},      {"D_y", 320, auger::wb::kNaN, "N/(m/s)", ""},
+                                                {"D_psi", 11.5, auger::wb::kNaN, "N m/(rad/s)", ""}};
   const auto a = auger::wb::online_agreement(d, 1, off);
-  REQUIRE(a.size() == 8);
-  CHECK(a[0].via_ratio);  // D_x held: sigma_long is compared through sigma_long / D_x
-  CHECK(std::isnan(a[0].z));
-  CHECK_FALSE(a[0].held);
+  REQUIRE(a.size() == 5);
+  CHECK(a[0].z == Approx(0.04 / std::hypot(0.01, 0.02)));
   CHECK(a[2].held);
+  CHECK_FALSE(a[2].informed);
   CHECK(std::isnan(a[2].z));
-  CHECK(a[5].name == "sigma_long / D_x");
-  CHECK(a[5].online == Approx(0.44 / 560));
-  CHECK(a[5].offline == Approx(0.40 / 509.81));
-  CHECK(a[5].offline_sd == Approx(0.40 / 509.81 * std::hypot(0.05, 20 / 509.81)));
-  CHECK(a[7].name == "sigma_lat / D_psi");
-  // D estimated online: each parameter compared as it is.
-  d.online_sd[0] = {0.4, 0.12, 280, 160, 5.7};
-  const auto b = auger::wb::online_agreement(d, 1, off);
-  REQUIRE(b.size() == 5);
-  CHECK_FALSE(b[0].via_ratio);
-  CHECK(b[0].z == Approx(0.04 / std::hypot(0.01, 0.02)));
+  // sigma_lat at its prior's SD (0.12 -> 0.1: not below half of it): not informed, not compared.
+  CHECK(a[0].informed);
+  d.online_sd[1][1] = 0.05;
+  // D estimated online (its prior SD in the first row): compared as well.
+  d.online_sd[0] = {0.25, 0.12, 280, 160, 5.7};
+  CHECK(auger::wb::online_held(d).empty());
+  CHECK(auger::wb::online_agreement(d, 1, off)[1].z == Approx(0.09 / std::hypot(0.05, 0.01)));
+  const std::vector<auger::wb::FitParam> off2 = {off[0], off[1], {"D_x", 509.81, 20, "N/(m/s)", ""},
+                                                 {"D_y", 210.5, 10, "N/(m/s)", ""}, {"D_psi", 4.52, 0.3, "N m/(rad/s)", ""}};
+  const auto b = auger::wb::online_agreement(d, 1, off2);
+  CHECK_FALSE(b[2].held);
   CHECK(b[2].z == Approx(50.19 / std::hypot(5.6, 20)));
   d.online_value.clear();
   CHECK_THROWS_WITH(auger::wb::online_agreement(d, 1, off), Catch::Contains("has no on_* columns"));
