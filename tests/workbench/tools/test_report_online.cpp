@@ -54,6 +54,9 @@ TEST_CASE("report: augerd's online estimate over time with its SD band, beside t
   // D_x held online (its SD 1 %), so held in the offline fit too.
   const auto fit = tools_test::run_auger(dir, "fit " + log + " --add paper_params --hold D_x --json");
   REQUIRE(fit.code == 0);
+  const auto bad = tools_test::run_auger(dir, "fit " + log + " --add paper_params --hold D_z");
+  CHECK(bad.code == 2);
+  CHECK_THAT(bad.err, Catch::Contains("--hold D_z: paper_params has sigma_long, sigma_lat, D_x, D_y, D_psi"));
   const auto offline = [&](const std::string& p) {
     return tools_test::json_number(
         dir, fit.out, "[e['params']['" + p + "'] for e in d['effects'] if e['effect'] == 'paper_params'][0]");
