@@ -9,10 +9,8 @@
 namespace augerd {
 
 namespace {
-// The believed terrain's row name, or "unknown" (status all: one token).
-std::string terrain_token(const std::string& believed) {
-  return believed.compare(0, 7, "unknown") == 0 ? "unknown" : believed;
-}
+// The believed terrain's row name, "undecided" or "unknown" (status all: one token).
+std::string terrain_token(const std::string& believed) { return believed.substr(0, believed.find(',')); }
 }  // namespace
 
 void Daemon::online_step(const std::array<auger::ScrewTelemetry, 4>& tel) {

@@ -246,14 +246,23 @@ double row_distance(const OnlineEstimate& e, const double (&v)[5]) {
 }  // namespace
 
 std::string believed_terrain(const OnlineEstimate& e, const std::vector<TerrainParams>& terrains) {
-  const TerrainParams* best = nullptr;
+  std::vector<const TerrainParams*> fit;  // rows within the tolerance, the closest first
   double best_d = 1e300;
   for (const TerrainParams& t : terrains) {
     const double v[5] = {t.sigma_long, t.sigma_lat, t.D_x, t.D_y, t.D_psi};
     const double d = row_distance(e, v);
-    if (d >= 0 && d <= 1 && d < best_d) best_d = d, best = &t;
+    if (d < 0 || d > 1) continue;
+    if (d < best_d) best_d = d, fit.insert(fit.begin(), &t);
+    else fit.push_back(&t);
   }
-  if (best) return best->name;
+  if (fit.size() == 1) return fit.front()->name;
+  if (fit.size() > 1) {
+    // The estimate's uncertainty spans several rows (before the data inform it): naming the
+    // closest would be a guess given with confidence.
+    std::string s = "undecided, " + fit.front()->name;
+    for (std::size_t i = 1; i < fit.size(); ++i) s += (i + 1 == fit.size() ? " or " : ", ") + fit[i]->name;
+    return s + " within the estimate's uncertainty";
+  }
   std::string s = "unknown";
   char buf[80];
   for (int k = 0; k < 5; ++k) {

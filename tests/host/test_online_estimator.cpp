@@ -183,7 +183,9 @@ TEST_CASE("online: with the drag held the believed terrain is named by sigma / D
   CHECK(est.estimate().held == (Vec5() << 0, 0, 1, 1, 1).finished());
   CHECK(std::string(believed_basis(est.estimate())) == "sigma / D (D held)");
   CHECK(std::string(believed_basis(OnlineEstimator(t.sand, on()).estimate())) == "sigma, D");
-  CHECK(believed_terrain(est.estimate(), {t.grass.terrain, t.sand.terrain}) == "sand");
+  // At the prior (sigma_long's SD 50 %) both rows fit: not a name given with confidence.
+  CHECK(believed_terrain(est.estimate(), {t.grass.terrain, t.sand.terrain}) ==
+        "undecided, sand or frozen_grass within the estimate's uncertainty");
 
   // Grass seen through sand's drag: sigma_long carries grass's sigma_long / D_x (0.4 * 560.33 /
   // 509.81 = 0.440 N/rpm); sigma_lat lightly informed (SD 0.1 N/rpm), so its yaw ratio is loose.
@@ -205,6 +207,9 @@ TEST_CASE("online: with the drag held the believed terrain is named by sigma / D
   e.sd[kSigmaLat] = 0.1;
   e.value[kSigmaLong] = 0.62;
   CHECK_THAT(believed_terrain(e, {t.sand.terrain, t.grass.terrain}), Catch::StartsWith("unknown, sigma_long 0.62"));
+  // Sand's ratio, informed: sand alone.
+  e.value[kSigmaLong] = 0.8;
+  CHECK(believed_terrain(e, {t.sand.terrain, t.grass.terrain}) == "sand");
   // Nothing estimated names nothing.
   e.held.setOnes();
   CHECK_THAT(believed_terrain(e, {t.sand.terrain, t.grass.terrain}), Catch::StartsWith("unknown"));

@@ -174,9 +174,11 @@ class OnlineEstimator {
   std::string fallback_;
 };
 
-// The terrain the estimate is closest to: the name of a row of `terrains` whose every compared
-// quantity lies within max(3 SD, 15 %) of the estimate's (the closest by the largest difference in
-// units of that tolerance), else "unknown, sigma_long 0.41 N/rpm, sigma_lat ..., D_x ... (held), ...".
+// The terrain the estimate is closest to: the name of the one row of `terrains` whose every
+// compared quantity lies within max(3 SD, 15 %) of the estimate's; "undecided, sand or
+// frozen_grass within the estimate's uncertainty" when several do (the closest first, by the
+// largest difference in units of that tolerance); else "unknown, sigma_long 0.41 N/rpm,
+// sigma_lat ..., D_x ... (held), ...". The first word (up to a comma) is the one-token name.
 // Compared: each estimated parameter; where a DOF's drag is held, the ratio sigma / D of that DOF
 // instead (eq. (6): the steady speed per rpm, which is what the data then identify), x with
 // sigma_long / D_x, y with sigma_lat / D_y, yaw with sigma_lat / D_psi (the yaw row of the
