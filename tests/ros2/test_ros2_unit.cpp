@@ -114,6 +114,8 @@ TEST_CASE("the [ros2] configuration section", "[ros2][unit]") {
     CHECK_FALSE(c.ros2.enabled);  // off unless asked for
     CHECK(c.ros2.cmd_vel_topic == "cmd_vel");
     CHECK(c.ros2.odom_rate_hz == 50);
+    CHECK(c.ros2.online_topic == "online_estimate");
+    CHECK(c.ros2.online_rate_hz == 10);
     unlink(p.c_str());
   }
   {
@@ -121,7 +123,8 @@ TEST_CASE("the [ros2] configuration section", "[ros2][unit]") {
                                     "[ros2]\nenabled = false\ndomain_id = 42\nnamespace = \"/robot1\"\n"
                                     "cmd_vel_topic = \"/cmd_vel_keyboard\"\nimu_topic = \"bno080_imu\"\n"
                                     "pose_std = [0.01, 0.02, 0.03]\ntf = false\ndds_config = \"dds.xml\"\n"
-                                    "joint_names = [\"a\", \"b\", \"c\", \"d\"]\nodom_rate_hz = 20\n");
+                                    "joint_names = [\"a\", \"b\", \"c\", \"d\"]\nodom_rate_hz = 20\n"
+                                    "online_topic = \"terrain\"\nonline_rate_hz = 5\n");
     const augerd::DaemonConfig c = augerd::load_daemon_config(p);
     CHECK(c.ros2.domain_id == 42);
     CHECK(c.ros2.ns == "/robot1");
@@ -132,6 +135,8 @@ TEST_CASE("the [ros2] configuration section", "[ros2][unit]") {
     CHECK(c.ros2.dds_config == "/tmp/dds.xml");  // relative to the file
     CHECK(c.ros2.joint_names[3] == "d");
     CHECK(c.ros2.odom_rate_hz == 20);
+    CHECK(c.ros2.online_topic == "terrain");
+    CHECK(c.ros2.online_rate_hz == 5);
     unlink(p.c_str());
   }
   struct Bad {
@@ -146,6 +151,8 @@ TEST_CASE("the [ros2] configuration section", "[ros2][unit]") {
                        Bad{"[ros2]\nodom_frame = \"base_link\"\n", "must differ"},
                        Bad{"[ros2]\nbase_frame = \"base link\"\n", "space"},
                        Bad{"[ros2]\nodom_rate_hz = 200\n", "outside 0..100"},
+                       Bad{"[ros2]\nonline_rate_hz = 200\n", ":" + std::to_string(l + 1) + ":18: 'online_rate_hz' = 200 is outside 0..100"},
+                       Bad{"[ros2]\nonline_topic = \"on line\"\n", ":" + std::to_string(l + 1) + ":16: ROS 2 name 'on line' has the character ' '"},
                        Bad{"[ros2]\nenabled = 1\n", "true or false"},
                        // The sensors socket's bounds (input_limits.hpp): 20 rad would refuse every pose.
                        Bad{"[ros2]\npose_std = [0.01, 0.01, 20]\n", "pose_std[2] = 20 rad is outside 1e-06..10 rad"},
