@@ -14,6 +14,14 @@ sim_wait_for() {
   done
 }
 
+# sim_work TAG : a fresh directory $work (/tmp/auger-TAG-XXXXXX) and an empty $pids; at exit
+# every process in $pids is killed and the directory removed (a test appends what it starts).
+sim_work() {
+  work=$(mktemp -d "/tmp/auger-$1-XXXXXX")
+  pids=()
+  trap 'for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; wait 2>/dev/null || true; rm -rf "$work"' EXIT
+}
+
 # sim_start DIR TERRAIN SECONDS [FIELD] : the simulated robot on TERRAIN (or, given a FIELD file,
 # on its patches: docs/robot-sim.md "Fields") with four modules running the
 # firmware on ptys DIR/pty/module0..3, its camera and IMU sent to DIR/sensors.sock, its true

@@ -9,10 +9,8 @@
 namespace augerd {
 
 namespace {
-// The believed terrain's row name, or "unknown" (status all: one token).
-std::string terrain_token(const std::string& believed) {
-  return believed.compare(0, 7, "unknown") == 0 ? "unknown" : believed;
-}
+// The believed terrain's row name, "undecided" or "unknown" (status all: one token).
+std::string terrain_token(const std::string& believed) { return believed.substr(0, believed.find(',')); }
 }  // namespace
 
 void Daemon::online_step(const std::array<auger::ScrewTelemetry, 4>& tel) {
@@ -48,9 +46,11 @@ void Daemon::online_step(const std::array<auger::ScrewTelemetry, 4>& tel) {
     // once a second (the name is a string), an event when its row changes.
     believed_next_t_s_ = t_s_ + 1.0;
     const std::string believed = auger::believed_terrain(online_->estimate(), terrains_);
+    believed_now_ = believed;
     if (terrain_token(believed) != believed_said_) {
       believed_said_ = terrain_token(believed);
-      event(-1, "terrain-believed", "the estimate is closest to " + believed);
+      event(-1, "terrain-believed",
+            "the estimate is closest to " + believed + " (compared: " + auger::believed_basis(online_->estimate()) + ")");
     }
   }
   if (cfg_.online_apply && online_->applied_changed()) {
@@ -60,6 +60,7 @@ void Daemon::online_step(const std::array<auger::ScrewTelemetry, 4>& tel) {
     auger::OnlineEstimate used;
     used.value = online_->control_parameters();
     used.sd = online_->estimate().sd;
+    used.held = online_->estimate().held;
     const std::string believed = auger::believed_terrain(used, terrains_);
     if (terrain_token(believed) != applied_terrain_) {
       applied_terrain_ = terrain_token(believed);
@@ -90,6 +91,7 @@ void Daemon::online_status(auger::daemon::Status& s) const {
   const auger::OnlineEstimate& e = online_->estimate();
   s.online = true;
   s.online_terrain = terrain_token(auger::believed_terrain(e, terrains_));
+  s.on_drag_held = e.held[auger::kDx] > 0;
   s.on_sigma_long = e.value[0], s.on_sigma_lat = e.value[1], s.on_D_x = e.value[2], s.on_D_y = e.value[3];
   s.on_D_psi = e.value[4];
   s.on_sd_sigma_long = e.sd[0], s.on_sd_sigma_lat = e.sd[1], s.on_sd_D_x = e.sd[2], s.on_sd_D_y = e.sd[3];
@@ -97,6 +99,20 @@ void Daemon::online_status(auger::daemon::Status& s) const {
   s.on_cusum = online_->cusum();
   s.on_changes = static_cast<long>(online_->changes());
   s.on_fallback = !online_->fallback().empty();
+}
+
+void Daemon::online_snapshot(auger::ros2::OnlineSnapshot& o) const {
+  o.enabled = online_ != nullptr;
+  if (!online_) return;
+  // Plain copies into fixed arrays: this runs in the 100 Hz loop (the name was made once a second).
+  const auger::OnlineEstimate& e = online_->estimate();
+  for (int k = 0; k < 5; ++k) o.value[k] = e.value[k], o.sd[k] = e.sd[k], o.held[k] = e.held[k] > 0;
+  o.cusum = online_->cusum();
+  o.cusum_threshold = cfg_.online.cusum_threshold;
+  o.changes = static_cast<long>(online_->changes());
+  std::snprintf(o.fallback.data(), o.fallback.size(), "%s", online_->fallback().c_str());
+  std::snprintf(o.believed.data(), o.believed.size(), "%s", believed_now_.c_str());
+  std::snprintf(o.basis.data(), o.basis.size(), "%s", auger::believed_basis(e));
 }
 
 }  // namespace augerd

@@ -160,6 +160,7 @@ void Daemon::ros2_publish() {
   o.inputs_applied = ros2_applied_;
   o.inputs_refused = ros2_refused_;
   std::snprintf(o.last_refusal.data(), o.last_refusal.size(), "%s", ros2_last_refusal_.c_str());
+  online_snapshot(o.online);
   const double t0 = clock_s(CLOCK_MONOTONIC), c0 = clock_s(CLOCK_THREAD_CPUTIME_ID);
   ros2_->publish(o);
   Ros2Timing& rt = ros2_time_;

@@ -81,9 +81,9 @@ void check_settings(const Settings& s) {
     throw std::invalid_argument("domain_id " + std::to_string(s.domain_id) + " is outside 0..232");
   for (const std::string* t : {&s.cmd_vel_topic, &s.cmd_vel_stamped_topic, &s.pose_topic, &s.pose_cov_topic,
                                &s.imu_topic, &s.odom_topic, &s.joint_states_topic, &s.diagnostics_topic,
-                               &s.tf_topic})
+                               &s.tf_topic, &s.online_topic})
     if (!t->empty()) fully_qualified_name(*t, s.ns);
-  for (double r : {s.odom_rate_hz, s.joint_states_rate_hz, s.diagnostics_rate_hz})
+  for (double r : {s.odom_rate_hz, s.joint_states_rate_hz, s.diagnostics_rate_hz, s.online_rate_hz})
     if (!(r >= 0 && r <= 100)) throw std::invalid_argument("a rate is outside 0..100 Hz (augerd's loop runs at 100 Hz)");
   for (double sd : s.pose_std)
     if (!(sd > 0 && std::isfinite(sd))) throw std::invalid_argument("pose_std must be three numbers > 0");
@@ -108,6 +108,8 @@ std::vector<std::string> output_topics(const Settings& s) {
   if (s.odom_rate_hz > 0 && s.tf) out.push_back(fully_qualified_name(s.tf_topic, s.ns));
   if (s.joint_states_rate_hz > 0) out.push_back(fully_qualified_name(s.joint_states_topic, s.ns));
   if (s.diagnostics_rate_hz > 0) out.push_back(fully_qualified_name(s.diagnostics_topic, s.ns));
+  // Allowed whether or not [online] is enabled (the settings do not know); written only when it is.
+  if (s.online_rate_hz > 0) out.push_back(fully_qualified_name(s.online_topic, s.ns));
   return out;
 }
 

@@ -28,7 +28,9 @@ struct Settings {
   std::string joint_states_topic = "joint_states"; // sensor_msgs/msg/JointState
   std::string diagnostics_topic = "/diagnostics";  // diagnostic_msgs/msg/DiagnosticArray
   std::string tf_topic = "/tf";                    // tf2_msgs/msg/TFMessage (odom -> base_link)
-  double odom_rate_hz = 50, joint_states_rate_hz = 50, diagnostics_rate_hz = 1;
+  // std_msgs/msg/Float64MultiArray: the [online] estimate and SDs, only while [online] is enabled.
+  std::string online_topic = "online_estimate";
+  double odom_rate_hz = 50, joint_states_rate_hz = 50, diagnostics_rate_hz = 1, online_rate_hz = 10;
   bool tf = true;  // the odom -> base_link transform with each Odometry (off when another node,
                    // e.g. robot_localization, publishes it)
   std::string odom_frame = "odom", base_frame = "base_link";

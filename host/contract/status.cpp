@@ -93,7 +93,8 @@ const std::vector<Field<Status>>& ros2_fields() {
 
 const std::vector<Field<Status>>& online_fields() {
   static const std::vector<Field<Status>> f = {
-      {"online_terrain", "%s", &Status::online_terrain},     {"on_sigma_long", "%.4g", &Status::on_sigma_long},
+      {"online_terrain", "%s", &Status::online_terrain},     {"on_drag_held", "%d", &Status::on_drag_held},
+      {"on_sigma_long", "%.4g", &Status::on_sigma_long},
       {"on_sigma_lat", "%.4g", &Status::on_sigma_lat},         {"on_D_x", "%.5g", &Status::on_D_x},
       {"on_D_y", "%.5g", &Status::on_D_y},                     {"on_D_psi", "%.4g", &Status::on_D_psi},
       {"on_sd_sigma_long", "%.2g", &Status::on_sd_sigma_long}, {"on_sd_sigma_lat", "%.2g", &Status::on_sd_sigma_lat},

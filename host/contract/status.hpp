@@ -45,9 +45,11 @@ struct Status {
   double ros2_hook_max_us = 0;
   // With [online] (docs/daemon.md "Online identification"): the believed terrain (a model-file
   // row, or "unknown"), the estimate and its SDs (sigma N/rpm, D_x D_y N/(m/s), D_psi N m/(rad/s)),
-  // the change detector's statistic, the changes detected, the fallback latched.
+  // the change detector's statistic, the changes detected, the fallback latched. With the drag
+  // held (on_drag_held) the terrain is named by sigma / D (auger::believed_terrain).
   bool online = false;
   std::string online_terrain;
+  bool on_drag_held = false;
   double on_sigma_long = 0, on_sigma_lat = 0, on_D_x = 0, on_D_y = 0, on_D_psi = 0;
   double on_sd_sigma_long = 0, on_sd_sigma_lat = 0, on_sd_D_x = 0, on_sd_D_y = 0, on_sd_D_psi = 0;
   double on_cusum = 0;

@@ -84,9 +84,11 @@ void draw(const Status& st, const std::string& socket, const std::string& error,
   if (st.online) {
     // augerd's [online] (docs/daemon.md "Online identification"): the terrain the estimate is
     // closest to, the estimate with its SDs, the detector; fallback highlighted like a fault.
-    mvprintw(row++, 0, "ground (online): %s  sigma_long=%.4g+-%.2g sigma_lat=%.4g+-%.2g N/rpm  D_x=%.5g+-%.2g D_y=%.5g+-%.2g N/(m/s)",
-             st.online_terrain.c_str(), st.on_sigma_long, st.on_sd_sigma_long, st.on_sigma_lat, st.on_sd_sigma_lat,
-             st.on_D_x, st.on_sd_D_x, st.on_D_y, st.on_sd_D_y);
+    // With the drag held the name comes from sigma / D and the D shown are the configured ones.
+    mvprintw(row++, 0, "ground (online): %s%s  sigma_long=%.4g+-%.2g sigma_lat=%.4g+-%.2g N/rpm  D_x=%.5g+-%.2g D_y=%.5g+-%.2g N/(m/s)%s",
+             st.online_terrain.c_str(), st.on_drag_held ? " (by sigma/D)" : "", st.on_sigma_long, st.on_sd_sigma_long,
+             st.on_sigma_lat, st.on_sd_sigma_lat, st.on_D_x, st.on_sd_D_x, st.on_D_y, st.on_sd_D_y,
+             st.on_drag_held ? " (D held)" : "");
     const bool fallback = st.on_fallback;
     mvprintw(row, 0, "  CUSUM %.3g, %ld changes detected", st.on_cusum, st.on_changes);
     if (fallback) attron(highlight);

@@ -17,10 +17,9 @@
 
 #include "auger/model.hpp"
 #include "convert.hpp"
+#include "diagnostics.hpp"
 #include "ros2.hpp"
-#include "protocol.h"
 #include "ros2_messages.h"
-#include "status_text.hpp"
 
 namespace auger::ros2 {
 namespace {
@@ -109,13 +108,14 @@ class CycloneBridge final : public Bridge {
   void write_odometry(const Snapshot& s);
   void write_joint_states(const Snapshot& s);
   void write_diagnostics(const Snapshot& s);
+  void write_online(const Snapshot& s);
   void write(dds_entity_t w, const void* sample, const char* what);
 
   Settings settings_;
   dds_entity_t domain_ = 0, participant_ = 0;
   std::vector<std::unique_ptr<Reader>> readers_;
   std::vector<std::unique_ptr<dds_topic_descriptor_t>> untyped_;  // the writers' descriptors (add_writer)
-  dds_entity_t odom_w_ = 0, joints_w_ = 0, diag_w_ = 0, tf_w_ = 0;
+  dds_entity_t odom_w_ = 0, joints_w_ = 0, diag_w_ = 0, tf_w_ = 0, online_w_ = 0;
   std::string description_;
 
   std::mutex in_mu_;
@@ -127,7 +127,7 @@ class CycloneBridge final : public Bridge {
   bool out_new_ = false, stop_ = false;
   long skipped_ = 0;       // cycles whose snapshot could not be handed over (writer busy)
   double next_due_s_ = 0;  // publish(): the next snapshot time an output is due
-  double next_odom_s_ = 0, next_joints_s_ = 0, next_diag_s_ = 0;  // the writer thread's
+  double next_odom_s_ = 0, next_joints_s_ = 0, next_diag_s_ = 0, next_online_s_ = 0;  // the writer thread's
   long write_failures_ = 0;
   std::thread thread_;
 };
@@ -183,6 +183,9 @@ CycloneBridge::CycloneBridge(const Settings& s) : settings_(s) {
     if (s.diagnostics_rate_hz > 0)
       diag_w_ = add_writer(s.diagnostics_topic, &diagnostic_msgs_msg_dds__DiagnosticArray__desc, Profile::default_,
                            "DiagnosticArray");
+    if (s.online_rate_hz > 0)
+      online_w_ = add_writer(s.online_topic, &std_msgs_msg_dds__Float64MultiArray__desc, Profile::default_,
+                             "Float64MultiArray");
   } catch (...) {
     dds_delete(participant_);
     dds_delete(domain_);
@@ -383,7 +386,8 @@ void CycloneBridge::publish(const Snapshot& s) {
   out_cv_.notify_one();
   // The next time any output is due: the fastest rate's period (the writer thread keeps each
   // output to its own rate).
-  const double fastest = std::max({settings_.odom_rate_hz, settings_.joint_states_rate_hz, settings_.diagnostics_rate_hz});
+  const double fastest = std::max({settings_.odom_rate_hz, settings_.joint_states_rate_hz, settings_.diagnostics_rate_hz,
+                                   settings_.online_rate_hz});
   next_due_s_ = fastest > 0 ? s.t_unix_s + 1.0 / fastest - 0.002 : 1e300;
 }
 
@@ -406,6 +410,8 @@ void CycloneBridge::run() {
     if (due(next_odom_s_, settings_.odom_rate_hz)) write_odometry(s);
     if (due(next_joints_s_, settings_.joint_states_rate_hz)) write_joint_states(s);
     if (due(next_diag_s_, settings_.diagnostics_rate_hz)) write_diagnostics(s);
+    // Only while augerd runs the estimator ([online] enabled).
+    if (s.online.enabled && due(next_online_s_, settings_.online_rate_hz)) write_online(s);
   }
 }
 
@@ -479,72 +485,8 @@ void CycloneBridge::write_joint_states(const Snapshot& s) {
 }
 
 void CycloneBridge::write_diagnostics(const Snapshot& s) {
-  static const char* kWhere[4] = {"front-right", "rear-right", "rear-left", "front-left"};
   // Storage for the strings the sample points into (this thread only; allocation is fine here).
-  struct Status {
-    std::string name, message, hardware_id;
-    std::vector<std::pair<std::string, std::string>> kv;
-    uint8_t level = 0;
-  };
-  std::vector<Status> st;
-  char b[128];
-  auto num = [&](const char* fmt, double v) {
-    std::snprintf(b, sizeof b, fmt, v);
-    return std::string(b);
-  };
-  for (int i = 0; i < 4; ++i) {
-    const ModuleSnapshot& m = s.module[i];
-    Status x;
-    x.name = "augerd: module " + std::to_string(i) + " (" + kWhere[i] + ")";
-    std::snprintf(b, sizeof b, "%s firmware %u.%u.%u", m.port.data(), m.fw[0], m.fw[1], m.fw[2]);
-    x.hardware_id = b;
-    const bool faults = (m.status & PROTO_F_MASK) != 0;
-    if (!m.answering) {
-      x.level = 3;  // STALE
-      x.message = "not answering";
-    } else if (faults) {
-      x.level = 2;  // ERROR
-      x.message = "fault: " + auger::io::fault_bits_text(m.status);
-    } else if (s.fault_module == i) {
-      x.level = 1;  // WARN: the module is fine now, the robot waits for `enable`
-      x.message = std::string("stopped the robot (") + s.fault_reason.data() + "); waiting for enable";
-    } else {
-      x.message = "ok";
-    }
-    std::snprintf(b, sizeof b, "0x%04x", m.status);
-    x.kv = {{"omega_rpm", num("%.2f", m.omega_rpm)},
-            {"cmd_rpm", num("%.2f", m.cmd_rpm)},
-            {"current_a", num("%.3f", m.current_a)},
-            {"voltage_v", num("%.3f", m.voltage_v)},
-            {"pwm", num("%.4f", m.pwm)},
-            {"status", b},
-            {"faults", faults ? auger::io::fault_bits_text(m.status) : "none"},
-            {"rx_errors", std::to_string(m.rx_errors)},
-            {"encoder_errors", std::to_string(m.encoder_errors)},
-            {"host_crc_errors", std::to_string(m.crc_errors)},
-            {"host_header_errors", std::to_string(m.header_errors)},
-            {"host_bytes_skipped", std::to_string(m.bytes_skipped)}};
-    st.push_back(std::move(x));
-  }
-  {
-    Status x;
-    x.name = "augerd: controller";
-    x.hardware_id = "augerd";
-    x.level = s.fault_module >= 0 ? 1 : 0;
-    x.message = s.fault_module >= 0
-                    ? "stopped by module " + std::to_string(s.fault_module) + " (" + s.fault_reason.data() + ")"
-                    : std::string("mode ") + s.mode.data();
-    x.kv = {{"mode", s.mode.data()},
-            {"enabled", s.enabled ? "1" : "0"},
-            {"loop_dt_s", num("%.5f", s.loop_dt_s)},
-            {"loop_jitter_max_s", num("%.5f", s.loop_jitter_max_s)},
-            {"ros2_hook_max_us", num("%.1f", s.hook_max_us)},
-            {"ros2_inputs_applied", std::to_string(s.inputs_applied)},
-            {"ros2_inputs_refused", std::to_string(s.inputs_refused)},
-            {"ros2_last_refusal", s.last_refusal[0] ? s.last_refusal.data() : "none"},
-            {"ros2_cycles_skipped", std::to_string(skipped_)}};
-    st.push_back(std::move(x));
-  }
+  std::vector<DiagnosticEntry> st = diagnostics(s, skipped_);
   std::vector<diagnostic_msgs_msg_dds__DiagnosticStatus_> status(st.size());
   std::vector<std::vector<diagnostic_msgs_msg_dds__KeyValue_>> kvs(st.size());
   for (std::size_t i = 0; i < st.size(); ++i) {
@@ -566,6 +508,26 @@ void CycloneBridge::write_diagnostics(const Snapshot& s) {
   m.status._buffer = status.data();
   m.status._release = false;
   write(diag_w_, &m, "DiagnosticArray");
+}
+
+// Float64MultiArray (docs/ros2.md "Online estimate"): numbers a plot or a node takes without
+// parsing text, self-described by the layout's labels, and a type every ROS 2 installation has.
+void CycloneBridge::write_online(const Snapshot& s) {
+  std::string parameter = "parameter", value_sd = "value_sd";
+  std_msgs_msg_dds__MultiArrayDimension_ dim[2] = {
+      {text(parameter), uint32_t(kOnlineParams), uint32_t(kOnlineParams * kOnlineColumns)},
+      {text(value_sd), uint32_t(kOnlineColumns), uint32_t(kOnlineColumns)}};
+  double data[kOnlineParams * kOnlineColumns];
+  online_estimate_data(s.online, data);
+  std_msgs_msg_dds__Float64MultiArray_ m{};
+  m.layout.dim._length = m.layout.dim._maximum = 2;
+  m.layout.dim._buffer = dim;
+  m.layout.dim._release = false;
+  m.layout.data_offset = 0;
+  m.data._length = m.data._maximum = uint32_t(kOnlineParams * kOnlineColumns);
+  m.data._buffer = data;
+  m.data._release = false;
+  write(online_w_, &m, "Float64MultiArray");
 }
 
 }  // namespace

@@ -32,6 +32,19 @@ struct ModuleSnapshot {
   std::array<char, 96> port{};
 };
 
+// augerd's [online] estimator (docs/daemon.md "Online identification"): the estimate in the
+// order sigma_long, sigma_lat (N/rpm), D_x, D_y (N/(m/s)), D_psi (N m/(rad/s)), and the detector.
+struct OnlineSnapshot {
+  bool enabled = false;
+  double value[5] = {}, sd[5] = {};
+  bool held[5] = {};                 // held at the configured value (auger::OnlineEstimate::held)
+  double cusum = 0, cusum_threshold = 0;
+  long changes = 0;
+  std::array<char, 64> fallback{};   // the latched fallback's reason, "" none
+  std::array<char, 200> believed{};  // the believed terrain, auger::believed_terrain (looked at once a second)
+  std::array<char, 24> basis{};      // what it compared, auger::believed_basis
+};
+
 // What augerd knows at the end of a cycle; plain data, copied as a whole (no allocation).
 struct Snapshot {
   double t_unix_s = 0;              // the cycle's wall-clock time (header stamps)
@@ -48,6 +61,7 @@ struct Snapshot {
   double hook_max_us = 0;           // augerd's poll + publish, the longest over the last second
   long inputs_applied = 0, inputs_refused = 0;  // ROS 2 inputs since start
   std::array<char, 200> last_refusal{};         // why the last one was refused
+  OnlineSnapshot online;
 };
 
 // Inputs since the last poll, converted to `vel`'s quantities and the sensors socket's messages

@@ -18,6 +18,7 @@ constexpr double kNisClip = 25.0;  // one wild window adds at most this much per
 }  // namespace
 
 const char* online_param_name(int k) { return kNames[k]; }
+const char* online_param_unit(int k) { return kUnits[k]; }
 const TerrainRange& terrain_range(int k) { return kRanges[k]; }
 
 OnlineEstimator::OnlineEstimator(const Model& model, const OnlineConfig& config)
@@ -70,6 +71,7 @@ void OnlineEstimator::restart_memory() {
   est_.value = theta_.cwiseProduct(ref_);
   est_.sd = P_.diagonal().cwiseSqrt().cwiseProduct(ref_);
   est_.informed.setZero();
+  for (int k = 0; k < 5; ++k) est_.held[k] = std::sqrt(P0_(k, k)) <= kHeldRelSd ? 1 : 0;
 }
 
 void OnlineEstimator::enter_fallback(const char* why) {
@@ -158,7 +160,7 @@ void OnlineEstimator::end_window() {
   rows_ = 0;
   nis_ = 0;
   for (int j = 0; j < 3; ++j) {
-    const int si = j == 0 ? kSigmaLong : kSigmaLat, di = kDx + j;
+    const int si = online_sigma_of_dof(j), di = online_drag_of_dof(j);
     Vec5 phi = Vec5::Zero();
     phi[si] = ref_[si] * fbar[j];
     phi[di] = -ref_[di] * zbar[j];
@@ -215,30 +217,63 @@ void OnlineEstimator::end_window() {
   }
 }
 
+namespace {
+// Difference of a row from the estimate in units of the tolerance max(3 SD, 15 %) over the
+// compared quantities (believed_terrain); -1 when nothing is compared.
+double row_distance(const OnlineEstimate& e, const double (&v)[5]) {
+  double worst = -1;
+  const auto compare = [&](double est, double sd, double row) {
+    if (!std::isfinite(row)) {
+      worst = 1e300;
+      return;
+    }
+    const double tol = std::max(3 * sd, 0.15 * std::fabs(est));
+    worst = std::max(worst, std::fabs(est - row) / tol);
+  };
+  for (int j = 0; j < 3; ++j) {
+    const int si = online_sigma_of_dof(j), di = online_drag_of_dof(j);  // the regression's rows (end_window)
+    if (e.held[di] > 0 && e.held[si] == 0) {
+      // The ratio's relative SD is sigma's (the held D has almost none).
+      const double ratio = e.value[si] / e.value[di];
+      compare(ratio, e.sd[si] / e.value[di], v[si] / v[di]);
+    } else {
+      if (e.held[si] == 0) compare(e.value[si], e.sd[si], v[si]);
+      if (e.held[di] == 0) compare(e.value[di], e.sd[di], v[di]);
+    }
+  }
+  return worst;
+}
+}  // namespace
+
 std::string believed_terrain(const OnlineEstimate& e, const std::vector<TerrainParams>& terrains) {
-  const TerrainParams* best = nullptr;
+  std::vector<const TerrainParams*> fit;  // rows within the tolerance, the closest first
   double best_d = 1e300;
   for (const TerrainParams& t : terrains) {
     const double v[5] = {t.sigma_long, t.sigma_lat, t.D_x, t.D_y, t.D_psi};
-    double worst = 0;  // the largest difference in units of the tolerance
-    for (int k = 0; k < 5; ++k) {
-      if (!std::isfinite(v[k])) {
-        worst = 1e300;
-        break;
-      }
-      const double tol = std::max(3 * e.sd[k], 0.15 * std::fabs(e.value[k]));
-      worst = std::max(worst, std::fabs(e.value[k] - v[k]) / tol);
-    }
-    if (worst <= 1 && worst < best_d) best_d = worst, best = &t;
+    const double d = row_distance(e, v);
+    if (d < 0 || d > 1) continue;
+    if (d < best_d) best_d = d, fit.insert(fit.begin(), &t);
+    else fit.push_back(&t);
   }
-  if (best) return best->name;
+  if (fit.size() == 1) return fit.front()->name;
+  if (fit.size() > 1) {
+    // The estimate's uncertainty spans several rows (before the data inform it): naming the
+    // closest would be a guess given with confidence.
+    std::string s = "undecided, " + fit.front()->name;
+    for (std::size_t i = 1; i < fit.size(); ++i) s += (i + 1 == fit.size() ? " or " : ", ") + fit[i]->name;
+    return s + " within the estimate's uncertainty";
+  }
   std::string s = "unknown";
-  char buf[64];
+  char buf[80];
   for (int k = 0; k < 5; ++k) {
-    std::snprintf(buf, sizeof buf, ", %s %.3g %s", kNames[k], e.value[k], kUnits[k]);
+    std::snprintf(buf, sizeof buf, ", %s %.3g %s%s", kNames[k], e.value[k], kUnits[k], e.held[k] > 0 ? " (held)" : "");
     s += buf;
   }
   return s;
+}
+
+const char* believed_basis(const OnlineEstimate& e) {
+  return e.held.segment<3>(kDx).maxCoeff() > 0 ? "sigma / D (D held)" : "sigma, D";
 }
 
 void set_terrain_parameters(Model& m, const Vec5& p) {

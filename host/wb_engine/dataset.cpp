@@ -83,6 +83,10 @@ Dataset load_dataset(const std::string& path) {
     RobotLogReader r(path);
     d.terrain = r.csv().meta("terrain").value_or("");
     const int capture = r.csv().column_index(daemon::pose_capture_column());
+    // The online estimate's columns, all ten or none (augerd writes them together).
+    int online[10];
+    bool has_online = true;
+    for (int k = 0; k < 10; ++k) has_online &= (online[k] = r.csv().column_index(daemon::online_columns()[std::size_t(k)])) >= 0;
     RobotSample s;
     while (r.next(s)) {
       if (capture >= 0) {
@@ -94,6 +98,12 @@ Dataset load_dataset(const std::string& path) {
           r.csv().fail_at_field(capture, "pose_capture_t_s " + std::to_string(tc) +
                                              " is not within 2 s before or 1 s after the row's t_s " + std::to_string(s.t_s));
         d.pose_t_s.push_back(finite(tc) && finite(s.x_m) ? tc : kNaN);
+      }
+      if (has_online) {
+        std::array<double, 5> v, sd;
+        for (int k = 0; k < 5; ++k) v[std::size_t(k)] = r.csv().value(online[k]), sd[std::size_t(k)] = r.csv().value(online[5 + k]);
+        d.online_value.push_back(v);
+        d.online_sd.push_back(sd);
       }
       d.t_s.push_back(s.t_s);
       d.omega_rpm.push_back(Vec4(s.omega_rpm[0], s.omega_rpm[1], s.omega_rpm[2], s.omega_rpm[3]));

@@ -43,6 +43,10 @@ struct Dataset {
   // When each row's pose was captured (augerd's pose_capture_t_s; NaN: at t_s). Empty if the log
   // has no such column.
   std::vector<double> pose_t_s;
+  // augerd's [online] estimate per row (its on_* columns, docs/daemon.md "Online identification"):
+  // sigma_long, sigma_lat (N/rpm), D_x, D_y (N/(m/s)), D_psi (N m/(rad/s)) and their SDs. Empty if
+  // the log has no such columns.
+  std::vector<std::array<double, 5>> online_value, online_sd;
   std::size_t size() const { return t_s.size(); }
   double duration_s() const { return t_s.empty() ? 0 : t_s.back() - t_s.front(); }
   // A pose from external tracking (x, y); a robot log without one is compared in its IMU heading

@@ -94,8 +94,11 @@ struct FitResult {
   std::string model_toml;             // the model file text
 };
 // terms: discovered terms to fit as well, each (dof, form) of auger/term_form.hpp (`fit --add-term`).
+// hold: parameters of paper_params kept at the model's values (`fit --hold`, e.g. D_x, D_y, D_psi
+// as augerd's online estimate holds them); an unknown name throws std::invalid_argument.
 FitResult fit(const Dataset& data, ModelChoice model, const std::vector<std::string>& effect_ids,
-              bool progress = false, const std::vector<std::pair<std::string, std::string>>& terms = {});
+              bool progress = false, const std::vector<std::pair<std::string, std::string>>& terms = {},
+              const std::vector<std::string>& hold = {});
 
 // The effect library as the workbench knows it: registry entries plus paper_params, with the
 // fitting metadata (documented in docs/workbench.md "Adding an effect").

@@ -13,7 +13,7 @@ namespace auger::wb {
 using namespace search;
 
 FitResult fit(const Dataset& full, ModelChoice mc, const std::vector<std::string>& ids, bool progress,
-              const std::vector<std::pair<std::string, std::string>>& terms) {
+              const std::vector<std::pair<std::string, std::string>>& terms, const std::vector<std::string>& hold) {
   FitResult res;
   res.before = mc;
   const Model& base = mc.model;
@@ -23,6 +23,14 @@ FitResult fit(const Dataset& full, ModelChoice mc, const std::vector<std::string
   const Dataset data = decimate_for_search(full);
   const Problem pr = make_problem(data, full, base, res.segment_floor, make_segments(data, search_segment_s(data)));
   std::vector<Part> parts{make_part(kPaperParams, base, data)};
+  for (const std::string& name : hold) {
+    Part& pp = parts.front();
+    std::size_t i = 0;
+    while (i < pp.specs.size() && pp.specs[i].name != name) ++i;
+    if (i == pp.specs.size())
+      throw std::invalid_argument("--hold " + name + ": paper_params has sigma_long, sigma_lat, D_x, D_y, D_psi");
+    pp.free.erase(std::remove(pp.free.begin(), pp.free.end(), static_cast<int>(i)), pp.free.end());
+  }
   for (const auto& id : ids)
     if (id != kPaperParams) parts.push_back(make_part(id, base, data));
   for (const auto& [dof, form] : terms) parts.push_back(make_term_part(dof, form, term_scale(base, data, dof, form)));

@@ -20,14 +20,16 @@ namespace {
 
 const CommandLine kCli{
     "auger fit",
-    "LOG --add EFFECT[,EFFECT...] [--add-term DOF:FORM[,DOF:FORM...]] [--out MODEL] [--model FILE]\n"
-    "                 [--terrain NAME|auto] [--json]",
+    "LOG --add EFFECT[,EFFECT...] [--add-term DOF:FORM[,DOF:FORM...]] [--hold PARAM[,...]] [--out MODEL]\n"
+    "                 [--model FILE] [--terrain NAME|auto] [--json]",
     "Re-identifies sigma and D (eqs. (15)-(17)) together with the effects added, prints the error\n"
     "per channel before and after (also as multiples of the noise floor), writes a model file.\n",
     {{"--add", "EFFECT[,EFFECT...]", "the effects to add (auger effects lists them); paper_params: the\n"
       "paper's parameters alone"},
      {"--add-term", "DOF:FORM[,...]", "discovered terms to fit as well (auger explain proposes them;\n"
       "docs/workbench.md \"Discovered terms\"), e.g. yaw:v_mps or screw_2:neg(omega_rpm)"},
+     {"--hold", "PARAM[,PARAM...]", "paper_params' parameters kept at the model's values (e.g. D_x,D_y,D_psi,\n"
+      "as augerd's online estimate holds the drag)"},
      {"--out", "MODEL", "write the fitted model file there"},
      kModelOption,
      kTerrainOption,
@@ -66,7 +68,7 @@ int run_fit(int argc, char** argv) {
     if (a.has("--add-term")) added += " --add-term '" + a.get("--add-term") + "'";
     const std::string model_arg = a.has("--model") ? " --model " + typed(a.get("--model")) : "";
     const TerrainChoice tc = choose_terrain(d, a.get("--model"), a.get("--terrain"), "fit", model_arg + added);
-    const FitResult r = fit(d, tc.model, ids, a.has("--progress"), terms);
+    const FitResult r = fit(d, tc.model, ids, a.has("--progress"), terms, split_ids(a.get("--hold")));
     // Numbers, or nothing is written (a model of NaN would load and mislead).
     require_noise_floor(d, r.noise_floor);
     require_finite(d, r.err_before, r.before, "segments, before");

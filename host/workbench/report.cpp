@@ -16,6 +16,7 @@
 #include "cli_text.hpp"
 #include "commands.hpp"
 #include "report.hpp"
+#include "report_online.hpp"
 #include "terrain.hpp"
 
 namespace auger::wb {
@@ -153,6 +154,11 @@ int run_report(int argc, char** argv) {
       f.ex = explain({d}, {mc}, o);
       f.have_explain = true;
     }
+    if (!d.online_value.empty()) {
+      step("fit --add paper_params (the offline fit beside augerd's online estimate)");
+      const FitResult r = fit(d, mc, {"paper_params"}, progress, {}, online_held(d));
+      f.offline = r.effects.front().params;
+    }
     f.effect_given = !effect_arg.empty();
     if (f.have_explain && !f.effect_given && !f.ex.effects.empty() && !f.ex.final_models.empty()) {
       std::string names;
@@ -193,6 +199,7 @@ int run_report(int argc, char** argv) {
     std::vector<Section> sections = {summary_section(f, gp, charts), model_section(f, gp, charts), error_section(f, charts)};
     if (f.have_diag) sections.push_back(ranking_section(f, gp));
     if (f.have_explain) sections.push_back(explain_section(f, charts));
+    if (!d.online_value.empty()) sections.push_back(online_section(f, charts));
     if (!f.after_name.empty()) {
       sections.push_back(before_after_section(f, charts));
       sections.push_back(effect_section(f, charts));
@@ -236,6 +243,15 @@ int run_report(int argc, char** argv) {
         j.str("effect_added", f.after_name);
         j.begin_object("after").channels("rms", f.after.segments_err.rms, d.active)
             .channels("ratio_to_noise", f.after.segments_err.ratio_to_noise, d.active).end_object();
+      }
+      if (!d.online_value.empty()) {
+        // The online estimate at the log's end against the offline fit (report_online.hpp).
+        j.begin_array("online");
+        for (const OnlineAgreement& o : online_agreement(d, d.size() - 1, f.offline))
+          j.begin_object().str("name", o.name).str("unit", o.unit).num("online", o.online).num("online_sd", o.online_sd)
+              .num("offline", o.offline).num("offline_sd", o.offline_sd).boolean("held", o.held)
+              .boolean("informed", o.informed).num("z", o.z).end_object();
+        j.end_array();
       }
       j.begin_array("warnings");
       for (const auto& w : f.warnings) j.str(nullptr, w);

@@ -30,6 +30,8 @@ struct Findings {
   std::vector<FittedEffect> after_fitted;
   CompareResult after;                 // compare() of the model after
   std::string next;                    // the command to run next
+  // A log with augerd's on_* columns: `fit --add paper_params`'s parameters (report_online.hpp).
+  std::vector<FitParam> offline;
 };
 
 struct Section {
@@ -44,5 +46,6 @@ Section ranking_section(const Findings& f, Gnuplot& gp);
 Section before_after_section(const Findings& f, ChartSet& charts);
 Section effect_section(const Findings& f, ChartSet& charts);
 Section explain_section(const Findings& f, ChartSet& charts);
+Section online_section(const Findings& f, ChartSet& charts);  // report_online.cpp
 
 }  // namespace auger::wb

@@ -5,19 +5,12 @@
 # This is the path `make demo` takes, short. Usage: e2e_goto.sh BUILD_DIR SOURCE_DIR
 set -euo pipefail
 build=$1 src=$2
-work=$(mktemp -d /tmp/auger-e2e-XXXXXX)
-pids=()
-cleanup() {
-  for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done
-  wait 2>/dev/null || true
-  rm -rf "$work"
-}
-trap cleanup EXIT
-fail() { echo "e2e_goto: $*" >&2; for f in "$work"/*.out; do echo "--- $f" >&2; tail -5 "$f" >&2; done; exit 1; }
-
 AUGER_BUILD=$build AUGER_SRC=$src
 # shellcheck source=../../scripts/sim-robot.sh
 . "$src/scripts/sim-robot.sh"
+sim_work e2e
+fail() { echo "e2e_goto: $*" >&2; for f in "$work"/*.out; do echo "--- $f" >&2; tail -5 "$f" >&2; done; exit 1; }
+
 sim_start "$work" frozen_grass 40 || fail "the simulated robot did not start"
 sim_pid=$SIM_PID
 pids+=($sim_pid)

@@ -172,6 +172,49 @@ TEST_CASE("online: the believed terrain names the closest row or says unknown wi
   CHECK_THAT(s, Catch::Contains("D_psi 9.04 N m/(rad/s)"));
 }
 
+// With the drag held (drag_prior_rel_sd 0.01, as scripts/online-fil.sh and make demo run) the
+// data identify sigma / D per DOF; the name compares those ratios, not D (held at sand's, which
+// is within 15 % of grass's D_x but not of its D_psi: the old rule said "unknown" on grass).
+TEST_CASE("online: with the drag held the believed terrain is named by sigma / D") {
+  Terrains t;
+  OnlineConfig held = on();
+  held.drag_prior_rel_sd = 0.01;
+  OnlineEstimator est(t.sand, held);
+  CHECK(est.estimate().held == (Vec5() << 0, 0, 1, 1, 1).finished());
+  CHECK(std::string(believed_basis(est.estimate())) == "sigma / D (D held)");
+  CHECK(std::string(believed_basis(OnlineEstimator(t.sand, on()).estimate())) == "sigma, D");
+  // At the prior (sigma_long's SD 50 %) both rows fit: not a name given with confidence.
+  CHECK(believed_terrain(est.estimate(), {t.grass.terrain, t.sand.terrain}) ==
+        "undecided, sand or frozen_grass within the estimate's uncertainty");
+
+  // Grass seen through sand's drag: sigma_long carries grass's sigma_long / D_x (0.4 * 560.33 /
+  // 509.81 = 0.440 N/rpm); sigma_lat lightly informed (SD 0.1 N/rpm), so its yaw ratio is loose.
+  OnlineEstimate e = est.estimate();
+  e.value[kSigmaLong] = 0.4 * 560.33 / 509.81;
+  e.sd[kSigmaLong] = 0.01;
+  e.sd[kSigmaLat] = 0.1;
+  CHECK(believed_terrain(e, {t.sand.terrain, t.grass.terrain}) == "frozen_grass");
+  OnlineEstimate not_held = e;
+  not_held.held.setZero();
+  CHECK_THAT(believed_terrain(not_held, {t.sand.terrain, t.grass.terrain}), Catch::StartsWith("unknown"));
+  // A well-informed sigma_lat (sand's) fits both rows' lateral ratio but not grass's yaw ratio
+  // (sigma_lat / D_psi: 0.0216 against 0.0354, 39 % off), and sigma_long not sand's: unknown.
+  e.sd[kSigmaLat] = 0.005;
+  const std::string s = believed_terrain(e, {t.sand.terrain, t.grass.terrain});
+  CHECK_THAT(s, Catch::StartsWith("unknown, sigma_long 0.44 N/rpm, sigma_lat 0.247 N/rpm, D_x 560 N/(m/s) (held)"));
+  CHECK_THAT(s, Catch::EndsWith("D_psi 11.5 N m/(rad/s) (held)"));
+  // Between the rows in sigma_long / D_x: neither.
+  e.sd[kSigmaLat] = 0.1;
+  e.value[kSigmaLong] = 0.62;
+  CHECK_THAT(believed_terrain(e, {t.sand.terrain, t.grass.terrain}), Catch::StartsWith("unknown, sigma_long 0.62"));
+  // Sand's ratio, informed: sand alone.
+  e.value[kSigmaLong] = 0.8;
+  CHECK(believed_terrain(e, {t.sand.terrain, t.grass.terrain}) == "sand");
+  // Nothing estimated names nothing.
+  e.held.setOnes();
+  CHECK_THAT(believed_terrain(e, {t.sand.terrain, t.grass.terrain}), Catch::StartsWith("unknown"));
+}
+
 TEST_CASE("online: set_terrain_parameters gives the model make_model would build") {
   Terrains t;
   Model m = t.sand;

@@ -30,7 +30,8 @@ fail() { echo "ros2_sim ($mode): $*" >&2; for f in "$work"/*.out; do echo "--- $
 export ROS2_DOMAIN=$(( ($$ % 200) + 20 ))
 export CYCLONEDDS_URI=file://$src/tests/ros2/dds-loopback.xml ROS2_DDS_CONFIG=$src/tests/ros2/dds-loopback.xml
 export ROS2_NS=/robot1 ROS2_CMD_VEL=cmd_vel ROS2_CMD_VEL_STAMPED=cmd_vel_stamped ROS2_POSE=/camera/pose \
-  ROS2_POSE_COV=pose_cov ROS2_IMU=imu/data ROS2_ODOM=odom ROS2_JOINTS=joint_states ROS2_LOCAL_PRIORITY_S=1.0
+  ROS2_POSE_COV=pose_cov ROS2_IMU=imu/data ROS2_ODOM=odom ROS2_JOINTS=joint_states ROS2_LOCAL_PRIORITY_S=1.0 \
+  ROS2_ONLINE=online_estimate
 export AUGER=$build/host/auger/auger AUGERD_SOCKET=$work/commands.sock AUGERD_LOG_DIR=$work/logs
 
 AUGER_BUILD=$build AUGER_SRC=$src
@@ -65,6 +66,12 @@ keystore = \"$ROS2_KEYSTORE\""
 else
   ros2+="
 insecure = true"
+fi
+if [[ $mode == sim ]]; then
+  # augerd's online estimator (docs/daemon.md), for its diagnostics entry and estimate topic.
+  ros2+="
+[online]
+enabled = true"
 fi
 AUGERD_SENSORS_SOCKET=$work/augerd-sensors.sock augerd_start "$work" frozen_grass "" "" "$ros2" ||
   fail "augerd did not start"

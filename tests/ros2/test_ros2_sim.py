@@ -29,6 +29,7 @@ TOPICS = {  # ROS name -> ROS type, as ros2_sim.sh configured augerd
         ENV["ROS2_JOINTS"]: "sensor_msgs/msg/JointState",
         "/diagnostics": "diagnostic_msgs/msg/DiagnosticArray",
         "/tf": "tf2_msgs/msg/TFMessage",
+        ENV["ROS2_ONLINE"]: "std_msgs/msg/Float64MultiArray",  # [online] enabled by ros2_sim.sh
     },
     "in": {
         ENV["ROS2_CMD_VEL"]: "geometry_msgs/msg/Twist",
@@ -218,7 +219,7 @@ def test_outputs_at_rest(dds):
 
     d = diag[-1]
     names = [s.name for s in d.status]
-    assert names == [f"augerd: module {i} ({w})" for i, w in enumerate(["front-right", "rear-right", "rear-left", "front-left"])] + ["augerd: controller"]
+    assert names == [f"augerd: module {i} ({w})" for i, w in enumerate(["front-right", "rear-right", "rear-left", "front-left"])] + ["augerd: controller", "augerd: online estimator"]
     for i, s in enumerate(d.status[:4]):
         kv = {x.key: x.value for x in s.values}
         assert f"module{i}" in s.hardware_id and "firmware" in s.hardware_id
@@ -434,3 +435,50 @@ def test_local_commands_before_network_cmd_vel(dds):
     assert status()["mode"] == "vel"
     assert events().count(network) == n0 + 2
     command("stop")
+
+
+def test_online_estimator_visible(dds):
+    """docs/ros2.md "Online estimate": with [online] enabled, /diagnostics carries the online
+    estimator's state (OK, the believed terrain, the estimate with SDs and units, the detector)
+    and online_estimate (std_msgs/Float64MultiArray, 10 Hz) the five parameters' values and SDs
+    in its documented layout; both say what augerd's `status all` says, at rest (the estimate
+    then does not move: standing still informs nothing)."""
+    _, col, _ = dds
+    command("stop")
+    time.sleep(1.5)
+    t = time.time()
+    while True:
+        d = col.latest("DiagnosticArray")
+        if stamp_s(d.header) > t:
+            break
+    n0 = len(col.got["Float64MultiArray"])
+    time.sleep(2.0)
+    arrays = col.got["Float64MultiArray"][n0:]
+    st = status()
+    e = d.status[5]
+    assert e.name == "augerd: online estimator" and e.hardware_id == "augerd"
+    assert e.level == 0 and st["on_fallback"] == "0", (e.level, e.message)
+    kv = {x.key: x.value for x in e.values}
+    assert e.message == "ground believed: " + kv["believed_terrain"]
+    assert kv["believed_terrain"].split(",")[0] == st["online_terrain"], (kv, st["online_terrain"])
+    assert kv["believed_by"] == "sigma, D"  # the drag estimated too (drag_prior_rel_sd default)
+    assert kv["fallback"] == "none" and int(kv["changes"]) == int(st["on_changes"])
+    names = ["sigma_long", "sigma_lat", "D_x", "D_y", "D_psi"]
+    units = ["N/rpm", "N/rpm", "N/(m/s)", "N/(m/s)", "N m/(rad/s)"]
+    for k, u in zip(names, units):
+        value, unit = kv[k].split(" ", 1)
+        sd, sd_unit = kv[k + "_sd"].split(" ", 1)
+        assert unit == sd_unit == u, (k, kv[k], kv[k + "_sd"])
+        assert math.isclose(float(value), float(st["on_" + k]), rel_tol=2e-3), (k, value, st["on_" + k])
+        assert math.isclose(float(sd), float(st["on_sd_" + k]), rel_tol=0.06), (k, sd, st["on_sd_" + k])
+
+    # The topic: about 10 Hz, 5 x (value, SD) row-major, as the layout says.
+    assert 15 <= len(arrays) <= 25, len(arrays)
+    a = arrays[-1][1]
+    dims = [(x.label, x.size, x.stride) for x in a.layout.dim]
+    assert dims == [("parameter", 5, 10), ("value_sd", 2, 2)] and a.layout.data_offset == 0, dims
+    assert len(a.data) == 10
+    for i, k in enumerate(names):
+        assert math.isclose(a.data[2 * i], float(st["on_" + k]), rel_tol=1e-3), (k, a.data[2 * i], st["on_" + k])
+        assert math.isclose(a.data[2 * i + 1], float(st["on_sd_" + k]), rel_tol=0.06), (k, a.data[2 * i + 1])
+        assert a.data[2 * i + 1] > 0

@@ -12,6 +12,7 @@
 
 #include "config.hpp"
 #include "convert.hpp"
+#include "diagnostics.hpp"
 #include "ros2.hpp"
 #include "ros2_keys.hpp"
 
@@ -113,6 +114,8 @@ TEST_CASE("the [ros2] configuration section", "[ros2][unit]") {
     CHECK_FALSE(c.ros2.enabled);  // off unless asked for
     CHECK(c.ros2.cmd_vel_topic == "cmd_vel");
     CHECK(c.ros2.odom_rate_hz == 50);
+    CHECK(c.ros2.online_topic == "online_estimate");
+    CHECK(c.ros2.online_rate_hz == 10);
     unlink(p.c_str());
   }
   {
@@ -120,7 +123,8 @@ TEST_CASE("the [ros2] configuration section", "[ros2][unit]") {
                                     "[ros2]\nenabled = false\ndomain_id = 42\nnamespace = \"/robot1\"\n"
                                     "cmd_vel_topic = \"/cmd_vel_keyboard\"\nimu_topic = \"bno080_imu\"\n"
                                     "pose_std = [0.01, 0.02, 0.03]\ntf = false\ndds_config = \"dds.xml\"\n"
-                                    "joint_names = [\"a\", \"b\", \"c\", \"d\"]\nodom_rate_hz = 20\n");
+                                    "joint_names = [\"a\", \"b\", \"c\", \"d\"]\nodom_rate_hz = 20\n"
+                                    "online_topic = \"terrain\"\nonline_rate_hz = 5\n");
     const augerd::DaemonConfig c = augerd::load_daemon_config(p);
     CHECK(c.ros2.domain_id == 42);
     CHECK(c.ros2.ns == "/robot1");
@@ -131,6 +135,8 @@ TEST_CASE("the [ros2] configuration section", "[ros2][unit]") {
     CHECK(c.ros2.dds_config == "/tmp/dds.xml");  // relative to the file
     CHECK(c.ros2.joint_names[3] == "d");
     CHECK(c.ros2.odom_rate_hz == 20);
+    CHECK(c.ros2.online_topic == "terrain");
+    CHECK(c.ros2.online_rate_hz == 5);
     unlink(p.c_str());
   }
   struct Bad {
@@ -145,6 +151,8 @@ TEST_CASE("the [ros2] configuration section", "[ros2][unit]") {
                        Bad{"[ros2]\nodom_frame = \"base_link\"\n", "must differ"},
                        Bad{"[ros2]\nbase_frame = \"base link\"\n", "space"},
                        Bad{"[ros2]\nodom_rate_hz = 200\n", "outside 0..100"},
+                       Bad{"[ros2]\nonline_rate_hz = 200\n", ":" + std::to_string(l + 1) + ":18: 'online_rate_hz' = 200 is outside 0..100"},
+                       Bad{"[ros2]\nonline_topic = \"on line\"\n", ":" + std::to_string(l + 1) + ":16: ROS 2 name 'on line' has the character ' '"},
                        Bad{"[ros2]\nenabled = 1\n", "true or false"},
                        // The sensors socket's bounds (input_limits.hpp): 20 rad would refuse every pose.
                        Bad{"[ros2]\npose_std = [0.01, 0.01, 20]\n", "pose_std[2] = 20 rad is outside 1e-06..10 rad"},
@@ -279,7 +287,7 @@ TEST_CASE("the keystore's permissions: augerd's topics, nothing else", "[ros2][u
   s.pose_topic = "/camera/pose";
   s.joint_states_rate_hz = 0;  // not published: not allowed
   CHECK(input_topics(s) == std::vector<std::string>{"/robot1/cmd_vel", "/camera/pose"});
-  CHECK(output_topics(s) == std::vector<std::string>{"/robot1/odom", "/tf", "/diagnostics"});
+  CHECK(output_topics(s) == std::vector<std::string>{"/robot1/odom", "/tf", "/diagnostics", "/robot1/online_estimate"});
   const std::string x = auger::ros2_keys::permissions_xml("augerd", "CN=augerd", 5, {"rt/robot1/odom"},
                                                           {"rt/robot1/cmd_vel"}, 0, 86400);
   CHECK(x.find("<subject_name>CN=augerd</subject_name>") != std::string::npos);
@@ -298,4 +306,62 @@ TEST_CASE("the keystore's permissions: augerd's topics, nothing else", "[ros2][u
   // A name goes into a certificate subject (/CN=NAME): nothing that adds a field or an option.
   CHECK(auger::ros2_keys::check_name("operator_1").empty());
   for (const char* bad : {"", "a/b", "CN=x", "-x", "1a", "a b", "ä"}) CHECK_FALSE(auger::ros2_keys::check_name(bad).empty());
+}
+
+// The diagnostics as a subscriber reads them (diagnostics.hpp): the modules', the controller's and,
+// with [online], the online estimator's, WARN while its fallback is latched; the estimate topic's
+// data in its documented layout.
+TEST_CASE("the /diagnostics entries and the online estimate's data", "[ros2][unit]") {
+  Snapshot s;
+  s.module[2].answering = true;
+  s.module[2].status = 0x0001;
+  s.module[2].pwm = 0.25;
+  std::vector<DiagnosticEntry> d = diagnostics(s, 0);
+  REQUIRE(d.size() == 5);  // without [online]: no estimator entry
+  CHECK(d[4].name == "augerd: controller");
+  const auto value = [](const DiagnosticEntry& e, const std::string& key) {
+    for (const auto& [k, v] : e.kv)
+      if (k == key) return v;
+    FAIL("no key " << key << " in " << e.name);
+    return std::string();
+  };
+  CHECK(d[0].level == 3);  // not answering: STALE
+  CHECK(value(d[2], "status") == "0x0001");  // the status word, not the pwm formatted after it
+  CHECK(value(d[2], "pwm") == "0.2500");
+
+  OnlineSnapshot& o = s.online;
+  o.enabled = true;
+  const double v[5] = {0.4396, 0.247, 560.33, 320.08, 11.46}, sd[5] = {0.012, 0.1, 5.6, 3.2, 0.11};
+  for (int k = 0; k < 5; ++k) o.value[k] = v[k], o.sd[k] = sd[k], o.held[k] = k >= 2;
+  o.cusum = 3.5, o.cusum_threshold = 40, o.changes = 2;
+  std::snprintf(o.believed.data(), o.believed.size(), "frozen_grass");
+  std::snprintf(o.basis.data(), o.basis.size(), "sigma / D (D held)");
+  d = diagnostics(s, 0);
+  REQUIRE(d.size() == 6);
+  const DiagnosticEntry& e = d[5];
+  CHECK(e.name == "augerd: online estimator");
+  CHECK(e.level == 0);
+  CHECK(e.message == "ground believed: frozen_grass");
+  CHECK(value(e, "believed_terrain") == "frozen_grass");
+  CHECK(value(e, "believed_by") == "sigma / D (D held)");
+  CHECK(value(e, "sigma_long") == "0.4396 N/rpm");
+  CHECK(value(e, "sigma_long_sd") == "0.012 N/rpm");
+  CHECK(value(e, "D_x") == "560.3 N/(m/s) (held)");
+  CHECK(value(e, "D_psi_sd") == "0.11 N m/(rad/s)");
+  CHECK(value(e, "cusum") == "3.5");
+  CHECK(value(e, "cusum_threshold") == "40");
+  CHECK(value(e, "changes") == "2");
+  CHECK(value(e, "fallback") == "none");
+  std::snprintf(o.fallback.data(), o.fallback.size(), "a parameter stayed at its physical bound");
+  d = diagnostics(s, 0);
+  CHECK(d[5].level == 1);  // WARN, never ERROR: the robot drives on with the configured terrain
+  CHECK(d[5].message == "fallback to the configured terrain (a parameter stayed at its physical bound)");
+  CHECK(value(d[5], "fallback") == "a parameter stayed at its physical bound");
+
+  double data[kOnlineParams * kOnlineColumns];
+  online_estimate_data(o, data);
+  for (int k = 0; k < 5; ++k) {
+    CHECK(data[2 * k] == v[k]);
+    CHECK(data[2 * k + 1] == sd[k]);
+  }
 }

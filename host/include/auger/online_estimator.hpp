@@ -42,7 +42,12 @@ using Mat5 = Eigen::Matrix<double, 5, 5>;
 
 // Order of the parameter vector.
 enum OnlineParam { kSigmaLong = 0, kSigmaLat = 1, kDx = 2, kDy = 3, kDpsi = 4 };
-const char* online_param_name(int k);
+// The regression's row of DOF j (x, y, yaw) holds this sigma and D (eq. (7): S = diag(sigma_long,
+// sigma_lat, sigma_lat)).
+inline int online_sigma_of_dof(int j) { return j == 0 ? kSigmaLong : kSigmaLat; }
+inline int online_drag_of_dof(int j) { return kDx + j; }
+const char* online_param_name(int k);  // "sigma_long", ...
+const char* online_param_unit(int k);  // "N/rpm", "N/(m/s)", "N m/(rad/s)"
 
 struct OnlineConfig {
   bool enabled = false;  // augerd's `[online] enabled` (off: augerd as before, docs/daemon.md)
@@ -92,7 +97,11 @@ struct OnlineEstimate {
   Vec5 value = Vec5::Zero();   // sigma_long, sigma_lat (N/rpm), D_x, D_y (N/(m/s)), D_psi (N m/(rad/s))
   Vec5 sd = Vec5::Zero();      // their standard deviations (same units)
   Vec5 informed = Vec5::Zero();  // 1 where the data have informed the parameter since the last restart
+  // 1 where the parameter is held at its configured value (prior SD at most kHeldRelSd of it, e.g.
+  // drag_prior_rel_sd = 0.01): the data then identify only the ratio sigma / D of its DOF.
+  Vec5 held = Vec5::Zero();
 };
+constexpr double kHeldRelSd = 0.05;
 
 class OnlineEstimator {
  public:
@@ -165,11 +174,18 @@ class OnlineEstimator {
   std::string fallback_;
 };
 
-// The terrain the estimate is closest to: the name of a row of `terrains` whose every parameter
-// lies within max(3 SD, 15 %) of the estimate (the closest by the largest relative difference),
-// else "unknown, sigma_long 0.41 N/rpm, sigma_lat ..., D_x ..., D_y ..., D_psi ...".
-// Not for the 100 Hz path (builds a string).
+// The terrain the estimate is closest to: the name of the one row of `terrains` whose every
+// compared quantity lies within max(3 SD, 15 %) of the estimate's; "undecided, sand or
+// frozen_grass within the estimate's uncertainty" when several do (the closest first, by the
+// largest difference in units of that tolerance); else "unknown, sigma_long 0.41 N/rpm,
+// sigma_lat ..., D_x ... (held), ...". The first word (up to a comma) is the one-token name.
+// Compared: each estimated parameter; where a DOF's drag is held, the ratio sigma / D of that DOF
+// instead (eq. (6): the steady speed per rpm, which is what the data then identify), x with
+// sigma_long / D_x, y with sigma_lat / D_y, yaw with sigma_lat / D_psi (the yaw row of the
+// regression). Nothing estimated: "unknown". Not for the 100 Hz path (builds a string).
 std::string believed_terrain(const OnlineEstimate& estimate, const std::vector<TerrainParams>& terrains);
+// What believed_terrain compares: "sigma, D" or "sigma / D (D held)" (status, events, diagnostics).
+const char* believed_basis(const OnlineEstimate& estimate);
 
 // Sets a model's terrain parameters in place (S, S B, (S B)^+, D of eqs. (6), (7), (22)) without
 // allocating; the effects and the mass stay. Throws std::invalid_argument on non-physical values.
