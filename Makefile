@@ -124,7 +124,8 @@ test: deps check-protocol host venv asan fuzz-smoke board
 	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) ctest --output-on-failure -LE long -j $(JOBS)
 
 # Longer suites (docs/benchmarks.md has their times): the tests labelled `long` (flash-all into
-# four simulated modules; auger report --explain in headless Chromium with a screenshot), the
+# four simulated modules; auger report --explain in headless Chromium with a screenshot; augerd's
+# online estimate against the offline fit of its own log), the
 # parser fuzzer for 5 million inputs, the sand diagonal with the firmware in the loop across the
 # blocking thresholds, augerd's load test for a minute (docs/daemon.md "Limits and abuse"), the
 # hidden-effect suite with 10 seeds per effect, at least 9 must pass, and the explain suite:
