@@ -113,12 +113,10 @@ double OnlineEstimator::update_row(int j, const Vec5& phi, double y, bool adapt)
       P_.col(k) *= c;
     }
   }
-  // The detector's noise scale follows the innovations slowly, while no change is pending: the
-  // model's small steady mismatches are noise to it, a change is not.
   // The detector's statistic: the innovation whitened by its learned lag-1 correlation rho
   // (an AR(1) model of the colour: w = e_k - rho e_(k-1), variance (1 - rho^2) of e's), in units
-  // of its learned variance. On the core's model (white velocity noise) rho stays near 0 and
-  // this is the plain NIS.
+  // of its learned variance, never below the variance the regression predicts (r + s). On the
+  // core's model (white velocity noise) rho stays near 0 and this is the plain NIS.
   double stat = nis;
   if (cfg_.whiten && e_var_[j] > 0) {
     const double rho = std::clamp(e_cov1_[j] / e_var_[j], 0.0, 0.95);
@@ -130,6 +128,9 @@ double OnlineEstimator::update_row(int j, const Vec5& phi, double y, bool adapt)
       stat = w * w / (var * (1 - rho * rho));
     }
   }
+  // The detector's noise scale, and the whitening's variance and lag-1 covariance, follow the
+  // innovations slowly, while no change is pending: the model's small steady mismatches and the
+  // velocity's colour are noise to it, a change is not.
   if (adapt) {
     const double a = cfg_.window_s / cfg_.noise_adapt_s;
     noise_var_[j] = std::clamp((1 - a) * noise_var_[j] + a * std::max(0.0, e * e - s), 0.05 * noise_var0_[j],

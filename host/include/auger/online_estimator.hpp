@@ -57,8 +57,9 @@ struct OnlineConfig {
   // A window in which any screw turned slower than this (rpm) is left out: a slow screw blocks in
   // sand (the library's screw_blocking effect: up to 36 N of dry resistance at its contact, fully
   // from 1.2 rpm, fading out by 1.8 rpm), which eqs. (6)-(7) lack. Measured on the firmware-in-the-
-  // loop chain with the true velocity: sigma_long on uniform sand came out 0.52-0.61 for 0.812
-  // N/rpm with every window in (exact, 0.400, on frozen grass, which does not block). 0: all in.
+  // loop chain with the true velocity: sigma_long on uniform sand came out 0.51-0.64 for 0.812
+  // N/rpm with every window in, 0.806-0.809 with 2 rpm (exact, 0.400, on frozen grass, which does
+  // not block either way; docs/benchmarks.md). 0: all in (the core's model has no blocking).
   double slow_screw_rpm = 0.0;
   // A DOF's equation updates only when the generalized force it predicts (either term) is at
   // least this many noise SDs: standing still or one-DOF driving leaves the other DOFs' parameters
@@ -75,7 +76,7 @@ struct OnlineConfig {
   // CUSUM on the normalised innovation (OnlineEstimator::step): the per-DOF log-likelihood ratio
   // of an innovation variance cusum_ratio times the model's, summed, alarm above the threshold.
   double cusum_ratio = 4.0;
-  double cusum_threshold = 16.0;  // docs/benchmarks.md: no false alarm in 20 h, median delay 0.15-0.2 s
+  double cusum_threshold = 16.0;  // docs/benchmarks.md: 1-2 false alarms in 20 h, median delay 0.16-0.23 s
   // The detector prewhitens each DOF's innovation with its lag-1 correlation, learned on quiet
   // stretches as the noise scale is: the innovation of the firmware-in-the-loop chain is coloured
   // (lag 1 window: 0.8 in surge), and a CUSUM of coloured squares raises false alarms
