@@ -17,6 +17,7 @@
 #   make bench-host       instructions and time per host controller step (callgrind)
 #   make bench-online     the online estimator's cost per cycle (x86, aarch64 under qemu) and its
 #                         change detector's delay / false-alarm curve (docs/benchmarks.md)
+#   make bench-online-fil the same detector on hours of firmware-in-the-loop logs (~15 min)
 #   make bench-robot      speed of the whole simulated robot in lock-step
 #   make bench-ros2       what augerd's ROS 2 interface costs its 100 Hz loop, under load
 #   make bench-explain    auger explain on 240 s and 10 min logs (wall and CPU seconds)
@@ -40,7 +41,7 @@ AVR_CFLAGS := -mmcu=atmega328p -DF_CPU=16000000UL -std=c99 -Os -Wall -Wextra -We
 HOST_WARN := -Wall -Wextra -Werror -pedantic
 
 .PHONY: all deps firmware flash host asan check-protocol fuzz fuzz-smoke test test-full demo \
-        bench-protocol bench-firmware bench-host bench-online bench-robot bench-ros2 bench-explain bench-import pid-units \
+        bench-protocol bench-firmware bench-host bench-online bench-online-fil bench-robot bench-ros2 bench-explain bench-import pid-units \
         clean venv \
         board board-deps board-test install uninstall flash-all bench-board
 
@@ -163,6 +164,9 @@ bench-host: host
 
 bench-online: host
 	scripts/bench-online.sh $(BUILD) 200 10
+
+bench-online-fil: host
+	scripts/bench-online-fil.sh $(BUILD)
 
 bench-robot: host
 	$(BUILD)/bench/robot_speed 20 2

@@ -34,10 +34,11 @@ fi
 
 if command -v qemu-aarch64 >/dev/null && command -v aarch64-linux-gnu-g++ >/dev/null; then
   # The core's sources and the bench, as the board build compiles them (Release: -O3 -DNDEBUG).
+  # (zstd: the core's MCAP writer compresses its chunks.)
   aarch64-linux-gnu-g++ -std=c++17 -O3 -DNDEBUG -mcpu=cortex-a53 -ffp-contract=off -Wall -Wextra -Werror \
     -I"$src/host/include" -I"$src/bench" -isystem /usr/include/eigen3 -isystem /usr/include \
     -DAUGER_MODELS_DIR="\"$src/models\"" -DAUGER_VERSION="\"bench\"" \
-    "$src/bench/online_bench.cpp" "$src"/host/src/*.cpp "$src"/host/src/effects/*.cpp -o "$tmp/online_bench_a64"
+    "$src/bench/online_bench.cpp" "$src"/host/src/*.cpp "$src"/host/src/effects/*.cpp -lzstd -o "$tmp/online_bench_a64"
   # Instructions of a run: each executed block times its size (blocks are logged translated once).
   a64() {
     rm -f "$tmp/fifo"; mkfifo "$tmp/fifo"

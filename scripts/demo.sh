@@ -142,7 +142,8 @@ apply = $4
 velocity = \"kinematic\"
 velocity_sd = [0.012, 0.012, 0.01]
 drag_prior_rel_sd = 0.01
-cusum_threshold = 40"
+slow_screw_rpm = 2
+cusum_threshold = 16"
 }
 echo
 echo "== across a field: sand with a band of frozen grass ($field), augerd configured for sand,"
@@ -163,8 +164,8 @@ echo
 echo "Tracking error across the field, the controller's terrain fixed (sand) and adapted online:"
 "$track" field-square-fixed/logs/*.csv field-square-adapt/logs/*.csv field-diagonal-fixed/logs/*.csv \
   field-diagonal-adapt/logs/*.csv
-echo "[online] and its apply are off by default: on uniform sand the diagonal tracks worse with apply on,"
-echo "and the detector misses most changes and alarms on uniform ground (docs/daemon.md \"Online identification\")."
+echo "[online] and its apply are off by default: the detector misses most changes (the camera's velocity is"
+echo "too noisy at these speeds; docs/benchmarks.md \"On firmware-in-the-loop logs\")."
 echo
 echo "augerd wrote MCAP beside each CSV log ([log] mcap = true): open $work/${sand_log%.csv}.mcap"
 echo "in Foxglove or PlotJuggler (docs/formats.md)."

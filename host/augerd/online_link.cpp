@@ -22,7 +22,9 @@ void Daemon::online_step(const std::array<auger::ScrewTelemetry, 4>& tel) {
   // alone (this cycle's sensors), which owes nothing to the configured terrain; none before the
   // first camera pose.
   const auger::Vec3 zeta = cfg_.online_kinematic ? online_kin_.step(sensors_in_, loop_dt_s_) : controller_->zeta_estimate();
-  online_change_ = zeta.allFinite() && online_->step(omega_rpm, zeta, loop_dt_s_);
+  // A non-finite velocity (before the first camera pose, in a camera dropout) breaks the
+  // estimator's window: it must see the cycle, not miss it.
+  online_change_ = online_->step(omega_rpm, zeta, loop_dt_s_);
   if (online_change_) {
     char what[200];
     std::snprintf(what, sizeof what,

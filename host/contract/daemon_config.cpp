@@ -208,6 +208,7 @@ void read_online(const Reader& r, const toml::table& t, DaemonConfig& c) {
           {"apply_rel_sd", [&](const toml::node& v) { o.apply_rel_sd = r.number(v, "apply_rel_sd", 0.001, 1); }},
           {"drag_prior_rel_sd",
            [&](const toml::node& v) { o.drag_prior_rel_sd = r.number(v, "drag_prior_rel_sd", 1e-4, 10); }},
+          {"slow_screw_rpm", [&](const toml::node& v) { o.slow_screw_rpm = r.number(v, "slow_screw_rpm", 0, 50); }},
           {"velocity", [&](const toml::node& v) {
              const std::string s = r.text(v, "velocity");
              if (s != "ekf" && s != "kinematic") r.fail(v, "velocity must be \"ekf\" or \"kinematic\", not \"" + s + "\"");

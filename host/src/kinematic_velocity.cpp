@@ -57,6 +57,9 @@ const Vec3& KinematicVelocity::step(const SensorInput& sensors, double dt_s) {
     update(sx_, Px_, sensors.pose.x(), sensors.pose_cov(0, 0));
     update(sy_, Py_, sensors.pose.y(), sensors.pose_cov(1, 1));
     have_pose_ = true;
+    pose_age_s_ = 0;
+  } else {
+    pose_age_s_ += dt_s;
   }
   // Heading measurements (H = [1 0], on the circle) and the rate (H = [0 1]).
   auto heading = [this](double z, double r) {
@@ -73,10 +76,12 @@ const Vec3& KinematicVelocity::step(const SensorInput& sensors, double dt_s) {
     sp_ += K * (sensors.imu_r_radps - sp_(1));
     Pp_ -= K * Pp_.row(1);
   }
-  if (have_pose_) {
+  if (have_pose_ && pose_age_s_ <= cfg_.max_pose_age_s + 1e-9) {
     // eq. (1) turned back: body = R(psi)^T world.
     const double c = std::cos(sp_(0)), s = std::sin(sp_(0));
     zeta_ << c * sx_(1) + s * sy_(1), -s * sx_(1) + c * sy_(1), sp_(1);
+  } else {
+    zeta_.setConstant(NAN);
   }
   return zeta_;
 }

@@ -52,6 +52,9 @@ void OnlineEstimator::reset() {
   applied_ = ref_;
   applied_changed_ = false;
   noise_var_ = noise_var0_;
+  e_prev_.setConstant(NAN);
+  e_var_.setZero();
+  e_cov1_.setZero();
   have_prev_ = false;
   g_ = nis_ = 0;
   rows_ = 0;
@@ -92,6 +95,8 @@ double OnlineEstimator::update_row(int j, const Vec5& phi, double y, bool adapt)
   Vec5 Pphi = P_ * phi;
   double s = phi.dot(Pphi);
   const double nis = e * e / (r + s);
+  innov_[j] = e;
+  innov_s_[j] = s;
   if (s > 1e-12 * r) {
     const double lambda = std::exp(-cfg_.window_s / cfg_.memory_s);
     P_ += ((1.0 - lambda) / (lambda * s)) * (Pphi * Pphi.transpose());
@@ -110,14 +115,33 @@ double OnlineEstimator::update_row(int j, const Vec5& phi, double y, bool adapt)
       P_.col(k) *= c;
     }
   }
-  // The detector's noise scale follows the innovations slowly, while no change is pending: the
-  // model's small steady mismatches are noise to it, a change is not.
+  // The detector's statistic: the innovation whitened by its learned lag-1 correlation rho
+  // (an AR(1) model of the colour: w = e_k - rho e_(k-1), variance (1 - rho^2) of e's), in units
+  // of its learned variance, never below the variance the regression predicts (r + s). On the
+  // core's model (white velocity noise) rho stays near 0 and this is the plain NIS.
+  double stat = nis;
+  if (cfg_.whiten && e_var_[j] > 0) {
+    const double rho = std::clamp(e_cov1_[j] / e_var_[j], 0.0, 0.95);
+    const double var = std::max(e_var_[j], r + s);
+    if (std::isnan(e_prev_[j])) {
+      stat = e * e / var;
+    } else {
+      const double w = e - rho * e_prev_[j];
+      stat = w * w / (var * (1 - rho * rho));
+    }
+  }
+  // The detector's noise scale, and the whitening's variance and lag-1 covariance, follow the
+  // innovations slowly, while no change is pending: the model's small steady mismatches and the
+  // velocity's colour are noise to it, a change is not.
   if (adapt) {
     const double a = cfg_.window_s / cfg_.noise_adapt_s;
     noise_var_[j] = std::clamp((1 - a) * noise_var_[j] + a * std::max(0.0, e * e - s), 0.05 * noise_var0_[j],
                                100.0 * noise_var0_[j]);
+    e_var_[j] = e_var_[j] > 0 ? (1 - a) * e_var_[j] + a * e * e : r + s;
+    if (!std::isnan(e_prev_[j])) e_cov1_[j] = (1 - a) * e_cov1_[j] + a * e * e_prev_[j];
   }
-  return std::min(nis, kNisClip);
+  e_prev_[j] = e;
+  return std::min(stat, kNisClip);
 }
 
 bool OnlineEstimator::step(const Vec4& omega_rpm, const Vec3& zeta, double dt_s) {
@@ -125,6 +149,7 @@ bool OnlineEstimator::step(const Vec4& omega_rpm, const Vec3& zeta, double dt_s)
   // A stalled loop or a non-finite input breaks the window: its integral would be wrong.
   if (!(dt_s > 0) || dt_s > 5 * cfg_.window_s || !omega_rpm.allFinite() || !zeta.allFinite()) {
     have_prev_ = false;
+    e_prev_.setConstant(NAN);  // the next window's innovation does not follow this one's
     return false;
   }
   t_s_ += dt_s;
@@ -133,9 +158,11 @@ bool OnlineEstimator::step(const Vec4& omega_rpm, const Vec3& zeta, double dt_s)
     f_sum_.setZero();
     z_sum_.setZero();
     w_s_ = 0;
+    slow_ = false;
     have_prev_ = true;
     return false;
   }
+  slow_ = slow_ || omega_rpm.cwiseAbs().minCoeff() < cfg_.slow_screw_rpm;
   f_sum_ += (B_ * omega_rpm) * dt_s;            // eq. (7) without S: (B omega) held over the cycle
   z_sum_ += 0.5 * (zeta_prev_ + zeta) * dt_s;  // trapezoid
   zeta_prev_ = zeta;
@@ -147,6 +174,7 @@ bool OnlineEstimator::step(const Vec4& omega_rpm, const Vec3& zeta, double dt_s)
   f_sum_.setZero();
   z_sum_.setZero();
   w_s_ = 0;
+  slow_ = false;
   return changes_ != before;
 }
 
@@ -159,14 +187,20 @@ void OnlineEstimator::end_window() {
   double llr = 0;
   rows_ = 0;
   nis_ = 0;
+  innov_.setConstant(NAN);
+  ++windows_;
   for (int j = 0; j < 3; ++j) {
     const int si = online_sigma_of_dof(j), di = online_drag_of_dof(j);
     Vec5 phi = Vec5::Zero();
     phi[si] = ref_[si] * fbar[j];
     phi[di] = -ref_[di] * zbar[j];
-    // Excitation: a DOF whose drive force and drag are both within the noise says nothing.
+    // Excitation: a DOF whose drive force and drag are both within the noise says nothing; a
+    // window with a slow (blocking) screw is outside eqs. (6)-(7).
     const double level = cfg_.excitation_sd * std::sqrt(noise_var_[j]);
-    if (std::max(std::fabs(phi[si] * theta_[si]), std::fabs(phi[di] * theta_[di])) < level) continue;
+    if (slow_ || std::max(std::fabs(phi[si] * theta_[si]), std::fabs(phi[di] * theta_[di])) < level) {
+      e_prev_[j] = NAN;
+      continue;
+    }
     const double nis = update_row(j, phi, y[j], adapt);
     nis_ += nis;
     ++rows_;

@@ -15,7 +15,9 @@
 #include <string>
 
 #include "auger/args.hpp"
+#include "auger/kinematic_velocity.hpp"
 #include "auger/model_file.hpp"
+#include "auger/online_estimator.hpp"
 #include "daemon_log.hpp"
 #include "scheduler.hpp"
 
@@ -44,7 +46,10 @@ const auger::CommandLine kCli{
      {"--truth-out", "FILE", "write the true pose and the ground under the robot there"},
      {"--course-out", "FILE", "write the course as augerd's follow file (t_s,x_m,y_m,psi_rad); alone: nothing else"},
      {"--camera-corr-s", "S", "correlation time of the camera's noise (default 0.3 s)"},
-     {"--camera-latency-s", "S", "the camera's capture-to-delivery latency (default 0.03 s)"}},
+     {"--camera-latency-s", "S", "the camera's capture-to-delivery latency (default 0.03 s)"},
+     {"--online-apply", "", "the controller takes the online estimate, as augerd's [online] apply = true with\n"
+                            "the settings of scripts/online-fil.sh (kinematic velocity, drag held, slow_screw_rpm 2)"},
+     {"--online-slow-screw-rpm", "X", "with --online-apply: [online] slow_screw_rpm (default 2)"}},
     "Exit 2: bad usage.\n"};
 
 void usage(std::FILE* f) { kCli.print_usage(f); }
@@ -131,6 +136,8 @@ int main(int argc, char** argv) {
   std::string model_path = AUGER_DEFAULT_MODEL, elf = AUGER_DEFAULT_ELF;
   double seconds = 240, blocking_rpm = -1, course_m = 0.5;
   std::uint64_t seed = 1;
+  bool online_apply = false;
+  double online_slow_rpm = 2.0;
   int threads = 1;  // one thread is faster here: the modules and the robot exchange every 1 ms
   sim::CameraParams camera;
   Args args;
@@ -158,6 +165,8 @@ int main(int argc, char** argv) {
     else if (a == "--threads") threads = static_cast<int>(number("--threads", val()));
     else if (a == "--camera-corr-s") camera.noise_corr_s = number("--camera-corr-s", val());
     else if (a == "--camera-latency-s") camera.latency_s = number("--camera-latency-s", val());
+    else if (a == "--online-apply") online_apply = true;
+    else if (a == "--online-slow-screw-rpm") online_slow_rpm = number("--online-slow-screw-rpm", val());
   }
   if ((out_path.empty() && course_path.empty()) || (drive == "manual" && !course_path.empty()) || !(seconds > 0) || !(course_m > 0) || (drive != "square" && drive != "diagonal" && drive != "manual") ||
       (screws != "fil" && screws != "ideal") || threads < 1) {
@@ -170,7 +179,7 @@ int main(int argc, char** argv) {
     std::shared_ptr<const sim::Field> field;
     if (!field_path.empty()) field = sim::load_field_for_run(field_path, file, blocking_rpm, terrain);
     if (terrain.empty()) terrain = "sand";
-    const Model m = build_model(file, terrain);
+    Model m = build_model(file, terrain);  // with --online-apply the controller's, updated in place
     if (!course_path.empty()) {
       // The same course for augerd (`auger cmd follow`, scripts/demo.sh): held at the start
       // until the first waypoint.
@@ -241,6 +250,33 @@ int main(int argc, char** argv) {
         truth->write_row(row.data(), row.size());
       });
     }
+    // augerd's [online] with apply (host/augerd/online_link.cpp), in lock-step: the kinematic
+    // velocity from this period's camera and IMU, the screw speeds (the true ones; augerd has the
+    // modules' measured), the identified terrain written into the controller's model.
+    std::unique_ptr<OnlineEstimator> online;
+    KinematicVelocity kin;
+    if (online_apply) {
+      OnlineConfig oc;
+      oc.enabled = true;
+      oc.velocity_sd = Vec3(0.012, 0.012, 0.01);
+      oc.drag_prior_rel_sd = 0.01;
+      oc.slow_screw_rpm = online_slow_rpm;
+      oc.cusum_threshold = 16;
+      online = std::make_unique<OnlineEstimator>(m, oc);
+      s.set_sensor_sink([&](double, const sim::ImuReading* imu, const sim::PoseReading* pose) {
+        SensorInput in;
+        in.has_imu_psi = in.has_imu_r = true;
+        in.imu_psi_rad = imu->psi_rad;
+        in.imu_r_radps = imu->r_radps;
+        if (pose) {
+          in.has_pose = true;
+          in.pose = pose->pose;
+          in.pose_cov = pose->std_dev.cwiseProduct(pose->std_dev).asDiagonal();
+        }
+        online->step(s.omega_true_rpm(), kin.step(in, sc.control_period_s), sc.control_period_s);
+        if (online->applied_changed()) set_terrain_parameters(m, online->control_parameters());
+      });
+    }
     const double boot_s = 0.1;
     if (drive == "manual") {
       Joystick stick(seed);
@@ -261,6 +297,10 @@ int main(int argc, char** argv) {
       controller.set_enabled(true);
     }
     s.run_until(seconds);
+    if (online)
+      std::fprintf(stderr, "auger-sim-drive: [online] apply: %llu changes detected, sigma_long used at the end %.3f N/rpm%s\n",
+                   static_cast<unsigned long long>(online->changes()), online->control_parameters()[kSigmaLong],
+                   online->fallback().empty() ? "" : (", fallback: " + online->fallback()).c_str());
     log.close();
     if (!log) {
       std::fprintf(stderr, "auger-sim-drive: writing %s failed\n", out_path.c_str());

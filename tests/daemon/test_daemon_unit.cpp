@@ -345,13 +345,16 @@ TEST_CASE("configuration: [online] is off by default; its keys and errors", "[da
   expect_config_error(kGood + "[online]\nvelocity_sd = [0, 0.1, 0.1]\n", ":17:");
   // The model-free velocity and the held drag (docs/daemon.md "Online identification").
   CHECK_FALSE(c.online_kinematic);
-  const std::string kin = write_tmp(kGood + "[online]\nenabled = true\nvelocity = \"kinematic\"\ndrag_prior_rel_sd = 0.01\n");
+  const std::string kin = write_tmp(kGood + "[online]\nenabled = true\nvelocity = \"kinematic\"\ndrag_prior_rel_sd = 0.01\n"
+                                                 "slow_screw_rpm = 2\n");
   const DaemonConfig k = load_daemon_config(kin);
   unlink(kin.c_str());
   CHECK(k.online_kinematic);
   CHECK(k.online.drag_prior_rel_sd == 0.01);
+  CHECK(k.online.slow_screw_rpm == 2.0);
   expect_config_error(kGood + "[online]\nvelocity = \"camera\"\n", ":17:12: velocity must be \"ekf\" or \"kinematic\"");
   expect_config_error(kGood + "[online]\ndrag_prior_rel_sd = 0\n", ":17:");
+  expect_config_error(kGood + "[online]\nslow_screw_rpm = -1\n", ":17:");
 }
 
 TEST_CASE("module words for augerd's messages and event log", "[daemon][unit]") {

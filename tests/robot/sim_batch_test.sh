@@ -2,6 +2,10 @@
 # sim_batch_test.sh SOURCE_DIR BUILD_DIR WORK_DIR: scripts/sim-batch.py with ideal screws (a few
 # seconds): every log and truth log written, the field's square crosses the frozen-grass band in
 # and out, the uniform sand square never changes terrain (docs/robot-sim.md "Batch driving").
+# Then the tools that read such a batch (docs/benchmarks.md "Online identification"): online_fil
+# finds sand's sigma_long from the true velocity once the slow (blocking) screws' windows are out,
+# and not with them in; stall-check.py finds no stall on the field's edges; auger-sim-drive
+# --online-apply closes the loop without falling back.
 set -eu
 src=$1 build=$2 work=$3
 rm -rf "$work"
@@ -24,3 +28,25 @@ assert kinds.count("centre") == 2 and kinds.count("contacts") >= 4 and kinds[0] 
 assert [c["terrain_ids"] for c in changes if c["kind"] == "centre"] == ["1", "0"]
 print("sim_batch: the field's square crossed frozen grass in and out; uniform sand never changed")
 PY
+# sigma_long on uniform sand from the true velocity: exact with the slow screws' windows out, the
+# blocking drags it low with them in (median 0.812 and 0.796, 5th percentile 0.812 and 0.53 N/rpm).
+sigma_row() { "$build/bench/online_fil" stats "$work" --truth "$@" | grep '^| sand, square |'; }
+with_out=$(sigma_row)
+with_in=$(sigma_row --slow-screw-rpm 0)
+python3 - "$with_out" "$with_in" <<'PY'
+import re, sys
+def nums(row):
+    return [float(x) for x in re.findall(r"[0-9]+\.[0-9]+", row)]  # median, 5th, 95th pct.
+out, inn = nums(sys.argv[1]), nums(sys.argv[2])
+assert abs(out[0] / 0.812 - 1) < 0.01 and out[1] > 0.8, "slow screws out: %s" % sys.argv[1]
+assert inn[1] < 0.75, "every window in, the 5th percentile should show the blocking: %s" % sys.argv[2]
+print("sim_batch: online_fil: sigma_long on sand %s with the slow screws out, %s with them in" % (out, inn))
+PY
+stall=$(python3 "$src/scripts/stall-check.py" "$work/field-square-1.csv")
+echo "$stall"
+case $stall in *"on an edge: 0.00 s"*) ;; *) echo "sim_batch: a stall on the field's edge" >&2; exit 1 ;; esac
+apply=$("$build/sim/robot/auger-sim-drive" --out "$work/apply.csv" --drive diagonal --terrain sand --seconds 60 \
+  --screws ideal --online-apply 2>&1)
+echo "$apply"
+case $apply in *"[online] apply: "*"sigma_long used at the end 0."*) ;; *) echo "sim_batch: --online-apply" >&2; exit 1 ;; esac
+case $apply in *fallback*) echo "sim_batch: --online-apply fell back" >&2; exit 1 ;; esac

@@ -21,6 +21,10 @@ struct KinematicVelocityConfig {
   double yaw_accel_sd = 2.0;   // white angular acceleration, rad/s^2 per sqrt(Hz)
   double imu_r_sd = 0.005;     // the IMU's rate noise, rad/s
   double imu_psi_sd = 0.005;   // the IMU's heading noise, rad
+  // Without a camera pose for longer than this the velocity is unknown (NaN): the filter would
+  // extrapolate its acceleration, and on the firmware-in-the-loop chain a 0.9 s camera dropout
+  // ran u 0.034 m/s off (docs/daemon.md "A velocity without the model").
+  double max_pose_age_s = 0.12;
 };
 
 class KinematicVelocity {
@@ -30,7 +34,8 @@ class KinematicVelocity {
   void reset(const Vec3& eta);
   // One cycle of dt_s with this cycle's sensors (SensorInput as the controller gets them: the
   // camera's pose and its covariance, the IMU's heading and rate). Returns the body velocity
-  // (u, v in m/s, r in rad/s); NaN until the first camera pose.
+  // (u, v in m/s, r in rad/s); NaN until the first camera pose and while the last one is older
+  // than max_pose_age_s.
   const Vec3& step(const SensorInput& sensors, double dt_s);
   const Vec3& body_velocity() const { return zeta_; }
   // SD of the body velocity (from the filter's covariance; u and v share the larger world SD).
@@ -46,6 +51,7 @@ class KinematicVelocity {
   Eigen::Vector2d sp_;       // heading, rate
   Eigen::Matrix2d Pp_;
   bool have_pose_ = false;
+  double pose_age_s_ = 0;
   Vec3 zeta_;
 };
 

@@ -1,0 +1,376 @@
+// The online estimator and change detector replayed on firmware-in-the-loop logs
+// (docs/benchmarks.md "Online identification"): the logs of scripts/sim-batch.py (auger-sim-drive,
+// the controller on its configured terrain, apply off), each fed as augerd feeds its
+// OnlineEstimator (host/augerd/online_link.cpp): the logged screw speeds, the camera poses and
+// the IMU through KinematicVelocity (velocity = "kinematic") or, to tell the velocity's errors
+// from the model's, the true velocity of the truth log.
+//   online_fil stats DIR [options]   the innovation's statistics per DOF on the uniform logs
+//   online_fil curve DIR [options]   detection delay and false alarms over the threshold
+// With apply off the controller never sees the estimate, so replaying the estimator on a log is
+// what augerd with [online] would have computed on it.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "auger/args.hpp"
+#include "auger/kinematic_velocity.hpp"
+#include "auger/log.hpp"
+#include "auger/model_file.hpp"
+#include "auger/online_estimator.hpp"
+
+using namespace auger;
+
+namespace {
+
+constexpr double kDt = 0.01;
+constexpr double kMergeS = 0.5;  // contacts crossing an edge within this are one change (scripts/demo-field.py)
+
+struct Entry {
+  std::string log, truth, kind, terrain, drive;
+};
+
+std::vector<std::vector<std::string>> read_csv(const std::string& path) {
+  std::ifstream f(path);
+  if (!f) throw std::runtime_error(path + ": cannot open");
+  std::vector<std::vector<std::string>> rows;
+  std::string line;
+  std::getline(f, line);  // header
+  while (std::getline(f, line)) {
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    std::string c;
+    while (std::getline(ss, c, ',')) cells.push_back(c);
+    if (!cells.empty()) rows.push_back(cells);
+  }
+  return rows;
+}
+
+struct Options {
+  OnlineConfig cfg;
+  KinematicVelocityConfig kin;
+  int omega_delay = 0;  // cycles the screw speeds are delayed against the velocity
+  bool truth = false;
+  std::vector<double> thresholds{8, 16, 24, 32, 40, 60, 80};
+  double detect_s = 3.0;  // an alarm later than this after a change is a miss
+};
+
+// One log's inputs to the estimator, cycle by cycle.
+struct Replay {
+  std::vector<Vec4> omega;
+  std::vector<Vec3> zeta;
+  std::vector<double> t;
+  std::vector<double> sd;  // the kinematic filter's SD of u (m/s)
+  std::vector<Vec3> zeta_true;
+};
+
+// The true body velocity at each truth row (central differences of the true pose, eq. (1) turned back).
+std::vector<Vec3> true_velocity(const std::string& path) {
+  CsvLogReader r(path);
+  const int cx = r.column_index("x_m"), cy = r.column_index("y_m"), cp = r.column_index("psi_rad");
+  std::vector<Vec3> eta;
+  while (r.next()) eta.emplace_back(r.value(cx), r.value(cy), r.value(cp));
+  std::vector<Vec3> z(eta.size(), Vec3::Zero());
+  for (std::size_t k = 1; k + 1 < eta.size(); ++k) {
+    const Vec3 d = (eta[k + 1] - eta[k - 1]) / (2 * kDt);
+    const double c = std::cos(eta[k][2]), s = std::sin(eta[k][2]);
+    z[k] << c * d[0] + s * d[1], -s * d[0] + c * d[1], std::remainder(eta[k + 1][2] - eta[k - 1][2], 2 * M_PI) / (2 * kDt);
+  }
+  return z;
+}
+
+Replay load(const std::string& dir, const Entry& e, const Options& o) {
+  const bool use_truth = o.truth;
+  const int omega_delay = o.omega_delay;
+  CsvLogReader r(dir + "/" + e.log);
+  auto col = [&](const std::string& n) {
+    const int c = r.column_index(n);
+    if (c < 0) throw std::runtime_error(e.log + ": no column " + n);
+    return c;
+  };
+  const int cx = col("x_m"), cy = col("y_m"), cp = col("psi_rad"), cip = col("imu_psi_rad"), cir = col("imu_r_radps");
+  int co[4];
+  for (int i = 0; i < 4; ++i) co[i] = col("omega_rpm_" + std::to_string(i));
+  const std::vector<Vec3> vt = true_velocity(dir + "/" + e.truth);
+  KinematicVelocity kin(o.kin);  // augerd's online_kin_ (default configuration)
+  Replay out;
+  std::vector<Vec4> raw;
+  const Vec3 cam_sd(0.003, 0.003, 0.005);  // what the simulated camera reports (sim/robot/sensors.hpp)
+  while (r.next()) {
+    SensorInput s;
+    if (!std::isnan(r.value(cx))) {
+      s.has_pose = true;
+      s.pose = Vec3(r.value(cx), r.value(cy), r.value(cp));
+      s.pose_cov = cam_sd.cwiseProduct(cam_sd).asDiagonal();
+    }
+    if (!std::isnan(r.value(cip))) {
+      s.has_imu_psi = s.has_imu_r = true;
+      s.imu_psi_rad = r.value(cip);
+      s.imu_r_radps = r.value(cir);
+    }
+    Vec4 om;
+    for (int i = 0; i < 4; ++i) om[i] = r.value(co[i]);
+    const Vec3 zk = kin.step(s, kDt);
+    out.sd.push_back(kin.body_velocity_sd()[0]);
+    const std::size_t k = out.t.size();
+    out.zeta_true.push_back(k < vt.size() ? vt[k] : Vec3::Constant(NAN));
+    out.zeta.push_back(use_truth ? (k < vt.size() ? vt[k] : Vec3::Constant(NAN)) : zk);
+    raw.push_back(om);
+    out.omega.push_back(raw.size() > std::size_t(omega_delay) ? raw[raw.size() - 1 - std::size_t(omega_delay)] : Vec4::Zero());
+    out.t.push_back(r.t_s());
+  }
+  return out;
+}
+
+double quantile(std::vector<double> v, double q) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, std::size_t(q * double(v.size())))];
+}
+
+// The changes of the ground under the contacts (changes.csv), merged as scripts/demo-field.py does.
+std::map<std::string, std::vector<double>> read_changes(const std::string& dir) {
+  std::map<std::string, std::vector<double>> out;
+  for (const auto& row : read_csv(dir + "/changes.csv")) {
+    if (row.size() < 3 || row[2] != "contacts") continue;
+    auto& v = out[row[0] + ".csv"];
+    const double t = std::stod(row[1]);
+    if (v.empty() || t - v.back() >= kMergeS) v.push_back(t);
+  }
+  return out;
+}
+
+// Per-DOF statistics of the innovation on the uniform logs.
+struct InnovStats {
+  double n = 0, sum = 0, sum2 = 0, nis0 = 0;  // nis0: e^2 / (configured noise + phi^T P phi)
+  static constexpr int kLags = 6;
+  const int lags[kLags] = {1, 2, 3, 5, 10, 30};
+  double lag_sum[kLags] = {}, lag_n[kLags] = {};
+};
+
+int stats(const std::string& dir, const std::vector<Entry>& logs, const Options& o, const Model& sand, const Model& grass) {
+  InnovStats st[3];
+  double hours = 0;
+  std::vector<std::vector<double>> series[3];  // per log, per window (NaN: not informative)
+  std::map<std::string, std::vector<double>> sigma;  // terrain and drive: sigma_long each window from 10 s
+  for (const Entry& e : logs) {
+    if (e.kind != "uniform") continue;
+    std::vector<double>& sig = sigma[e.terrain + ", " + e.drive];
+    const Replay rp = load(dir, e, o);
+    OnlineEstimator est(e.terrain == "sand" ? sand : grass, o.cfg);
+    for (auto& s : series) s.emplace_back();
+    std::uint64_t w = est.windows();
+    for (std::size_t k = 0; k < rp.t.size(); ++k) {
+      est.step(rp.omega[k], rp.zeta[k], kDt);
+      if (est.windows() == w) continue;
+      w = est.windows();
+      if (est.t_s() < 5) continue;  // the kinematic filter's and the estimator's start
+      if (est.t_s() >= 10) sig.push_back(est.estimate().value[kSigmaLong]);
+      for (int j = 0; j < 3; ++j) {
+        const double ej = est.last_innovation()[j];
+        series[j].back().push_back(ej);
+        if (std::isnan(ej)) continue;
+        st[j].n += 1, st[j].sum += ej, st[j].sum2 += ej * ej;
+        st[j].nis0 += ej * ej / (est.configured_noise_var()[j] + est.last_innovation_param_var()[j]);
+      }
+    }
+    hours += rp.t.size() * kDt / 3600;
+  }
+  const char* dof[3] = {"surge (x)", "sway (y)", "yaw"};
+  const char* unit[3] = {"N", "N", "N m"};
+  std::printf("innovation on the uniform logs (%.2f h, %s velocity), per 0.1 s window:\n\n", hours,
+              o.truth ? "the true" : "the kinematic");
+  std::printf("| DOF | windows informative | mean | SD | SD assumed (velocity_sd) | mean NIS (1 if as assumed) "
+              "| autocorrelation at lag 1, 2, 3, 5, 10, 30 windows |\n|---|---|---|---|---|---|---|\n");
+  for (int j = 0; j < 3; ++j) {
+    InnovStats& s = st[j];
+    const double mean = s.sum / s.n, var = s.sum2 / s.n - mean * mean;
+    std::string ac;
+    for (int l = 0; l < InnovStats::kLags; ++l) {
+      double num = 0, n = 0;
+      for (const auto& v : series[j])
+        for (std::size_t k = std::size_t(s.lags[l]); k < v.size(); ++k)
+          if (!std::isnan(v[k]) && !std::isnan(v[k - std::size_t(s.lags[l])]))
+            num += (v[k] - mean) * (v[k - std::size_t(s.lags[l])] - mean), n += 1;
+      char b[32];
+      std::snprintf(b, sizeof b, "%s%.2f", l ? ", " : "", num / n / var);
+      ac += b;
+    }
+    OnlineEstimator probe(sand, o.cfg);
+    std::printf("| %s | %.0f %% | %.3g %s | %.3g %s | %.3g %s | %.2f | %s |\n", dof[j],
+                100 * s.n / double(series[j].empty() ? 1 : [&] {
+                  std::size_t n = 0;
+                  for (const auto& v : series[j]) n += v.size();
+                  return n;
+                }()),
+                mean, unit[j], std::sqrt(var), unit[j], std::sqrt(probe.configured_noise_var()[j]), unit[j], s.nis0 / s.n,
+                ac.c_str());
+  }
+  std::printf("\nsigma_long estimated on the uniform logs (every window from 10 s on; the truth: sand %.3f, frozen "
+              "grass %.3f N/rpm):\n\n| terrain, drive | median | 5th-95th pct. |\n|---|---|---|\n",
+              sand.terrain.sigma_long, grass.terrain.sigma_long);
+  for (const auto& [k, v] : sigma)
+    std::printf("| %s | %.3f N/rpm | %.3f-%.3f N/rpm |\n", k.c_str(), quantile(v, 0.5), quantile(v, 0.05), quantile(v, 0.95));
+  return 0;
+}
+
+int curve(const std::string& dir, const std::vector<Entry>& logs, const Options& o, const Model& sand, const Model& grass) {
+  const auto changes = read_changes(dir);
+  const std::size_t nt = o.thresholds.size();
+  std::vector<std::vector<double>> delays(nt);
+  std::vector<int> missed(nt, 0), n_changes(nt, 0);
+  std::vector<long> alarms_uniform(nt, 0), alarms_field_extra(nt, 0);
+  double h_uniform = 0, h_field = 0;
+  for (const Entry& e : logs) {
+    const Replay rp = load(dir, e, o);
+    const double hours = rp.t.size() * kDt / 3600;
+    (e.kind == "uniform" ? h_uniform : h_field) += hours;
+    const Model& m = e.terrain == "frozen_grass" ? grass : sand;  // a field's controller is on its background, sand
+    const auto it = changes.find(e.log);
+    const std::vector<double> none;
+    const std::vector<double>& ch = it == changes.end() ? none : it->second;
+    for (std::size_t i = 0; i < nt; ++i) {
+      OnlineConfig c = o.cfg;
+      c.cusum_threshold = o.thresholds[i];
+      OnlineEstimator est(m, c);
+      std::vector<double> alarms;
+      for (std::size_t k = 0; k < rp.t.size(); ++k)
+        if (est.step(rp.omega[k], rp.zeta[k], kDt)) alarms.push_back(rp.t[k]);
+      if (e.kind == "uniform") {
+        alarms_uniform[i] += long(alarms.size());
+        continue;
+      }
+      std::vector<bool> used(alarms.size(), false);
+      for (std::size_t c2 = 0; c2 < ch.size(); ++c2) {
+        if (ch[c2] < 5) continue;  // before the detector has started
+        ++n_changes[i];
+        const double next = c2 + 1 < ch.size() ? ch[c2 + 1] : 1e300;
+        double d = NAN;
+        for (std::size_t a = 0; a < alarms.size(); ++a)
+          if (alarms[a] >= ch[c2] && alarms[a] < next && alarms[a] - ch[c2] <= o.detect_s) {
+            if (std::isnan(d)) d = alarms[a] - ch[c2];
+            used[a] = true;
+          }
+        if (std::isnan(d)) {
+          ++missed[i];
+          delays[i].push_back(INFINITY);
+        } else {
+          delays[i].push_back(d);
+        }
+      }
+      for (std::size_t a = 0; a < alarms.size(); ++a) alarms_field_extra[i] += used[a] ? 0 : 1;
+    }
+  }
+  std::printf("%s velocity; %.2f h on uniform ground, %.2f h across the field\n\n", o.truth ? "true" : "kinematic",
+              h_uniform, h_field);
+  std::printf("| threshold | median delay | 95th pct. delay | missed (none in %.0f s) | false alarms per hour, uniform "
+              "| alarms per hour across the field not after a change |\n|---|---|---|---|---|---|\n",
+              o.detect_s);
+  for (std::size_t i = 0; i < nt; ++i)
+    std::printf("| %g | %.2f s | %.2f s | %d of %d | %.2f | %.1f |\n", o.thresholds[i], quantile(delays[i], 0.5),
+                quantile(delays[i], 0.95), missed[i], n_changes[i], double(alarms_uniform[i]) / h_uniform,
+                double(alarms_field_extra[i]) / h_field);
+  return 0;
+}
+
+// One log's windows: t, innovation and its assumed SD per DOF, sigma_long, the CUSUM.
+int trace(const std::string& dir, const std::string& log, const Options& o, const Model& sand, const Model& grass) {
+  const Entry e{log, log.substr(0, log.size() - 4) + ".truth.csv", "",
+                log.find("frozen_grass") != std::string::npos ? "frozen_grass" : "sand", ""};
+  const Replay rp = load(dir, e, o);
+  OnlineEstimator est(e.terrain == "sand" ? sand : grass, o.cfg);
+  std::uint64_t w = est.windows();
+  std::printf("t_s,e_x,e_y,e_psi,sd_x,sd_y,u,v,sigma_long,cusum,change,kin_sd,u_true,v_true\n");
+  for (std::size_t k = 0; k < rp.t.size(); ++k) {
+    const bool ch = est.step(rp.omega[k], rp.zeta[k], kDt);
+    if (est.windows() == w) continue;
+    w = est.windows();
+    const Vec3& iv = est.last_innovation();
+    std::printf("%.2f,%.3g,%.3g,%.3g,%.3g,%.3g,%.4f,%.4f,%.4f,%.2f,%d,%.4f,%.4f,%.4f\n", rp.t[k], iv[0], iv[1], iv[2],
+                std::sqrt(est.configured_noise_var()[0] + est.last_innovation_param_var()[0]),
+                std::sqrt(est.configured_noise_var()[1] + est.last_innovation_param_var()[1]), rp.zeta[k][0], rp.zeta[k][1],
+                est.estimate().value[0], est.cusum(), ch ? 1 : 0, rp.sd[k], rp.zeta_true[k][0], rp.zeta_true[k][1]);
+  }
+  return 0;
+}
+
+bool vec3_option(const Args& a, const char* k, Vec3& v) {
+  if (!a.has(k)) return true;
+  double x[3];
+  if (std::sscanf(a.get(k).c_str(), "%lf,%lf,%lf", &x[0], &x[1], &x[2]) != 3) {
+    std::fprintf(stderr, "online_fil: %s: '%s' is not three numbers a,b,c\n", k, a.get(k).c_str());
+    return false;
+  }
+  v = Vec3(x[0], x[1], x[2]);
+  return true;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const CommandLine cli{
+      "online_fil",
+      "stats|curve DIR [OPTIONS]",
+      "The online estimator and its change detector replayed on scripts/sim-batch.py's logs in DIR\n"
+      "(manifest.csv, changes.csv), as augerd with [online] velocity = \"kinematic\" would run them.\n",
+      {{"--truth", "", "feed the true velocity (truth log) instead of the kinematic filter's"},
+       {"--velocity-sd", "U,V,R", "[online] velocity_sd (default 0.012,0.012,0.01, scripts/online-fil.sh)"},
+       {"--drag-prior", "X", "[online] drag_prior_rel_sd (default 0.01)"},
+       {"--memory-s", "S", "[online] memory_s (default 5)"},
+       {"--window-s", "S", "OnlineConfig::window_s, the regression's window (default 0.1)"},
+       {"--detect-s", "S", "an alarm later than S after a change is a miss (default 3)"},
+       {"--slow-screw-rpm", "X", "OnlineConfig::slow_screw_rpm (default 2; 0: every window)"},
+       {"--max-pose-age", "S", "KinematicVelocityConfig::max_pose_age_s (default 0.12; 1e9: never unknown)"},
+       {"--omega-delay", "N", "the screw speeds fed N cycles late (the velocity's lag)"},
+       {"--no-whiten", "", "the detector on the innovation as it is (OnlineConfig::whiten off)"},
+       {"--thresholds", "A,B,...", "the detector's thresholds for curve"},
+       {"--trace", "LOG", "instead: every window of LOG (CSV: innovation, sigma_long, CUSUM)"}},
+      "Exit 2: bad usage.\n"};
+  Args args;
+  if (const int rc = cli.parse_or_answer(argc, argv, args); rc >= 0) return rc;
+  if (args.positional.size() != 2 || (args.positional[0] != "stats" && args.positional[0] != "curve")) {
+    cli.print_usage(stderr);
+    return 2;
+  }
+  Options o;
+  o.cfg.enabled = true;
+  o.cfg.velocity_sd = Vec3(0.012, 0.012, 0.01);
+  o.cfg.drag_prior_rel_sd = 0.01;
+  o.truth = args.has("--truth");
+  o.cfg.whiten = !args.has("--no-whiten");
+  long delay = 0;
+  if (!args.whole("online_fil", "--omega-delay", 0, 0, 100, delay)) return 2;
+  o.omega_delay = int(delay);
+  if (!args.number("online_fil", "--memory-s", 5.0, o.cfg.memory_s) ||
+      !args.number("online_fil", "--detect-s", 3.0, o.detect_s) ||
+      !args.number("online_fil", "--window-s", 0.1, o.cfg.window_s) ||
+      !args.number("online_fil", "--slow-screw-rpm", 2.0, o.cfg.slow_screw_rpm) ||
+      !args.number("online_fil", "--max-pose-age", o.kin.max_pose_age_s, o.kin.max_pose_age_s))
+    return 2;
+  if (!vec3_option(args, "--velocity-sd", o.cfg.velocity_sd) ||
+      !args.number("online_fil", "--drag-prior", 0.01, o.cfg.drag_prior_rel_sd))
+    return 2;
+  if (args.has("--thresholds")) {
+    o.thresholds.clear();
+    std::stringstream ss(args.get("--thresholds"));
+    std::string t;
+    while (std::getline(ss, t, ',')) o.thresholds.push_back(std::stod(t));
+  }
+  const std::string dir = args.positional[1];
+  try {
+    std::vector<Entry> logs;
+    for (const auto& r : read_csv(dir + "/manifest.csv"))
+      if (r.size() >= 5) logs.push_back({r[0], r[1], r[2], r[3], r[4]});
+    const ModelFile file = load_model_file(AUGER_MODELS_DIR "/robot.toml");
+    const Model sand = build_model(file, "sand"), grass = build_model(file, "frozen_grass");
+    if (args.has("--trace")) return trace(dir, args.get("--trace"), o, sand, grass);
+    return args.positional[0] == "stats" ? stats(dir, logs, o, sand, grass) : curve(dir, logs, o, sand, grass);
+  } catch (const std::exception& ex) {
+    std::fprintf(stderr, "online_fil: %s\n", ex.what());
+    return 1;
+  }
+}
