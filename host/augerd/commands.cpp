@@ -251,6 +251,7 @@ auger::daemon::Status Daemon::status(bool all) const {
   s.imu_r_radps = last_imu_r_radps_;
   s.pose_age_s = t_s_ - last_pose_t_s_;
   s.cam_x_m = last_pose_[0], s.cam_y_m = last_pose_[1], s.cam_psi_rad = last_pose_[2];
+  s.poses_dropped = poses_dropped_;
   ros2_status(s);
   online_status(s);
   return s;

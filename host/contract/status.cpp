@@ -80,7 +80,8 @@ const std::vector<Field<Status>>& sensor_fields() {
       {"pose_age_s", "%.3f", &Status::pose_age_s},
       {"cam_x_m", "%.4f", &Status::cam_x_m},
       {"cam_y_m", "%.4f", &Status::cam_y_m},
-      {"cam_psi_rad", "%.4f", &Status::cam_psi_rad}};
+      {"cam_psi_rad", "%.4f", &Status::cam_psi_rad},
+      {"poses_dropped", "%ld", &Status::poses_dropped}};
   return f;
 }
 

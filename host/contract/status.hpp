@@ -40,6 +40,7 @@ struct Status {
   std::array<ModuleStatus, 4> modules;
   double imu_age_s = 0, imu_psi_rad = 0, imu_r_radps = 0;  // NaN: none received
   double pose_age_s = 0, cam_x_m = 0, cam_y_m = 0, cam_psi_rad = 0;
+  long poses_dropped = 0;  // camera poses dropped from a full queue (docs/daemon.md "Who may command the robot")
   bool ros2 = false;
   long ros2_applied = 0, ros2_refused = 0;
   double ros2_hook_max_us = 0;

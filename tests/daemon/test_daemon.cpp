@@ -76,6 +76,20 @@ TEST_CASE("augerd runs four simulated modules in real time and stops safely", "[
     }
     REQUIRE(talk(sens, burst, -1) == "");
     sleep_s(0.2);
+    // Twenty at once, faster than the loop takes them: the queue's 8 places overflow, the oldest
+    // are dropped and counted; every other one reaches the log.
+    std::string flood;
+    for (int k = 1; k <= 20; ++k) {
+      char line[160];
+      std::snprintf(line, sizeof line, "pose %.6f %.4f 0 0 0.01 0.01 0.01\n", t_unix + 0.001 * k, 0.0011 * (3 + k));
+      flood += line;
+    }
+    REQUIRE(talk(sens, flood, -1) == "");
+    sleep_s(0.3);
+    const double dropped = status_value(talk(cmd, "status all\n", 1), "poses_dropped");
+    CHECK(dropped >= 1);
+    CHECK(dropped <= 12);
+    CHECK(events_log(dir + "/log").find("event=poses-dropped") != std::string::npos);
     kill(d.pid, SIGTERM);
     REQUIRE(d.wait_exit(2.0) == 0);
     const auto logs = csv_logs(dir + "/log");
@@ -92,8 +106,9 @@ TEST_CASE("augerd runs four simulated modules in real time and stops safely", "[
       if (std::isnan(s.x_m)) continue;
       x_m.push_back(s.x_m), capture_t_s.push_back(reader.csv().value(capture_col)), row_of.push_back(row);
     }
-    REQUIRE(x_m.size() == 3);
+    REQUIRE(x_m.size() == 3 + 20 - std::size_t(dropped));
     for (std::size_t k = 0; k < 3; ++k) CHECK(x_m[k] == Approx(0.0011 * double(k + 1)));
+    CHECK(x_m.back() == Approx(0.0011 * 23));  // the newest is never the one dropped
     CHECK(capture_t_s[1] - capture_t_s[0] == Approx(0.03).margin(1e-4));
     CHECK(capture_t_s[2] - capture_t_s[1] == Approx(0.03).margin(1e-4));
     CHECK(row_of[1] == row_of[0] + 1);
