@@ -255,15 +255,15 @@ void Explainer::parsimony(FitOutcome& o, std::vector<RemovedEffect>& removed) {
       if (worst_constant)
         std::snprintf(why, sizeof why,
                       "replaced by paper_params: its time profile is not confirmed across the log's splits (the same "
-                      "terrain from the log's start predicts as well: cross-validated error %.1f %% lower with the "
-                      "change in the median of three folds, less than %.0f %%)",
-                      100 * worst_gain, 100 * kConfirm);
+                      "terrain from the log's start predicts as well: cross-validated error %.1f %% %s with the "
+                      "change in the median of three folds, not %.0f %% lower)",
+                      100 * std::fabs(worst_gain), worst_gain < 0 ? "higher" : "lower", 100 * kConfirm);
       else
         std::snprintf(why, sizeof why,
-                      "%s: not confirmed across the log's splits (cross-validated error %.1f %% lower with %s in the "
-                      "median of three folds, less than %.0f %%)",
-                      removal(worst), 100 * worst_gain, o.parts[worst].entry ? "it" : "them re-identified",
-                      100 * kConfirm);
+                      "%s: not confirmed across the log's splits (cross-validated error %.1f %% %s with %s in the "
+                      "median of three folds, not %.0f %% lower)",
+                      removal(worst), 100 * std::fabs(worst_gain), worst_gain < 0 ? "higher" : "lower",
+                      o.parts[worst].entry ? "it" : "them re-identified", 100 * kConfirm);
       if (remove_part(worst, why, largest(contribution(o.parts, worst)), nullptr, &worst_alt)) continue;
     }
     return;
