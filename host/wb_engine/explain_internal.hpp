@@ -320,6 +320,10 @@ class Explainer {
   // 3-fold cross-validation: per fold, the error of the segments it judges by a fit on the
   // others (every segment judged once, by a fit that did not see it); NaN where a fit failed.
   FoldValues cross_validated(const std::vector<Part>& parts);
+  // The structure with the change of terrain parts[i] replaced by the same terrain from the log's
+  // start: the paper's parameters re-identified from the change's factors. False: not a change
+  // of terrain, or several logs.
+  bool constant_terrain(const std::vector<Part>& parts, std::size_t i, std::vector<Part>& out) const;
   // Effects that change the prediction by less than kMinContribution of the noise floor, or
   // with a parameter the log does not identify that a simpler form (or nothing) predicts as well,
   // or whose removal does not raise the cross-validated error, leave the model (o refitted).
