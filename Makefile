@@ -118,8 +118,10 @@ fuzz-smoke: $(FUZZ_BUILD)/fuzz_parser $(FUZZ_BUILD)/corpus
 	$(FUZZ_BUILD)/fuzz_parser -runs=300000 -seed=1 -max_len=512 -print_final_stats=1 \
 	  $(FUZZ_BUILD)/smoke $(FUZZ_BUILD)/corpus 2>&1 | tail -n 3
 
-# Two tests at a time, except those marked RUN_SERIAL (real-time loops, load tests, the
-# workbench suites that run two jobs themselves), which ctest runs alone.
+# Two tests at a time. The real-time tests (RESOURCE_LOCK realtime: a simulated robot or modules
+# against augerd on the wall clock, mostly waiting: 1-2 s of CPU in 15 s) run one at a time beside
+# the others; those marked RUN_SERIAL (the load test's stop latency, the board's binaries under
+# qemu, the workbench suites that run two jobs themselves) run alone.
 test: deps check-protocol host venv asan fuzz-smoke board
 	cd $(ASAN_BUILD) && ctest --output-on-failure -L unit -j $(JOBS)
 	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) ctest --output-on-failure -LE long -j $(JOBS)
