@@ -89,18 +89,26 @@ augerd_start() {
 follow_run() {
   local d=$1 course=$2 seconds=$3 field=$4 sections=$5 sim_pid augerd_pid
   mkdir -p "$d"
+  local rc=0 stop_rc
   sim_start "$d" sand $((seconds + 20)) "$field" || return 1
   sim_pid=$SIM_PID
   augerd_start "$d" sand 'allocator = "nullspace"
 gamma_per_s = [0.2, 0.2, 0.2]
 omega_min_rpm = 3.0
-engage_rpm = 1.5' "" "$sections" || return 1
-  augerd_pid=$AUGERD_PID
-  "$AUGER_BUILD/host/auger/auger" cmd --socket "$d/commands.sock" enable "follow $course" > "$d/commands.out"
-  sleep "$seconds"
-  "$AUGER_BUILD/host/auger/auger" cmd --socket "$d/commands.sock" "status all" stop >> "$d/commands.out"
-  kill -TERM "$augerd_pid"
-  wait "$augerd_pid" || true
+engage_rpm = 1.5' "" "$sections" || rc=$?
+  if ((rc == 0)); then
+    augerd_pid=$AUGERD_PID
+    # A refused command (or any failure) still stops augerd and the robot below: under set -e a
+    # bare failing command here left both running.
+    "$AUGER_BUILD/host/auger/auger" cmd --socket "$d/commands.sock" enable "follow $course" \
+      > "$d/commands.out" || rc=$?
+    ((rc != 0)) || sleep "$seconds"
+    "$AUGER_BUILD/host/auger/auger" cmd --socket "$d/commands.sock" "status all" stop \
+      >> "$d/commands.out" || { stop_rc=$?; ((rc != 0)) || rc=$stop_rc; }
+    kill -TERM "$augerd_pid" 2>/dev/null || true
+    wait "$augerd_pid" || true
+  fi
   kill -TERM "$sim_pid" 2>/dev/null || true
   wait "$sim_pid" || true
+  return "$rc"
 }
