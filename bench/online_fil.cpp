@@ -298,17 +298,6 @@ int trace(const std::string& dir, const std::string& log, const Options& o, cons
   return 0;
 }
 
-bool vec3_option(const Args& a, const char* k, Vec3& v) {
-  if (!a.has(k)) return true;
-  double x[3];
-  if (std::sscanf(a.get(k).c_str(), "%lf,%lf,%lf", &x[0], &x[1], &x[2]) != 3) {
-    std::fprintf(stderr, "online_fil: %s: '%s' is not three numbers a,b,c\n", k, a.get(k).c_str());
-    return false;
-  }
-  v = Vec3(x[0], x[1], x[2]);
-  return true;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -351,15 +340,12 @@ int main(int argc, char** argv) {
       !args.number("online_fil", "--slow-screw-rpm", 2.0, o.cfg.slow_screw_rpm) ||
       !args.number("online_fil", "--max-pose-age", o.kin.max_pose_age_s, o.kin.max_pose_age_s))
     return 2;
-  if (!vec3_option(args, "--velocity-sd", o.cfg.velocity_sd) ||
-      !args.number("online_fil", "--drag-prior", 0.01, o.cfg.drag_prior_rel_sd))
+  std::vector<double> sd{o.cfg.velocity_sd[0], o.cfg.velocity_sd[1], o.cfg.velocity_sd[2]};
+  if (!args.numbers("online_fil", "--velocity-sd", 3, sd) ||
+      !args.number("online_fil", "--drag-prior", 0.01, o.cfg.drag_prior_rel_sd) ||
+      !args.numbers("online_fil", "--thresholds", 0, o.thresholds))
     return 2;
-  if (args.has("--thresholds")) {
-    o.thresholds.clear();
-    std::stringstream ss(args.get("--thresholds"));
-    std::string t;
-    while (std::getline(ss, t, ',')) o.thresholds.push_back(std::stod(t));
-  }
+  o.cfg.velocity_sd = Vec3(sd[0], sd[1], sd[2]);
   const std::string dir = args.positional[1];
   try {
     std::vector<Entry> logs;

@@ -74,6 +74,32 @@ struct Args {
     }
     return true;
   }
+  // The option's value as comma-separated finite numbers (each field the whole text between
+  // commas, as number()), exactly `count` of them when count > 0, at least one otherwise; out
+  // untouched if absent; false (and printed) if it is not such a list.
+  bool numbers(const char* program, const std::string& k, std::size_t count, std::vector<double>& out) const {
+    if (!has(k)) return true;
+    const std::string text = get(k);
+    std::vector<double> v;
+    for (std::size_t at = 0;;) {
+      const std::size_t comma = text.find(',', at);
+      double x = 0;
+      if (!decimal_number(text.substr(at, comma == std::string::npos ? std::string::npos : comma - at), x)) {
+        std::fprintf(stderr, "%s: %s: '%s' is not %s finite numbers a,b,...\n", program, k.c_str(), text.c_str(),
+                     count > 0 ? std::to_string(count).c_str() : "comma-separated");
+        return false;
+      }
+      v.push_back(x);
+      if (comma == std::string::npos) break;
+      at = comma + 1;
+    }
+    if (count > 0 && v.size() != count) {
+      std::fprintf(stderr, "%s: %s: '%s' is not %zu finite numbers a,b,...\n", program, k.c_str(), text.c_str(), count);
+      return false;
+    }
+    out = std::move(v);
+    return true;
+  }
   static bool to_number(const char* program, const std::string& what, const std::string& text, double& out) {
     if (!decimal_number(text, out)) {
       std::fprintf(stderr, "%s: %s: '%s' is not a finite number\n", program, what.c_str(), text.c_str());
