@@ -132,10 +132,12 @@ void Explainer::parsimony(FitOutcome& o, std::vector<RemovedEffect>& removed) {
                          const std::vector<Part>* alternative = nullptr) {
     RemovedEffect r{label(o.parts[i], ctx_.size()), why, c};
     if (!o.parts[i].entry && ctx_.size() > 1) r.effect += " (terrain " + o.parts[i].terrain + ")";
-    std::vector<Part> rest = alternative ? *alternative : without(o.parts, i);
+    std::vector<Part> rest;
     if (replacement) {
       rest = o.parts;
       rest[i] = *replacement;
+    } else {
+      rest = alternative ? *alternative : without(o.parts, i);
     }
     FitOutcome again = refit(all_, rest, 12, 1);
     ++structures_;
