@@ -23,8 +23,10 @@
 #include "auger/model_file.hpp"
 #include "auger/online_estimator.hpp"
 #include "online_drive.hpp"
+#include "quantile.hpp"
 
 using namespace auger;
+using auger::bench::quantile;
 
 namespace {
 
@@ -76,12 +78,6 @@ int cost(const Model& sand, const Model& grass, long cycles) {
   std::printf("online_bench: each call timed: median %.3f us, 90th pct. %.3f us, 99th %.3f us, largest %.3f us\n",
               q(0.5), q(0.9), q(0.99), each_us.back());
   return 0;
-}
-
-double quantile(std::vector<double> v, double q) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, std::size_t(q * double(v.size())))];
 }
 
 int curve(const Model& sand, const Model& grass, int runs, double hours, double vel_sd) {

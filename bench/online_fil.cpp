@@ -22,8 +22,10 @@
 #include "auger/log.hpp"
 #include "auger/model_file.hpp"
 #include "auger/online_estimator.hpp"
+#include "quantile.hpp"
 
 using namespace auger;
+using auger::bench::quantile;
 
 namespace {
 
@@ -124,12 +126,6 @@ Replay load(const std::string& dir, const Entry& e, const Options& o) {
     out.t.push_back(r.t_s());
   }
   return out;
-}
-
-double quantile(std::vector<double> v, double q) {
-  if (v.empty()) return NAN;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, std::size_t(q * double(v.size())))];
 }
 
 // The changes of the ground under the contacts (changes.csv), merged as scripts/demo-field.py does.
