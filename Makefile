@@ -10,7 +10,8 @@
 #   make host        configure and build the host, simulator and tests (Release, build/)
 #   make venv        the Python environment build/venv (python/requirements.txt; auger import, the
 #                    Python tests, the DDS tests' independent ROS 2 participant)
-#   make asan        the unit and protocol tests with ASan+UBSan (build-asan/)
+#   make asan        the unit and protocol tests with ASan+UBSan (build-asan/; make asan-full:
+#                    those of the workbench and the simulated robot too)
 #   make fuzz        run the protocol parser fuzzer (FUZZ_RUNS, default unbounded: Ctrl-C)
 #   make bench-protocol   XOR byte vs CRC-16 corruption figures (docs/protocol.md)
 #   make bench-firmware   firmware cycles, edge rates, CPU load, simulation speed (docs/benchmarks.md)
@@ -40,7 +41,7 @@ CMAKE_GENERATOR ?= Ninja
 AVR_CFLAGS := -mmcu=atmega328p -DF_CPU=16000000UL -std=c99 -Os -Wall -Wextra -Werror -pedantic
 HOST_WARN := -Wall -Wextra -Werror -pedantic
 
-.PHONY: all deps firmware flash host asan check-protocol fuzz fuzz-smoke test test-full demo \
+.PHONY: all deps firmware flash host asan asan-full check-protocol fuzz fuzz-smoke test test-full demo \
         bench-protocol bench-firmware bench-host bench-online bench-online-fil bench-robot bench-ros2 bench-explain bench-import pid-units \
         clean venv \
         board board-deps board-test install uninstall flash-all bench-board
@@ -71,20 +72,23 @@ host: deps firmware
 	cmake -S . -B $(BUILD) -G $(CMAKE_GENERATOR) -DCMAKE_BUILD_TYPE=Release -DAUGER_SANITIZE=OFF -DAUGER_WITH_SIM=ON
 	cmake --build $(BUILD) -j $(JOBS)
 
-# Only the programs of the `unit` tests are built here (a unit test missing from this list
-# makes `ctest -L unit` below fail, not pass).
+# Only the programs of the `unit` tests are built here (a unit test missing from these lists
+# makes `ctest -L unit` below fail, not pass). make test: the code that runs on the modules and
+# the robot (protocol, firmware logic, host core, augerd and its ROS 2 interface, the operator's
+# commands) and the simulated motor models.
 ASAN_TARGETS := test_protocol test_firmware_logic test_host_core test_sim_models \
-                test_robot_unit test_daemon_unit test_operator_unit
-# The log generator's unit tests (tests/workbench/hidden) and the workbench engine's.
-ASAN_TARGETS += test_sim_log test_workbench_engine
-# augerd's ROS 2 interface without DDS: names, conversions, its configuration (tests/ros2).
-ASAN_TARGETS += test_ros2_unit
-# A pose_time_offset fitted on augerd's log and loaded into augerd (tests/daemon).
-ASAN_TARGETS += test_pose_time
+                test_daemon_unit test_operator_unit test_ros2_unit
+# make test-full adds the tests labelled sanitize_full: the workbench engine (a pose_time_offset
+# fitted on augerd's log and loaded into augerd among them), the simulated robot and its log
+# generator. Building the workbench engine and the robot simulator under the sanitizers was a
+# third of this build's time; in make test they run in the Release build only.
+ASAN_FULL_TARGETS := test_workbench_engine test_pose_time test_robot_unit test_sim_log
 asan: deps firmware
 	cmake -S . -B $(ASAN_BUILD) -G $(CMAKE_GENERATOR) -DCMAKE_BUILD_TYPE=Debug \
 	  -DAUGER_SANITIZE=ON -DAUGER_WITH_SIM=ON
 	cmake --build $(ASAN_BUILD) -j $(JOBS) --target $(ASAN_TARGETS)
+asan-full: asan
+	cmake --build $(ASAN_BUILD) -j $(JOBS) --target $(ASAN_FULL_TARGETS)
 
 # shared/protocol.h and .c must compile cleanly for the module (C99, avr-gcc -Os) and the
 # host (C99 and C++17).
@@ -122,11 +126,15 @@ fuzz-smoke: $(FUZZ_BUILD)/fuzz_parser $(FUZZ_BUILD)/corpus
 # against augerd on the wall clock, mostly waiting: 1-2 s of CPU in 15 s) run one at a time beside
 # the others; those marked RUN_SERIAL (the load test's stop latency, the board's binaries under
 # qemu, the workbench suites that run two jobs themselves) run alone.
-test: deps check-protocol host venv asan fuzz-smoke board
-	cd $(ASAN_BUILD) && ctest --output-on-failure -L unit -j $(JOBS)
+# The venv's install (pip, mostly waiting on the network) runs beside the host's build.
+test: deps check-protocol
+	$(MAKE) -j 2 host venv
+	$(MAKE) asan fuzz-smoke board
+	cd $(ASAN_BUILD) && ctest --output-on-failure -L unit -LE sanitize_full -j $(JOBS)
 	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) ctest --output-on-failure -LE long -j $(JOBS)
 
-# Longer suites (docs/benchmarks.md has their times): the tests labelled `long` (flash-all into
+# Longer suites (docs/benchmarks.md has their times): the unit tests labelled sanitize_full
+# under ASan+UBSan, the tests labelled `long` (flash-all into
 # four simulated modules; auger report --explain in headless Chromium with a screenshot; augerd's
 # online estimate against the offline fit of its own log), the
 # parser fuzzer for 5 million inputs, the sand diagonal with the firmware in the loop across the
@@ -135,7 +143,8 @@ test: deps check-protocol host venv asan fuzz-smoke board
 # 7 pair classes x 5 seeds (at least 4 of 5 each), 2 clean logs, the firmware-in-the-loop chain
 # on sand and frozen grass, square / diagonal / manual, every form of the independent generator
 # and its suite, 5 seeds per class (docs/workbench-suite.md).
-test-full: test
+test-full: test asan-full
+	cd $(ASAN_BUILD) && ctest --output-on-failure -L sanitize_full -j $(JOBS)
 	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) ctest --output-on-failure -L long
 	$(MAKE) fuzz FUZZ_RUNS=5000000
 	$(BUILD)/tests/robot/test_robot_fil "[.full]"

@@ -1,0 +1,3 @@
+// toml++'s implementation, compiled once for every reader of TOML (host/CMakeLists.txt says why).
+#define TOML_IMPLEMENTATION
+#include <toml++/toml.h>
