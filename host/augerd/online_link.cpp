@@ -142,6 +142,14 @@ void Daemon::online_snapshot(auger::ros2::OnlineSnapshot& o) const {
   std::snprintf(o.fallback.data(), o.fallback.size(), "%s", online_->fallback().c_str());
   std::snprintf(o.believed.data(), o.believed.size(), "%s", believed_now_.c_str());
   std::snprintf(o.basis.data(), o.basis.size(), "%s", auger::believed_basis(e));
+  static_assert(auger::ros2::OnlineSnapshot::kMaxEffects == auger::kMaxOnlineEffects, "one limit");
+  o.effects = e.effects;
+  for (int k = 0; k < e.effects; ++k) {
+    const auger::OnlineEffectParam& p = online_->effects()[std::size_t(k)];
+    o.effect_value[k] = e.effect_value[k], o.effect_sd[k] = e.effect_sd[k];
+    std::snprintf(o.effect_name[k].data(), o.effect_name[k].size(), "%s", p.name.c_str());
+    std::snprintf(o.effect_unit[k].data(), o.effect_unit[k].size(), "%s", p.unit.c_str());
+  }
 }
 
 }  // namespace augerd
