@@ -58,6 +58,12 @@ int main(int argc, char** argv) {
     if (n_online > 0 && !cfg.online.enabled)
       std::fprintf(stderr, "augerd: note: %s marks %zu effect parameter(s) online, but [online] is off: they keep the "
                            "file's values\n", cfg.model_file.c_str(), n_online);
+    if (n_online > 0 && cfg.online.enabled)
+      for (std::string notes = auger::online_effect_caveats(mf, auger::EffectRegistry::builtin()); !notes.empty();) {
+        const std::size_t nl = notes.find('\n');
+        std::fprintf(stderr, "augerd: note: %s\n", notes.substr(0, nl).c_str());
+        notes.erase(0, nl + 1);
+      }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "augerd: configuration error: %s\n", e.what());
     return kExitConfig;

@@ -358,12 +358,35 @@ std::vector<OnlineEffectParam> online_effect_params(const ModelFile& file, const
       // A quarter of the physical range: a prior that lets the data move the estimate anywhere
       // in it within a few windows, and an SD the clamp rarely cuts.
       e.prior_sd = 0.25 * (e.upper - e.lower);
-      if (!(e.configured >= e.lower && e.configured <= e.upper))
+      if (!(e.configured >= e.lower && e.configured <= e.upper)) {
+        char what[160];
+        std::snprintf(what, sizeof what, " = %g is outside its physical range %g..%g %s", p.value, e.lower, e.upper,
+                      e.unit.c_str());
         throw ConfigError(c.file, p.line, p.column,
-                          c.id + "." + p.name + " = " + std::to_string(p.value) + " is outside its physical range [" +
-                              std::to_string(e.lower) + ", " + std::to_string(e.upper) + "] " + e.unit +
-                              ": an online estimate starts from it and is clamped to that range");
+                          c.id + "." + p.name + what + ": an online estimate starts from it and is clamped to that range");
+      }
       out.push_back(std::move(e));
+    }
+  }
+  return out;
+}
+
+std::string online_effect_caveats(const ModelFile& file, const EffectRegistry& registry) {
+  std::string out;
+  for (const EffectConfig& c : file.effects) {
+    const bool any = std::any_of(c.params.begin(), c.params.end(), [](const EffectParamValue& p) { return p.online; });
+    if (!any || !registry.has(c.id)) continue;
+    for (const ParamSpec& spec : registry.entries().at(c.id).params) {
+      const auto p = std::find_if(c.params.begin(), c.params.end(), [&](const EffectParamValue& v) { return v.name == spec.name; });
+      const double value = p != c.params.end() ? p->value : spec.default_value;
+      if (!spec.online || (p != c.params.end() && p->online) || value == 0) continue;
+      char line[320];
+      std::snprintf(line, sizeof line,
+                    "%s:%d: %s.%s = %g %s is not marked online: the online regression leaves its force out (mark it "
+                    "online to estimate it with the rest)\n",
+                    c.file.c_str(), p != c.params.end() ? p->line : c.line, c.id.c_str(), spec.name.c_str(), value,
+                    spec.unit.c_str());
+      out += line;
     }
   }
   return out;

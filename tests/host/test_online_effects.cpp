@@ -167,7 +167,16 @@ TEST_CASE("online effects: the model file's errors name the file, line and colum
   CHECK(e.find("m.toml:" + std::to_string(base + 8) + ":35: at most 3 effect parameters may be online") == 0);
   // A start outside the physical range.
   e = load_error(slope(0.5, 0, true));
-  CHECK(e.find("m.toml:" + std::to_string(base + 3) + ":17: terrain_slope.incline_x_rad = 0.500000 is outside its physical range") == 0);
+  CHECK(e.find("m.toml:" + std::to_string(base + 3) + ":17: terrain_slope.incline_x_rad = 0.5 is outside its physical range -0.35..0.35 rad") == 0);
+  // An unmarked incline of a slope with the other online: a note (the regression leaves it out).
+  const std::string caveat = online_effect_caveats(
+      with_effects("[[effect]]\nid = \"terrain_slope\"\nincline_x_rad = { value = 0, online = true }\nincline_y_rad = 0.1\n"),
+      EffectRegistry::builtin());
+  CHECK(caveat == "m.toml:" + std::to_string(base + 4) +
+                      ": terrain_slope.incline_y_rad = 0.1 rad is not marked online: the online regression leaves its force "
+                      "out (mark it online to estimate it with the rest)\n");
+  CHECK(online_effect_caveats(with_effects(slope(0.1, 0.2, true)), EffectRegistry::builtin()).empty());
+  CHECK(online_effect_caveats(with_effects(slope(0.1, 0.2, false)), EffectRegistry::builtin()).empty());
   // online = false is a plain parameter; the marks survive writing the file.
   CHECK(online_effect_params(with_effects(slope(0.1, 0, false)), EffectRegistry::builtin()).empty());
   const ModelFile f = with_effects(slope(0.1, 0.02, true));

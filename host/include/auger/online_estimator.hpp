@@ -83,6 +83,11 @@ class EffectRegistry;
 // the `online` key) beyond kMaxOnlineEffects; a parameter that cannot be online was refused when
 // the file's effects were created (EffectRegistry::create), as it is here.
 std::vector<OnlineEffectParam> online_effect_params(const ModelFile& file, const EffectRegistry& registry);
+// The regression holds the terrain and the online parameters' forces only: in an effect with a
+// parameter online, another that could be but is not marked, at a non-zero value, makes a force
+// the regression leaves out (a slope's other incline). One line per such parameter,
+// "file:line: terrain_slope.incline_y_rad = 0.1 rad is not marked online: ...", "" none.
+std::string online_effect_caveats(const ModelFile& file, const EffectRegistry& registry);
 
 // Order of the parameter vector.
 enum OnlineParam { kSigmaLong = 0, kSigmaLat = 1, kDx = 2, kDy = 3, kDpsi = 4 };
