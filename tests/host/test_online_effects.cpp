@@ -114,7 +114,7 @@ TEST_CASE("online effects: the estimate is clamped to the physical range, withou
   CHECK(est.fallback().empty());  // an effect at its bound is not divergence
 }
 
-TEST_CASE("online effects: a step allocates nothing, the effects' columns included") {
+TEST_CASE("online effects: a step allocates nothing, the effects' columns, a change and the fallback included") {
   const ModelFile configured = with_effects(slope(0, 0, true) +
                                             "[[effect]]\nid = \"quadratic_drag\"\nc_x_nspm2 = { value = 10, online = true }\n");
   const Model cm = build_model(configured, "sand");
@@ -127,9 +127,13 @@ TEST_CASE("online effects: a step allocates nothing, the effects' columns includ
     drive.next();
     est.step(drive.omega_rpm, drive.zeta_meas, OnlineDrive::kDt, drive.eta_true());
   }
+  const bool informed = est.estimate().effect_informed[0] == 1;
+  for (int k = 0; k < 800; ++k) est.step(drive.omega_rpm, Vec3(5, 5, 5), OnlineDrive::kDt, drive.eta_true());  // diverges
   const long n = alloc_counter::stop();
-  CHECK(est.windows() >= 79);
-  CHECK(est.estimate().effect_informed[0] == 1);
+  CHECK(est.windows() >= 159);
+  CHECK(informed);
+  CHECK_FALSE(est.fallback().empty());
+  CHECK(est.estimate().effect_value[0] == 0);  // the fallback: back to the file's value
   CHECK(n == 0);
 }
 
