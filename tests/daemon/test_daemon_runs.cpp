@@ -222,6 +222,11 @@ TEST_CASE("augerd's [online] estimates the effects the model file marks online",
     CHECK(again.on_effects.size() == 2);
     kill(r.d->pid, SIGTERM);
     CHECK(r.d->wait_exit(2.0) == 0);
+    // The event with the estimates (once informed, looked at once a second; the slope's column
+    // is informative in every window).
+    const std::string events = events_log(r.dir + "/log");
+    INFO(events);
+    CHECK(events.find("event=online-effects action=\"the estimate is now terrain_slope.incline_x_rad ") != std::string::npos);
   }
   // A sensor's offset marked online: exit 2 at --check, naming the file, line and column.
   std::ofstream(dir + "/bias.toml") << robot << "[[effect]]\nid = \"imu_heading_bias\"\n"
