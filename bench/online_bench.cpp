@@ -1,9 +1,11 @@
 // The online estimator and change detector (auger/online_estimator.hpp), docs/benchmarks.md
 // "Online identification":
-//   online_bench cost [CYCLES (20000)]
+//   online_bench cost [CYCLES (20000)] [effects]
 //     time per 10 ms cycle of OnlineEstimator::step on recorded driving with terrain changes (the
 //     inputs are made before the clock starts; scripts/bench-online.sh counts instructions from
-//     two runs of different length, on x86 with callgrind and on aarch64 under qemu);
+//     two runs of different length, on x86 with callgrind and on aarch64 under qemu); `effects`:
+//     with three effect parameters online as well (a slope's two inclines and a quadratic drag
+//     along x, the truth on a 0.05 rad slope), the most a model file may mark;
 //   online_bench curve [RUNS (40)] [HOURS (1)] [VELOCITY_SD_MPS (0.002)]
 //     batch runs of the core's model (bench/online_drive.hpp), for each detector threshold: the
 //     detection delay of RUNS terrain changes (sand <-> frozen grass at a random time), the false
@@ -36,33 +38,58 @@ Vec5 params(const Model& m) {
   return p;
 }
 
-int cost(const Model& sand, const Model& grass, long cycles) {
+int cost(const Model& sand_plain, const Model& grass_plain, long cycles, bool effects) {
   // 30 s of driving with a change at 15 s, replayed as often as needed.
   constexpr int kRecorded = 3000;
+  ModelFile file = load_model_file(AUGER_MODELS_DIR "/robot.toml");
+  std::vector<OnlineEffectParam> online;
+  if (effects) {
+    const auto marked = [](const char* id, std::vector<const char*> names) {
+      EffectConfig c;
+      c.id = id;
+      c.file = "bench";
+      for (const char* n : names) {
+        EffectParamValue p;
+        p.name = n;
+        p.online = true;
+        c.params.push_back(p);
+      }
+      return c;
+    };
+    file.effects.push_back(marked("terrain_slope", {"incline_x_rad", "incline_y_rad"}));
+    file.effects.push_back(marked("quadratic_drag", {"c_x_nspm2"}));
+    online = online_effect_params(file, EffectRegistry::builtin());
+  }
+  const Model sand = effects ? build_model(file, "sand") : sand_plain;
+  ModelFile truth = file;
+  if (effects) truth.effects[0].params[0].value = 0.05;
+  const Model grass = effects ? build_model(truth, "frozen_grass") : grass_plain;
   OnlineDriveOptions o;
   o.change_at_s = 15;
   OnlineDrive drive(sand, grass, o);
   std::vector<Vec4> omega(kRecorded);
-  std::vector<Vec3> zeta(kRecorded);
+  std::vector<Vec3> zeta(kRecorded), eta(kRecorded);
   for (int k = 0; k < kRecorded; ++k) {
     drive.next();
     omega[std::size_t(k)] = drive.omega_rpm;
     zeta[std::size_t(k)] = drive.zeta_meas;
+    eta[std::size_t(k)] = drive.eta_true();
   }
   OnlineConfig c;
   c.enabled = true;
-  OnlineEstimator est(sand, c);
+  OnlineEstimator est(sand, c, online);
   double checksum = 0;
   const auto t0 = std::chrono::steady_clock::now();
   for (long k = 0; k < cycles; ++k) {
     const std::size_t i = std::size_t(k % kRecorded);
-    est.step(omega[i], zeta[i], OnlineDrive::kDt);
+    est.step(omega[i], zeta[i], OnlineDrive::kDt, eta[i]);
     checksum += est.cusum();
   }
   const auto t1 = std::chrono::steady_clock::now();
   const double us = 1e6 * std::chrono::duration<double>(t1 - t0).count() / double(cycles);
-  std::printf("online_bench: %ld cycles, %.3f us per cycle (estimator and detector), %llu changes%s\n", cycles, us,
-              static_cast<unsigned long long>(est.changes()), std::isfinite(checksum) ? "" : " (non-finite!)");
+  std::printf("online_bench: %ld cycles, %.3f us per cycle (estimator and detector%s), %llu changes%s\n", cycles, us,
+              effects ? ", three effect parameters" : "", static_cast<unsigned long long>(est.changes()),
+              std::isfinite(checksum) ? "" : " (non-finite!)");
   if (cycles < 100000) return 0;  // the instruction counts (scripts/bench-online.sh) need no more
   // The cycle that ends a window carries the RLS and CUSUM updates: each call timed alone (the
   // clock's own cost, tens of ns, included).
@@ -70,7 +97,7 @@ int cost(const Model& sand, const Model& grass, long cycles) {
   for (std::size_t k = 0; k < each_us.size(); ++k) {
     const std::size_t i = k % kRecorded;
     const auto a = std::chrono::steady_clock::now();
-    est.step(omega[i], zeta[i], OnlineDrive::kDt);
+    est.step(omega[i], zeta[i], OnlineDrive::kDt, eta[i]);
     each_us[k] = 1e6 * std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count();
   }
   std::sort(each_us.begin(), each_us.end());
@@ -190,7 +217,7 @@ int track(const Model& sand, const Model& grass, const ModelFile& file, int runs
 }  // namespace
 
 int main(int argc, char** argv) {
-  const CommandLine cli{"online_bench", "cost [CYCLES] | curve [RUNS] [HOURS] [VELOCITY_SD_MPS] | track [RUNS]",
+  const CommandLine cli{"online_bench", "cost [CYCLES] [effects] | curve [RUNS] [HOURS] [VELOCITY_SD_MPS] | track [RUNS]",
                         "The online estimator's cost per cycle, and the change detector's delay / false-alarm\n"
                         "curve over its threshold on the core's model (docs/benchmarks.md).\n",
                         {},
@@ -208,7 +235,12 @@ int main(int argc, char** argv) {
   };
   const ModelFile file = load_model_file(AUGER_MODELS_DIR "/robot.toml");
   const Model sand = build_model(file, "sand"), grass = build_model(file, "frozen_grass");
-  if (!pos.empty() && pos[0] == "cost") return cost(sand, grass, long(num(1, 20000, "CYCLES")));
+  if (!pos.empty() && pos[0] == "cost" && pos.size() > 2 && pos[2] != "effects") {
+    std::fprintf(stderr, "online_bench: cost's third word is 'effects' or nothing, not '%s'\n", pos[2].c_str());
+    return 2;
+  }
+  if (!pos.empty() && pos[0] == "cost")
+    return cost(sand, grass, long(num(1, 20000, "CYCLES")), pos.size() > 2 && pos[2] == "effects");
   if (!pos.empty() && pos[0] == "track") return track(sand, grass, file, int(num(1, 5, "RUNS")));
   if (!pos.empty() && pos[0] == "curve")
     return curve(sand, grass, int(num(1, 40, "RUNS")), num(2, 1, "HOURS"), num(3, 0.002, "VELOCITY_SD_MPS"));

@@ -53,6 +53,7 @@ class OnlineDrive {
   bool changed() const { return t_s_ >= o_.change_at_s; }
   double t_s() const { return t_s_; }
   const Vec3& zeta_true() const { return zeta_; }
+  const Vec3& eta_true() const { return eta_; }  // the pose (the online effects read the heading)
 
   Vec4 omega_rpm = Vec4::Zero();
   Vec3 zeta_meas = Vec3::Zero();

@@ -2,7 +2,8 @@
 # The online estimator and change detector (docs/benchmarks.md "Online identification",
 # `make bench-online`):
 # 1. cost per 10 ms cycle of OnlineEstimator::step on this machine: wall time, and x86-64
-#    instructions from callgrind (a 60 000-cycle run minus a 20 000-cycle run, over 40 000);
+#    instructions from callgrind (a 60 000-cycle run minus a 20 000-cycle run, over 40 000), the
+#    terrain alone and with three effect parameters online (online_bench cost N effects);
 # 2. the same instruction count for the board's CPU class: bench/online_bench.cpp built with the
 #    board's compiler and flags (cmake/toolchain-aarch64.cmake) and run under qemu-user, which
 #    logs every translated block (in_asm) and every execution of one (exec, nochain);
@@ -22,12 +23,14 @@ trap 'rm -rf "$tmp"' EXIT
 
 echo "## Cost per cycle"
 "$bin" cost 200000
+"$bin" cost 200000 effects
 if command -v valgrind >/dev/null; then
   ir() {
-    valgrind --tool=callgrind --callgrind-out-file="$tmp/cg" "$bin" cost "$1" >/dev/null 2>&1
+    valgrind --tool=callgrind --callgrind-out-file="$tmp/cg" "$bin" cost "$1" ${2:-} >/dev/null 2>&1
     callgrind_annotate "$tmp/cg" 2>/dev/null | awk '/PROGRAM TOTALS/ && !d {gsub(",", "", $1); print $1; d = 1}'
   }
   echo "x86-64 instructions per cycle (callgrind): $(( ($(ir 60000) - $(ir 20000)) / 40000 ))"
+  echo "  with three effect parameters online: $(( ($(ir 60000 effects) - $(ir 20000 effects)) / 40000 ))"
 else
   echo "x86-64 instructions: valgrind missing (make deps)"
 fi
@@ -49,12 +52,13 @@ if command -v qemu-aarch64 >/dev/null && command -v aarch64-linux-gnu-g++ >/dev/
          /^Trace / {split($0, a, "/"); total += size[key(a[2])]}
          END {printf "%.0f\n", total}' "$tmp/fifo" > "$tmp/count" &
     local ap=$!
-    qemu-aarch64 -L /usr/aarch64-linux-gnu -d in_asm,exec,nochain -D "$tmp/fifo" "$tmp/online_bench_a64" cost "$1" \
+    qemu-aarch64 -L /usr/aarch64-linux-gnu -d in_asm,exec,nochain -D "$tmp/fifo" "$tmp/online_bench_a64" cost "$1" ${2:-} \
       >/dev/null
     wait "$ap"
     cat "$tmp/count"
   }
   echo "aarch64 instructions per cycle (qemu-user, Cortex-A53 flags): $(( ($(a64 6000) - $(a64 2000)) / 4000 ))"
+  echo "  with three effect parameters online: $(( ($(a64 6000 effects) - $(a64 2000 effects)) / 4000 ))"
 else
   echo "aarch64 instructions: qemu-aarch64 or aarch64-linux-gnu-g++ missing (make deps)"
 fi

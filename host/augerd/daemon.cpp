@@ -47,8 +47,10 @@ Daemon::Daemon(const DaemonConfig& cfg, auger::Model model)
            }) {
   controller_ = std::make_unique<auger::Controller>(model_, ctrl_cfg_);
   if (cfg.online.enabled) {
-    online_ = std::make_unique<auger::OnlineEstimator>(model_, cfg.online);
-    for (const auto& t : auger::load_model_file(cfg.model_file).terrains) terrains_.push_back(t.params);
+    const auger::ModelFile mf = auger::load_model_file(cfg.model_file);
+    online_ = std::make_unique<auger::OnlineEstimator>(model_, cfg.online,
+                                                       auger::online_effect_params(mf, auger::EffectRegistry::builtin()));
+    for (const auto& t : mf.terrains) terrains_.push_back(t.params);
     applied_terrain_ = cfg.terrain;
   }
 }

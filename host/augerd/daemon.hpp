@@ -107,6 +107,8 @@ class Daemon {
   void online_values(double* out) const;  // this cycle's online_columns()
   void online_status(auger::daemon::Status& s) const;  // status all's online fields (none when off)
   void online_snapshot(auger::ros2::OnlineSnapshot& o) const;  // for ROS 2 (enabled false when off)
+  // The event `what` with the online effects' estimates after `lead` (none: no event).
+  void online_effects_event(const char* what, const char* lead);
 
   // daemon.cpp
   void fault(int module, const std::string& reason_token, const std::string& detail);
@@ -200,6 +202,7 @@ class Daemon {
   std::string believed_said_;                        // the estimate's believed terrain last written as an event
   double believed_next_t_s_ = 0;                     // when it is looked at next (once a second)
   std::string believed_now_ = "unknown";             // what it was then, in full (ROS 2 diagnostics)
+  auger::VecE effects_said_ = auger::VecE::Constant(NAN);  // the online effects' values last written as an event
 
   // ROS 2 (null unless enabled): what its inputs did, and the time the loop spends on it.
   std::unique_ptr<auger::ros2::Bridge> ros2_;

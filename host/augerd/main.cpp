@@ -10,6 +10,7 @@
 #include "auger/args.hpp"
 #include "auger/effect.hpp"
 #include "auger/model_file.hpp"
+#include "auger/online_estimator.hpp"
 #include "config.hpp"
 #include "daemon.hpp"
 
@@ -52,6 +53,17 @@ int main(int argc, char** argv) {
     cfg = load_daemon_config(config_path);
     const auger::ModelFile mf = auger::load_model_file(cfg.model_file);
     model = auger::build_model(mf, cfg.terrain);
+    // The effects' parameters marked online (more than the estimator takes is an error here).
+    const std::size_t n_online = auger::online_effect_params(mf, auger::EffectRegistry::builtin()).size();
+    if (n_online > 0 && !cfg.online.enabled)
+      std::fprintf(stderr, "augerd: note: %s marks %zu effect parameter(s) online, but [online] is off: they keep the "
+                           "file's values\n", cfg.model_file.c_str(), n_online);
+    if (n_online > 0 && cfg.online.enabled)
+      for (std::string notes = auger::online_effect_caveats(mf, auger::EffectRegistry::builtin()); !notes.empty();) {
+        const std::size_t nl = notes.find('\n');
+        std::fprintf(stderr, "augerd: note: %s\n", notes.substr(0, nl).c_str());
+        notes.erase(0, nl + 1);
+      }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "augerd: configuration error: %s\n", e.what());
     return kExitConfig;

@@ -24,7 +24,8 @@ void Daemon::online_step(const std::array<auger::ScrewTelemetry, 4>& tel) {
   const auger::Vec3 zeta = cfg_.online_kinematic ? online_kin_.step(sensors_in_, loop_dt_s_) : controller_->zeta_estimate();
   // A non-finite velocity (before the first camera pose, in a camera dropout) breaks the
   // estimator's window: it must see the cycle, not miss it.
-  online_change_ = online_->step(omega_rpm, zeta, loop_dt_s_);
+  // The pose: the online effects' forces turn with the heading (a slope's).
+  online_change_ = online_->step(omega_rpm, zeta, loop_dt_s_, controller_->eta_estimate());
   if (online_change_) {
     char what[200];
     std::snprintf(what, sizeof what,
@@ -34,6 +35,7 @@ void Daemon::online_step(const std::array<auger::ScrewTelemetry, 4>& tel) {
                   online_->estimate().value[2], online_->estimate().value[3], online_->estimate().value[4]);
     std::fprintf(stderr, "augerd: t=%.3f s: %s\n", t_s_, what);
     event(-1, "terrain-change", what);
+    online_effects_event("online-effects", "the estimator's memory restarts with");
   }
   if (!online_->fallback().empty() && !online_fallback_said_) {
     // A warning, not a fault: the robot goes on with the configured terrain.
@@ -47,6 +49,13 @@ void Daemon::online_step(const std::array<auger::ScrewTelemetry, 4>& tel) {
     // What the estimate says the ground is, whether or not the controller uses it (apply off):
     // once a second (the name is a string), an event when its row changes.
     believed_next_t_s_ = t_s_ + 1.0;
+    // The online effects' estimates: an event when an informed one moved by more than 2 SD
+    // since the last (the first once informed).
+    const auger::OnlineEstimate& e = online_->estimate();
+    bool moved = false;
+    for (int k = 0; k < e.effects; ++k)
+      moved = moved || (e.effect_informed[k] > 0 && !(std::fabs(e.effect_value[k] - effects_said_[k]) <= 2 * e.effect_sd[k]));
+    if (moved) online_effects_event("online-effects", "the estimate is now");
     const std::string believed = auger::believed_terrain(online_->estimate(), terrains_);
     believed_now_ = believed;
     if (terrain_token(believed) != believed_said_) {
@@ -69,6 +78,21 @@ void Daemon::online_step(const std::array<auger::ScrewTelemetry, 4>& tel) {
       event(-1, "terrain-applied", "the controller now uses " + believed);
     }
   }
+}
+
+void Daemon::online_effects_event(const char* what, const char* lead) {
+  const auger::OnlineEstimate& e = online_->estimate();
+  if (e.effects == 0) return;
+  std::string text = lead;
+  char buf[160];
+  for (int k = 0; k < e.effects; ++k) {
+    const auger::OnlineEffectParam& p = online_->effects()[std::size_t(k)];
+    std::snprintf(buf, sizeof buf, "%s %s %.4g +- %.2g %s%s", k ? "," : "", p.name.c_str(), e.effect_value[k],
+                  e.effect_sd[k], p.unit.c_str(), e.effect_informed[k] > 0 ? "" : " (not informed yet)");
+    text += buf;
+    effects_said_[k] = e.effect_value[k];
+  }
+  event(-1, what, text + " (the controller keeps the model file's values)");
 }
 
 void Daemon::online_values(double* out) const {
@@ -101,6 +125,9 @@ void Daemon::online_status(auger::daemon::Status& s) const {
   s.on_cusum = online_->cusum();
   s.on_changes = static_cast<long>(online_->changes());
   s.on_fallback = !online_->fallback().empty();
+  s.on_effects.clear();
+  for (int k = 0; k < e.effects; ++k)
+    s.on_effects.push_back({online_->effects()[std::size_t(k)].name, e.effect_value[k], e.effect_sd[k]});
 }
 
 void Daemon::online_snapshot(auger::ros2::OnlineSnapshot& o) const {
@@ -115,6 +142,14 @@ void Daemon::online_snapshot(auger::ros2::OnlineSnapshot& o) const {
   std::snprintf(o.fallback.data(), o.fallback.size(), "%s", online_->fallback().c_str());
   std::snprintf(o.believed.data(), o.believed.size(), "%s", believed_now_.c_str());
   std::snprintf(o.basis.data(), o.basis.size(), "%s", auger::believed_basis(e));
+  static_assert(auger::ros2::OnlineSnapshot::kMaxEffects == auger::kMaxOnlineEffects, "one limit");
+  o.effects = e.effects;
+  for (int k = 0; k < e.effects; ++k) {
+    const auger::OnlineEffectParam& p = online_->effects()[std::size_t(k)];
+    o.effect_value[k] = e.effect_value[k], o.effect_sd[k] = e.effect_sd[k];
+    std::snprintf(o.effect_name[k].data(), o.effect_name[k].size(), "%s", p.name.c_str());
+    std::snprintf(o.effect_unit[k].data(), o.effect_unit[k].size(), "%s", p.unit.c_str());
+  }
 }
 
 }  // namespace augerd

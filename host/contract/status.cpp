@@ -184,6 +184,13 @@ std::string format_status(const Status& s) {
   write(s, sensor_fields(), "", out);
   if (s.ros2) write(s, ros2_fields(), "", out);
   if (s.online) write(s, online_fields(), "", out);
+  char buf[64];
+  for (const Status::OnlineEffect& e : s.on_effects) {
+    std::snprintf(buf, sizeof buf, "%.4g", e.value);
+    out += " on_eff_" + e.name + "=" + buf;
+    std::snprintf(buf, sizeof buf, "%.2g", e.sd);
+    out += " on_sd_eff_" + e.name + "=" + buf;
+  }
   return out;
 }
 
@@ -200,6 +207,21 @@ std::string parse_status(const std::string& line, Status& out) {
   if (s.ros2 && err.empty()) err = read(kv, ros2_fields(), "", s);
   s.online = s.all && kv.count("online_terrain") > 0;
   if (s.online && err.empty()) err = read(kv, online_fields(), "", s);
+  for (const auto& [key, text] : kv) {
+    if (!err.empty() || key.rfind("on_eff_", 0) != 0) continue;
+    Status::OnlineEffect e;
+    e.name = key.substr(7);
+    const auto sd = kv.find("on_sd_eff_" + e.name);
+    char* end = nullptr;
+    e.value = std::strtod(text.c_str(), &end);
+    if (text.empty() || *end != '\0') err = "'" + key + "=" + text + "' is not a number";
+    else if (sd == kv.end()) err = "no 'on_sd_eff_" + e.name + "' in the status line";
+    else {
+      e.sd = std::strtod(sd->second.c_str(), &end);
+      if (sd->second.empty() || *end != '\0') err = "'" + sd->first + "=" + sd->second + "' is not a number";
+    }
+    s.on_effects.push_back(e);
+  }
   if (!err.empty()) return err;
   out = s;
   return "";

@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 namespace auger::daemon {
 
@@ -56,6 +57,14 @@ struct Status {
   double on_cusum = 0;
   long on_changes = 0;
   bool on_fallback = false;
+  // The effects' parameters the model file marks online: on_eff_<effect>.<param>=value
+  // on_sd_eff_<effect>.<param>=SD, in the parameter's unit (docs/daemon-protocol.md); parsed
+  // back in the order of the names.
+  struct OnlineEffect {
+    std::string name;  // "terrain_slope.incline_x_rad"
+    double value = 0, sd = 0;
+  };
+  std::vector<OnlineEffect> on_effects;
 };
 
 // The answer line, "status t_s=... ..." (without newline).

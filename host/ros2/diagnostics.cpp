@@ -32,6 +32,11 @@ DiagnosticEntry online_entry(const OnlineSnapshot& o) {
     x.kv.emplace_back(name, num("%.4g", o.value[k]) + unit + (o.held[k] ? " (held)" : ""));
     x.kv.emplace_back(name + "_sd", num("%.2g", o.sd[k]) + unit);
   }
+  for (int k = 0; k < o.effects && k < OnlineSnapshot::kMaxEffects; ++k) {
+    const std::string name = o.effect_name[k].data(), unit = std::string(" ") + o.effect_unit[k].data();
+    x.kv.emplace_back(name, num("%.4g", o.effect_value[k]) + unit);
+    x.kv.emplace_back(name + "_sd", num("%.2g", o.effect_sd[k]) + unit);
+  }
   x.kv.emplace_back("cusum", num("%.3g", o.cusum));
   x.kv.emplace_back("cusum_threshold", num("%.3g", o.cusum_threshold));
   x.kv.emplace_back("changes", std::to_string(o.changes));

@@ -43,6 +43,13 @@ struct OnlineSnapshot {
   std::array<char, 64> fallback{};   // the latched fallback's reason, "" none
   std::array<char, 200> believed{};  // the believed terrain, auger::believed_terrain (looked at once a second)
   std::array<char, 24> basis{};      // what it compared, auger::believed_basis
+  // The effects' parameters the model file marks online (auger::kMaxOnlineEffects at most), in
+  // their units: the /diagnostics entry's values (the estimate topic keeps its five rows).
+  static constexpr int kMaxEffects = 3;
+  int effects = 0;
+  double effect_value[kMaxEffects] = {}, effect_sd[kMaxEffects] = {};
+  std::array<char, 64> effect_name[kMaxEffects] = {};  // "terrain_slope.incline_x_rad"
+  std::array<char, 24> effect_unit[kMaxEffects] = {};
 };
 
 // What augerd knows at the end of a cycle; plain data, copied as a whole (no allocation).

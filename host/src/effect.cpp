@@ -61,6 +61,15 @@ std::shared_ptr<const Effect> EffectRegistry::create(const EffectConfig& c) cons
       throw ConfigError(c.file, p.line, p.column,
                         "effect '" + c.id + "' has no parameter '" + p.name + "' (known: " + known + ")");
     }
+    if (p.online && !spec->online) {
+      // A sensor's parameter offsets a measurement, it makes no force: the online estimator's
+      // regression on eq. (6) cannot see it (online_estimator.hpp).
+      const bool sensor = e.needs_imu || c.id.rfind("imu_", 0) == 0 || c.id == "pose_time_offset";
+      throw ConfigError(c.file, p.online_line, p.online_column,
+                        "effect '" + c.id + "': '" + p.name + "' cannot be estimated online (" +
+                            (sensor ? "a sensor's offset, not a force of eq. (6)" : "its effect gives no regressor for it") +
+                            "); parameters that may be online: " + online_parameter_list(*this));
+    }
     const auto k = static_cast<std::size_t>(spec - e.params.begin());
     values[k] = p.value;
     given[k] = true;
@@ -100,6 +109,17 @@ void register_builtin_effects(EffectRegistry& r) {
   effects::register_sensors(r);
   effects::register_body(r);
   effects::register_term(r);
+}
+
+std::string online_parameter_list(const EffectRegistry& registry) {
+  std::string list;
+  for (const auto& [id, e] : registry.entries()) {
+    std::string names;
+    for (const ParamSpec& p : e.params)
+      if (p.online) names += (names.empty() ? "" : ", ") + p.name;
+    if (!names.empty()) list += (list.empty() ? "" : "; ") + id + " (" + names + ")";
+  }
+  return list.empty() ? "none" : list;
 }
 
 const EffectRegistry& EffectRegistry::builtin() {

@@ -167,7 +167,10 @@ std::string write_model_file(const ModelFile& f) {
   for (const EffectConfig& c : f.effects) {
     toml::table t{{"id", c.id}};
     for (const auto& p : c.texts) t.insert(p.name, p.value);
-    for (const auto& p : c.params) t.insert(p.name, p.value);
+    for (const auto& p : c.params) {
+      if (p.online) t.insert(p.name, toml::table{{"value", p.value}, {"online", true}});
+      else t.insert(p.name, p.value);
+    }
     put(o, toml::table{{"effect", toml::array{std::move(t)}}}, c.comment);
   }
   const ControlSection& c = f.control;
@@ -193,6 +196,31 @@ const TerrainEntry* ModelFile::find_terrain(const std::string& name) const {
     if (t.params.name == name) return &t;
   return nullptr;
 }
+
+namespace {
+// `NAME = { value = 0.05, online = true }`: an effect's parameter that augerd estimates online
+// (docs/model.md); the registry refuses it for a parameter that cannot be (EffectRegistry::create).
+EffectParamValue online_param(const std::string& file, const toml::table& t, const std::string& key) {
+  EffectParamValue p{key, 0, line_of(t), col_of(t)};
+  bool have_value = false;
+  for (auto&& [k, v] : t) {
+    const std::string sub(k.str());
+    if (sub == "value") {
+      p.value = number(file, v, key + ".value");
+      have_value = true;
+    } else if (sub == "online") {
+      p.online = toml_kit::boolean(file, v, key + ".online");
+      p.online_line = line_of(v);
+      p.online_column = col_of(v);
+    } else {
+      toml_kit::unknown_key(file, v, sub, "'" + key + "'", "value, online");
+    }
+  }
+  if (!have_value)
+    throw ConfigError(file, p.line, p.column, "'" + key + "' needs 'value' (write " + key + " = { value = 0.0, online = true })");
+  return p;
+}
+}  // namespace
 
 ModelFile parse_model_file(const std::string& source, const std::string& name) {
   toml::table root;
@@ -277,6 +305,8 @@ ModelFile parse_model_file(const std::string& source, const std::string& name) {
             have_id = true;
           } else if (ev.is_string()) {
             c.texts.push_back({ekey, text(name, ev, ekey), line_of(ev), col_of(ev)});
+          } else if (ev.is_table()) {
+            c.params.push_back(online_param(name, *ev.as_table(), ekey));
           } else {
             c.params.push_back({ekey, number(name, ev, ekey), line_of(ev), col_of(ev)});
           }

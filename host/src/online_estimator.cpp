@@ -7,6 +7,9 @@
 #include <cstdio>
 #include <stdexcept>
 
+#include "auger/effect.hpp"
+#include "auger/model_file.hpp"
+
 namespace auger {
 
 namespace {
@@ -21,23 +24,47 @@ const char* online_param_name(int k) { return kNames[k]; }
 const char* online_param_unit(int k) { return kUnits[k]; }
 const TerrainRange& terrain_range(int k) { return kRanges[k]; }
 
-OnlineEstimator::OnlineEstimator(const Model& model, const OnlineConfig& config)
-    : cfg_(config), M_(model.M_diag), B_(model.B) {
+OnlineEstimator::OnlineEstimator(const Model& model, const OnlineConfig& config,
+                                 const std::vector<OnlineEffectParam>& effects)
+    : cfg_(config), model_(model), effects_(effects), M_(model.M_diag), B_(model.B) {
   const TerrainParams& t = model.terrain;
   if (!std::isfinite(t.D_psi) || !(t.D_psi > 0))
     throw std::invalid_argument("online estimation needs the terrain's D_psi (terrain '" + t.name + "' has none)");
   // The configured terrain is the reference, whatever the model was set to since.
   ref_ << t.sigma_long, t.sigma_lat, t.D_x, t.D_y, t.D_psi;
+  if (effects_.size() > std::size_t(kMaxOnlineEffects))
+    throw std::invalid_argument("online estimation: at most " + std::to_string(kMaxOnlineEffects) +
+                                " effect parameters (" + std::to_string(effects_.size()) + " given)");
+  n_eff_ = static_cast<int>(effects_.size());
+  scale_.setOnes();
+  theta0_.setZero();
+  lo_rel_.setZero();
+  hi_rel_.setZero();
   for (int k = 0; k < 5; ++k) {
+    scale_[k] = ref_[k];
+    theta0_[k] = 1;
     lo_rel_[k] = kRanges[k].lower / ref_[k];
     hi_rel_[k] = kRanges[k].upper / ref_[k];
+  }
+  for (int k = 0; k < n_eff_; ++k) {
+    const OnlineEffectParam& e = effects_[std::size_t(k)];
+    if (e.effect >= model.effects.size() || !std::isfinite(e.lower) || !std::isfinite(e.upper) || !(e.upper > e.lower) ||
+        !(e.prior_sd > 0) || !std::isfinite(e.configured))
+      throw std::invalid_argument("online estimation: effect parameter '" + e.name +
+                                  "' is not in the model or has no finite physical range");
+    scale_[5 + k] = e.prior_sd;
+    theta0_[5 + k] = std::clamp(e.configured, e.lower, e.upper) / e.prior_sd;
+    lo_rel_[5 + k] = e.lower / e.prior_sd;
+    hi_rel_[5 + k] = e.upper / e.prior_sd;
   }
   if (!(cfg_.window_s > 0) || !(cfg_.memory_s > 0) || !(cfg_.prior_rel_sd > 0) || !(cfg_.drag_prior_rel_sd > 0) ||
       !(cfg_.cusum_ratio > 1) || !(cfg_.cusum_threshold > 0) || !(cfg_.velocity_sd.minCoeff() > 0))
     throw std::invalid_argument("online estimation: window_s, prior_rel_sd, drag_prior_rel_sd, velocity_sd > 0, memory_s > 0, "
                                 "cusum_ratio > 1, cusum_threshold > 0");
   fallback_.reserve(64);  // latching a reason later allocates nothing
-  P0_ = Mat5::Identity() * (cfg_.prior_rel_sd * cfg_.prior_rel_sd);
+  P0_.setZero();  // an unused effect column: no prior variance, never moves
+  for (int k = 0; k < 5 + n_eff_; ++k) P0_(k, k) = 1.0;  // an effect's prior SD is its unit
+  for (int k = kSigmaLong; k <= kSigmaLat; ++k) P0_(k, k) = cfg_.prior_rel_sd * cfg_.prior_rel_sd;
   for (int k = kDx; k <= kDpsi; ++k) P0_(k, k) = cfg_.drag_prior_rel_sd * cfg_.drag_prior_rel_sd;
   // Noise of M_j (z_end - z_start) / W from the two end velocities.
   for (int j = 0; j < 3; ++j) {
@@ -48,7 +75,7 @@ OnlineEstimator::OnlineEstimator(const Model& model, const OnlineConfig& config)
 }
 
 void OnlineEstimator::reset() {
-  theta_.setOnes();
+  theta_ = theta0_;
   applied_ = ref_;
   applied_changed_ = false;
   noise_var_ = noise_var0_;
@@ -71,15 +98,25 @@ void OnlineEstimator::reset() {
 void OnlineEstimator::restart_memory() {
   P_ = P0_;
   g_ = 0;
-  est_.value = theta_.cwiseProduct(ref_);
-  est_.sd = P_.diagonal().cwiseSqrt().cwiseProduct(ref_);
   est_.informed.setZero();
+  est_.effect_informed.setZero();
+  est_.effects = n_eff_;
   for (int k = 0; k < 5; ++k) est_.held[k] = std::sqrt(P0_(k, k)) <= kHeldRelSd ? 1 : 0;
+  publish();
+}
+
+// The estimate in physical units from theta_ and P_.
+void OnlineEstimator::publish() {
+  const VecN value = theta_.cwiseProduct(scale_), sd = P_.diagonal().cwiseSqrt().cwiseProduct(scale_);
+  est_.value = value.head<5>();
+  est_.sd = sd.head<5>();
+  est_.effect_value = value.tail<kMaxOnlineEffects>();
+  est_.effect_sd = sd.tail<kMaxOnlineEffects>();
 }
 
 void OnlineEstimator::enter_fallback(const char* why) {
   if (fallback_.empty()) fallback_ = why;  // latched: the first reason (no allocation: short, SSO)
-  theta_.setOnes();
+  theta_ = theta0_;
   applied_changed_ = applied_ != ref_;
   applied_ = ref_;
   restart_memory();
@@ -89,11 +126,13 @@ void OnlineEstimator::enter_fallback(const char* why) {
 // scaled by the forgetting factor, the rest of the covariance stays, so a parameter the data do
 // not inform keeps its uncertainty instead of winding up. Returns the normalised innovation
 // squared of the prediction before the update.
-double OnlineEstimator::update_row(int j, const Vec5& phi, double y, bool adapt) {
+// phi_update is phi with the columns that are not informative in this window zeroed: they stay
+// in the prediction (e) but take no update.
+double OnlineEstimator::update_row(int j, const VecN& phi, const VecN& phi_update, double y, bool adapt) {
   const double r = noise_var_[j];
   const double e = y - phi.dot(theta_);
-  Vec5 Pphi = P_ * phi;
-  double s = phi.dot(Pphi);
+  VecN Pphi = P_ * phi_update;
+  double s = phi_update.dot(Pphi);
   const double nis = e * e / (r + s);
   innov_[j] = e;
   innov_s_[j] = s;
@@ -103,12 +142,12 @@ double OnlineEstimator::update_row(int j, const Vec5& phi, double y, bool adapt)
     Pphi /= lambda;  // P phi after the forgetting: phi^T P phi grew by 1 / lambda, along Pphi
     s /= lambda;
   }
-  const Vec5 K = Pphi / (r + s);
+  const VecN K = Pphi / (r + s);
   theta_ += K * e;
   P_ -= K * Pphi.transpose();
   P_ = 0.5 * (P_ + P_.transpose());
   // Never more uncertain than the prior (the forgetting cannot wind up a direction for good).
-  for (int k = 0; k < 5; ++k) {
+  for (int k = 0; k < 5 + n_eff_; ++k) {
     if (P_(k, k) > P0_(k, k)) {
       const double c = std::sqrt(P0_(k, k) / P_(k, k));
       P_.row(k) *= c;
@@ -144,10 +183,18 @@ double OnlineEstimator::update_row(int j, const Vec5& phi, double y, bool adapt)
   return std::min(stat, kNisClip);
 }
 
-bool OnlineEstimator::step(const Vec4& omega_rpm, const Vec3& zeta, double dt_s) {
+void OnlineEstimator::effect_bases(const Vec3& eta, const Vec3& zeta, Vec3* out) const {
+  for (int k = 0; k < n_eff_; ++k) {
+    const OnlineEffectParam& e = effects_[std::size_t(k)];
+    out[k] = model_.effects[e.effect]->online_basis(model_, e.index, eta, zeta);
+  }
+}
+
+bool OnlineEstimator::step(const Vec4& omega_rpm, const Vec3& zeta, double dt_s, const Vec3& eta) {
   applied_changed_ = false;
   // A stalled loop or a non-finite input breaks the window: its integral would be wrong.
-  if (!(dt_s > 0) || dt_s > 5 * cfg_.window_s || !omega_rpm.allFinite() || !zeta.allFinite()) {
+  if (!(dt_s > 0) || dt_s > 5 * cfg_.window_s || !omega_rpm.allFinite() || !zeta.allFinite() ||
+      (n_eff_ > 0 && !eta.allFinite())) {
     have_prev_ = false;
     e_prev_.setConstant(NAN);  // the next window's innovation does not follow this one's
     return false;
@@ -160,12 +207,22 @@ bool OnlineEstimator::step(const Vec4& omega_rpm, const Vec3& zeta, double dt_s)
     w_s_ = 0;
     slow_ = false;
     have_prev_ = true;
+    effect_bases(eta, zeta, eff_prev_);
+    for (int k = 0; k < n_eff_; ++k) eff_sum_[k].setZero();
     return false;
   }
   slow_ = slow_ || omega_rpm.cwiseAbs().minCoeff() < cfg_.slow_screw_rpm;
   f_sum_ += (B_ * omega_rpm) * dt_s;            // eq. (7) without S: (B omega) held over the cycle
   z_sum_ += 0.5 * (zeta_prev_ + zeta) * dt_s;  // trapezoid
   zeta_prev_ = zeta;
+  if (n_eff_ > 0) {
+    Vec3 now[kMaxOnlineEffects];
+    effect_bases(eta, zeta, now);
+    for (int k = 0; k < n_eff_; ++k) {
+      eff_sum_[k] += 0.5 * (eff_prev_[k] + now[k]) * dt_s;  // trapezoid, as the velocity
+      eff_prev_[k] = now[k];
+    }
+  }
   w_s_ += dt_s;
   if (w_s_ < cfg_.window_s - 1e-9) return false;
   const std::uint64_t before = changes_;
@@ -173,6 +230,7 @@ bool OnlineEstimator::step(const Vec4& omega_rpm, const Vec3& zeta, double dt_s)
   zeta_start_ = zeta;
   f_sum_.setZero();
   z_sum_.setZero();
+  for (int k = 0; k < n_eff_; ++k) eff_sum_[k].setZero();
   w_s_ = 0;
   slow_ = false;
   return changes_ != before;
@@ -191,26 +249,45 @@ void OnlineEstimator::end_window() {
   ++windows_;
   for (int j = 0; j < 3; ++j) {
     const int si = online_sigma_of_dof(j), di = online_drag_of_dof(j);
-    Vec5 phi = Vec5::Zero();
+    VecN phi = VecN::Zero();
     phi[si] = ref_[si] * fbar[j];
     phi[di] = -ref_[di] * zbar[j];
-    // Excitation: a DOF whose drive force and drag are both within the noise says nothing; a
-    // window with a slow (blocking) screw is outside eqs. (6)-(7).
+    // Excitation: a DOF whose drive force and drag are both within the noise says nothing about
+    // them; an effect's column, when one prior SD of its parameter makes less force than that;
+    // a window with a slow (blocking) screw is outside eqs. (6)-(7).
     const double level = cfg_.excitation_sd * std::sqrt(noise_var_[j]);
-    if (slow_ || std::max(std::fabs(phi[si] * theta_[si]), std::fabs(phi[di] * theta_[di])) < level) {
+    VecN phi_update = phi;
+    bool informative = std::max(std::fabs(phi[si] * theta_[si]), std::fabs(phi[di] * theta_[di])) >= level;
+    if (!informative) phi_update[si] = phi_update[di] = 0;
+    // The effects' force at the estimate minus its linear part: the residual is then exact.
+    double y_j = y[j];
+    for (int k = 0; k < n_eff_; ++k) {
+      // The shape at the current estimate (g(p) basis; the previous DOF's update moved it).
+      const OnlineEffectParam& e = effects_[std::size_t(k)];
+      double dg = 0;
+      const double g = model_.effects[e.effect]->online_shape(e.index, theta_[5 + k] * scale_[5 + k], &dg);
+      const double basis = eff_sum_[k][j] / w_s_;
+      phi[5 + k] = dg * basis * scale_[5 + k];
+      y_j -= g * basis - phi[5 + k] * theta_[5 + k];
+      if (std::fabs(phi[5 + k]) >= level) {  // P0 = 1: one prior SD's force
+        phi_update[5 + k] = phi[5 + k];
+        informative = true;
+      }
+    }
+    if (slow_ || !informative) {
       e_prev_[j] = NAN;
       continue;
     }
-    const double nis = update_row(j, phi, y[j], adapt);
+    const double nis = update_row(j, phi, phi_update, y_j, adapt);
     nis_ += nis;
     ++rows_;
     // CUSUM increment: log-likelihood ratio of an innovation variance rho times the model's.
     llr += 0.5 * (nis * (1.0 - 1.0 / rho) - log_rho);
   }
-  // Clamp to the physical ranges; a parameter held at a bound is a symptom of divergence.
-  for (int k = 0; k < 5; ++k) {
+  // Clamp to the physical ranges; a terrain parameter held at a bound is a symptom of divergence.
+  for (int k = 0; k < 5 + n_eff_; ++k) {
     const double c = std::clamp(theta_[k], lo_rel_[k], hi_rel_[k]);
-    at_bound_s_[k] = c != theta_[k] ? at_bound_s_[k] + w_s_ : 0.0;
+    if (k < 5) at_bound_s_[k] = c != theta_[k] ? at_bound_s_[k] + w_s_ : 0.0;
     theta_[k] = c;
   }
   if (!theta_.allFinite() || !P_.allFinite()) {
@@ -222,10 +299,11 @@ void OnlineEstimator::end_window() {
     enter_fallback("a parameter stayed at its physical bound");
     return;
   }
-  est_.value = theta_.cwiseProduct(ref_);
-  est_.sd = P_.diagonal().cwiseSqrt().cwiseProduct(ref_);
+  publish();
   for (int k = 0; k < 5; ++k)
     if (P_(k, k) < 0.25 * P0_(k, k)) est_.informed[k] = 1;
+  for (int k = 0; k < n_eff_; ++k)
+    if (P_(5 + k, 5 + k) < 0.25 * P0_(5 + k, 5 + k)) est_.effect_informed[k] = 1;
 
   if (rows_ > 0 && detecting) g_ = std::max(0.0, g_ + llr);
   if (g_ > cfg_.cusum_threshold) {
@@ -249,6 +327,69 @@ void OnlineEstimator::end_window() {
       applied_changed_ = true;
     }
   }
+}
+
+std::vector<OnlineEffectParam> online_effect_params(const ModelFile& file, const EffectRegistry& registry) {
+  std::vector<OnlineEffectParam> out;
+  for (std::size_t i = 0; i < file.effects.size(); ++i) {
+    const EffectConfig& c = file.effects[i];
+    for (const EffectParamValue& p : c.params) {
+      if (!p.online) continue;
+      if (!registry.has(c.id)) registry.create(c);  // throws: the unknown id, with the known ones
+      const EffectRegistry::Entry& entry = registry.entries().at(c.id);
+      const auto spec = std::find_if(entry.params.begin(), entry.params.end(),
+                                     [&](const ParamSpec& s) { return s.name == p.name; });
+      if (spec == entry.params.end() || !spec->online) {
+        registry.create(c);  // throws, naming the parameters that may be online
+        throw ConfigError(c.file, p.online_line, p.online_column, c.id + "." + p.name + " cannot be estimated online");
+      }
+      if (out.size() == std::size_t(kMaxOnlineEffects))
+        throw ConfigError(c.file, p.online_line, p.online_column,
+                          "at most " + std::to_string(kMaxOnlineEffects) + " effect parameters may be online (this is the " +
+                              std::to_string(kMaxOnlineEffects + 1) + "th: " + c.id + "." + p.name + ")");
+      OnlineEffectParam e;
+      e.effect = i;
+      e.index = static_cast<std::size_t>(spec - entry.params.begin());
+      e.name = c.id + "." + p.name;
+      e.unit = spec->unit;
+      e.configured = p.value;
+      e.lower = spec->physical_lower;
+      e.upper = spec->physical_upper;
+      // A quarter of the physical range: a prior that lets the data move the estimate anywhere
+      // in it within a few windows, and an SD the clamp rarely cuts.
+      e.prior_sd = 0.25 * (e.upper - e.lower);
+      if (!(e.configured >= e.lower && e.configured <= e.upper)) {
+        char what[160];
+        std::snprintf(what, sizeof what, " = %g is outside its physical range %g..%g %s", p.value, e.lower, e.upper,
+                      e.unit.c_str());
+        throw ConfigError(c.file, p.line, p.column,
+                          c.id + "." + p.name + what + ": an online estimate starts from it and is clamped to that range");
+      }
+      out.push_back(std::move(e));
+    }
+  }
+  return out;
+}
+
+std::string online_effect_caveats(const ModelFile& file, const EffectRegistry& registry) {
+  std::string out;
+  for (const EffectConfig& c : file.effects) {
+    const bool any = std::any_of(c.params.begin(), c.params.end(), [](const EffectParamValue& p) { return p.online; });
+    if (!any || !registry.has(c.id)) continue;
+    for (const ParamSpec& spec : registry.entries().at(c.id).params) {
+      const auto p = std::find_if(c.params.begin(), c.params.end(), [&](const EffectParamValue& v) { return v.name == spec.name; });
+      const double value = p != c.params.end() ? p->value : spec.default_value;
+      if (!spec.online || (p != c.params.end() && p->online) || value == 0) continue;
+      char line[320];
+      std::snprintf(line, sizeof line,
+                    "%s:%d: %s.%s = %g %s is not marked online: the online regression leaves its force out (mark it "
+                    "online to estimate it with the rest)\n",
+                    c.file.c_str(), p != c.params.end() ? p->line : c.line, c.id.c_str(), spec.name.c_str(), value,
+                    spec.unit.c_str());
+      out += line;
+    }
+  }
+  return out;
 }
 
 namespace {

@@ -49,7 +49,9 @@ const auger::CommandLine kCli{
      {"--camera-latency-s", "S", "the camera's capture-to-delivery latency (default 0.03 s)"},
      {"--online-apply", "", "the controller takes the online estimate, as augerd's [online] apply = true with\n"
                             "the settings of scripts/online-fil.sh (kinematic velocity, drag held, slow_screw_rpm 2)"},
-     {"--online-slow-screw-rpm", "X", "with --online-apply: [online] slow_screw_rpm (default 2)"}},
+     {"--online-slow-screw-rpm", "X", "with --online-apply: [online] slow_screw_rpm (default 2)"},
+     {"--incline-pitch-rad", "P", "the ground tilted by P about world y (descending towards +x for P > 0; truth's incline)"},
+     {"--incline-roll-rad", "R", "the ground tilted by R about world x (descending towards -y for R > 0)"}},
     "Exit 2: bad usage.\n"};
 
 void usage(std::FILE* f) { kCli.print_usage(f); }
@@ -138,6 +140,7 @@ int main(int argc, char** argv) {
   std::uint64_t seed = 1;
   bool online_apply = false;
   double online_slow_rpm = 2.0;
+  double incline_pitch_rad = 0, incline_roll_rad = 0;
   int threads = 1;  // one thread is faster here: the modules and the robot exchange every 1 ms
   sim::CameraParams camera;
   Args args;
@@ -167,6 +170,8 @@ int main(int argc, char** argv) {
     else if (a == "--camera-latency-s") camera.latency_s = number("--camera-latency-s", val());
     else if (a == "--online-apply") online_apply = true;
     else if (a == "--online-slow-screw-rpm") online_slow_rpm = number("--online-slow-screw-rpm", val());
+    else if (a == "--incline-pitch-rad") incline_pitch_rad = number("--incline-pitch-rad", val());
+    else if (a == "--incline-roll-rad") incline_roll_rad = number("--incline-roll-rad", val());
   }
   if ((out_path.empty() && course_path.empty()) || (drive == "manual" && !course_path.empty()) || !(seconds > 0) || !(course_m > 0) || (drive != "square" && drive != "diagonal" && drive != "manual") ||
       (screws != "fil" && screws != "ideal") || threads < 1) {
@@ -210,6 +215,9 @@ int main(int argc, char** argv) {
     tp.blocking.on = blocking_rpm > 0;
     tp.blocking.omega_block_rpm = blocking_rpm;
     tp.field = field;
+    tp.incline.on = incline_pitch_rad != 0 || incline_roll_rad != 0;
+    tp.incline.pitch_rad = incline_pitch_rad;
+    tp.incline.roll_rad = incline_roll_rad;
     sim::SchedulerConfig sc;
     sc.mode = screws == "fil" ? sim::ScrewMode::fil : sim::ScrewMode::ideal;
     sc.elf_path = elf;
@@ -262,7 +270,9 @@ int main(int argc, char** argv) {
       oc.drag_prior_rel_sd = 0.01;
       oc.slow_screw_rpm = online_slow_rpm;
       oc.cusum_threshold = 16;
-      online = std::make_unique<OnlineEstimator>(m, oc);
+      // The model file's effect parameters marked online are estimated with the terrain; the
+      // estimator reads the heading (a slope's force turns with it): the IMU's.
+      online = std::make_unique<OnlineEstimator>(m, oc, online_effect_params(file, EffectRegistry::builtin()));
       s.set_sensor_sink([&](double, const sim::ImuReading* imu, const sim::PoseReading* pose) {
         SensorInput in;
         in.has_imu_psi = in.has_imu_r = true;
@@ -273,7 +283,8 @@ int main(int argc, char** argv) {
           in.pose = pose->pose;
           in.pose_cov = pose->std_dev.cwiseProduct(pose->std_dev).asDiagonal();
         }
-        online->step(s.omega_true_rpm(), kin.step(in, sc.control_period_s), sc.control_period_s);
+        online->step(s.omega_true_rpm(), kin.step(in, sc.control_period_s), sc.control_period_s,
+                     Vec3(0, 0, imu->psi_rad));
         if (online->applied_changed()) set_terrain_parameters(m, online->control_parameters());
       });
     }
@@ -301,6 +312,10 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "auger-sim-drive: [online] apply: %llu changes detected, sigma_long used at the end %.3f N/rpm%s\n",
                    static_cast<unsigned long long>(online->changes()), online->control_parameters()[kSigmaLong],
                    online->fallback().empty() ? "" : (", fallback: " + online->fallback()).c_str());
+    for (int k = 0; online && k < online->estimate().effects; ++k)
+      std::fprintf(stderr, "auger-sim-drive: [online] %s %.4g +- %.2g %s%s\n", online->effects()[std::size_t(k)].name.c_str(),
+                   online->estimate().effect_value[k], online->estimate().effect_sd[k],
+                   online->effects()[std::size_t(k)].unit.c_str(), online->estimate().effect_informed[k] > 0 ? "" : " (not informed)");
     log.close();
     if (!log) {
       std::fprintf(stderr, "auger-sim-drive: writing %s failed\n", out_path.c_str());

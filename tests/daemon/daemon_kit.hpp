@@ -35,7 +35,9 @@ bool wait_until(const std::function<bool()>& pred, double timeout_s);
 
 // augerd's configuration with these module ports, sockets and log under dir; `extra` goes
 // into [serial].
-std::string config_text(const std::string& dir, const std::vector<std::string>& ports, const std::string& extra = "");
+// model: the model file (default the repository's models/robot.toml).
+std::string config_text(const std::string& dir, const std::vector<std::string>& ports, const std::string& extra = "",
+                        const std::string& model = "");
 
 // augerd as a child process; killed (SIGKILL) when still running at the end.
 struct Daemon {
@@ -57,6 +59,7 @@ struct Daemon {
 struct Run {
   struct Options {
     std::string extra, tail;
+    std::string model;  // the model file's path ("": models/robot.toml)
     std::vector<std::string> prefix;
     std::array<int, 4> telemetry_ms{10, 10, 10, 10};
   };

@@ -4,7 +4,9 @@
 
 #include <signal.h>
 
+#include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -12,6 +14,7 @@
 #include "auger/online_estimator.hpp"
 #include "daemon_kit.hpp"
 #include "daemon_log.hpp"
+#include "status.hpp"
 #include "simmod.h"
 
 using namespace daemon_kit;
@@ -178,3 +181,62 @@ TEST_CASE("augerd logs a module's trip with its snapshot and a reset with its ca
   CHECK(d.wait_exit(2.0) == 0);
 }
 
+
+// Issue 29 point 1: the effects' parameters a model file marks `online = true` are estimated with
+// the terrain and shown in `status all` (on_eff_..., on_sd_eff_...); one that cannot be is a
+// configuration error naming the model file's line and column, before anything is opened.
+TEST_CASE("augerd's [online] estimates the effects the model file marks online", "[daemon]") {
+  const std::string dir = make_dir("online_effects");
+  RemoveDir cleanup{dir};
+  const std::string robot = slurp(AUGER_SOURCE_DIR "/models/robot.toml") + "\n";
+  const int base = static_cast<int>(std::count(robot.begin(), robot.end(), '\n'));
+  std::ofstream(dir + "/slope.toml") << robot << "[[effect]]\nid = \"terrain_slope\"\n"
+                                     << "incline_x_rad = { value = 0.02, online = true }\n"
+                                     << "incline_y_rad = { value = 0, online = true }\n";
+  {
+    Run::Options o;
+    o.model = dir + "/slope.toml";
+    o.tail = "[online]\nenabled = true\n";
+    Run r("online_effects_run", o);
+    INFO(r.d->stderr_text());
+    REQUIRE(talk(r.cmd, "enable\n", 1) == "ok");
+    {
+      VelFeeder feed(r.cmd, "vel 0.03 0 0.1");
+      sleep_s(1.0);
+    }
+    const std::string all = talk(r.cmd, "status all\n", 1);
+    INFO(all);
+    auger::daemon::Status st;
+    REQUIRE(auger::daemon::parse_status(all, st) == "");
+    REQUIRE(st.on_effects.size() == 2);
+    CHECK(st.on_effects[0].name == "terrain_slope.incline_x_rad");
+    CHECK(st.on_effects[1].name == "terrain_slope.incline_y_rad");
+    for (const auto& e : st.on_effects) {
+      CHECK(std::fabs(e.value) <= 0.35);  // the library's physical range
+      CHECK(e.sd > 0);
+      CHECK(e.sd <= 0.175 + 1e-3);         // at most the prior: a quarter of that range
+    }
+    // The same status written again reads back to the same fields.
+    auger::daemon::Status again;
+    REQUIRE(auger::daemon::parse_status(auger::daemon::format_status(st), again) == "");
+    CHECK(again.on_effects.size() == 2);
+    kill(r.d->pid, SIGTERM);
+    CHECK(r.d->wait_exit(2.0) == 0);
+    // The event with the estimates (once informed, looked at once a second; the slope's column
+    // is informative in every window).
+    const std::string events = events_log(r.dir + "/log");
+    INFO(events);
+    CHECK(events.find("event=online-effects action=\"the estimate is now terrain_slope.incline_x_rad ") != std::string::npos);
+  }
+  // A sensor's offset marked online: exit 2 at --check, naming the file, line and column.
+  std::ofstream(dir + "/bias.toml") << robot << "[[effect]]\nid = \"imu_heading_bias\"\n"
+                                    << "bias_rad = { value = 0.01, online = true }\n";
+  std::ofstream(dir + "/bias-augerd.toml") << config_text(dir, {dir + "/p0", dir + "/p1", dir + "/p2", dir + "/p3"}, "",
+                                                          dir + "/bias.toml");
+  Daemon d(dir + "/bias-augerd.toml", dir + "/bias.err", {"--check"});
+  CHECK(d.wait_exit(5.0) == 2);
+  const std::string err = d.stderr_text();
+  INFO(err);
+  CHECK(err.find(dir + "/bias.toml:" + std::to_string(base + 3) +
+                 ":37: effect 'imu_heading_bias': 'bias_rad' cannot be estimated online") != std::string::npos);
+}

@@ -5,7 +5,8 @@
 # Then the tools that read such a batch (docs/benchmarks.md "Online identification"): online_fil
 # finds sand's sigma_long from the true velocity once the slow (blocking) screws' windows are out,
 # and not with them in; stall-check.py finds no stall on the field's edges; auger-sim-drive
-# --online-apply closes the loop without falling back.
+# --online-apply closes the loop without falling back, and on a tilted ground (--incline-pitch-rad)
+# estimates the slope a model file marks online within 3 of its SDs.
 set -eu
 src=$1 build=$2 work=$3
 rm -rf "$work"
@@ -50,3 +51,19 @@ apply=$("$build/sim/robot/auger-sim-drive" --out "$work/apply.csv" --drive diago
 echo "$apply"
 case $apply in *"[online] apply: "*"sigma_long used at the end 0."*) ;; *) echo "sim_batch: --online-apply" >&2; exit 1 ;; esac
 case $apply in *fallback*) echo "sim_batch: --online-apply fell back" >&2; exit 1 ;; esac
+# A model file with the slope's inclines online, the truth's ground descending towards +x by
+# 0.05 rad (rising towards -x: incline_x 0.0499 rad, the in-plane weight m g sin p cos p).
+{ cat "$src/models/robot.toml"; printf '\n[[effect]]\nid = "terrain_slope"\n'
+  printf 'incline_x_rad = { value = 0.0, online = true }\nincline_y_rad = { value = 0.0, online = true }\n'; } > "$work/slope.toml"
+slope=$("$build/sim/robot/auger-sim-drive" --out "$work/slope.csv" --drive manual --seconds 120 --screws ideal \
+  --model "$work/slope.toml" --incline-pitch-rad -0.05 --online-apply 2>&1)
+echo "$slope"
+python3 - "$slope" <<'PY'
+import re, sys
+est = {m[0]: (float(m[1]), float(m[2])) for m in re.findall(r"terrain_slope\.(incline_[xy])_rad (\S+) \+- (\S+) rad\n", sys.argv[1] + "\n")}
+assert set(est) == {"incline_x", "incline_y"}, sys.argv[1]
+for name, truth in (("incline_x", 0.0499), ("incline_y", 0.0)):
+    v, sd = est[name]
+    assert abs(v - truth) < 3 * sd and sd < 0.01, "%s %g +- %g rad, truth %g" % (name, v, sd, truth)
+print("sim_batch: the slope marked online: %s" % est)
+PY

@@ -352,6 +352,14 @@ TEST_CASE("the /diagnostics entries and the online estimate's data", "[ros2][uni
   CHECK(value(e, "cusum_threshold") == "40");
   CHECK(value(e, "changes") == "2");
   CHECK(value(e, "fallback") == "none");
+  // An effect's parameter marked online: its value and SD with the unit.
+  o.effects = 1;
+  o.effect_value[0] = 0.0791, o.effect_sd[0] = 0.00075;
+  std::snprintf(o.effect_name[0].data(), o.effect_name[0].size(), "terrain_slope.incline_x_rad");
+  std::snprintf(o.effect_unit[0].data(), o.effect_unit[0].size(), "rad");
+  d = diagnostics(s, 0);
+  CHECK(value(d[5], "terrain_slope.incline_x_rad") == "0.0791 rad");
+  CHECK(value(d[5], "terrain_slope.incline_x_rad_sd") == "0.00075 rad");
   std::snprintf(o.fallback.data(), o.fallback.size(), "a parameter stayed at its physical bound");
   d = diagnostics(s, 0);
   CHECK(d[5].level == 1);  // WARN, never ERROR: the robot drives on with the configured terrain

@@ -89,6 +89,22 @@ class Effect {
   virtual double pose_delay_s() const { return 0.0; }
   // Text parameters (name, value) for the model file, e.g. a discovered term's form.
   virtual std::vector<std::pair<std::string, std::string>> text_params() const { return {}; }
+
+  // Online identification (auger/online_estimator.hpp) of a parameter whose ParamSpec has
+  // `online`: the part of eq. (6)'s body force that params()[index] makes is
+  // online_shape(value) * online_basis(state), the basis independent of the value (a slope's
+  // sin(incline) times gravity turned into the body frame, a drag coefficient times -v |v|), so
+  // the estimator's regressor column is the basis's mean over its window times the shape's
+  // derivative. Must not allocate (the estimator calls it every cycle).
+  virtual Vec3 online_basis(const Model& /*model*/, std::size_t /*index*/, const Vec3& /*eta*/,
+                            const Vec3& /*zeta*/) const {
+    return Vec3::Zero();
+  }
+  // The shape g(value) and its derivative dg/dvalue (default: linear, g = value).
+  virtual double online_shape(std::size_t /*index*/, double value, double* derivative) const {
+    *derivative = 1.0;
+    return value;
+  }
 };
 
 // A parameter a factory accepts; required parameters have no default.
@@ -115,12 +131,23 @@ struct ParamSpec {
     physical_upper = upper_value;
     return *this;
   }
+  // A model file may mark it `online = true` (augerd estimates it while driving): its effect
+  // implements Effect::online_basis / online_shape for it and its physical range is finite.
+  bool online = false;
+  ParamSpec& estimable_online() {
+    online = true;
+    return *this;
+  }
 };
 
 struct EffectParamValue {
   std::string name;
   double value = 0;
   int line = 0, column = 0;
+  // `name = { value = 0.05, online = true }` (docs/model.md): augerd estimates it online; where
+  // the `online` key stands (for the error when the parameter cannot be estimated online).
+  bool online = false;
+  int online_line = 0, online_column = 0;
 };
 struct EffectTextValue {
   std::string name;
@@ -178,6 +205,10 @@ class EffectRegistry {
 
 // Registers the library's effects into a registry (so a tool can extend a copy).
 void register_builtin_effects(EffectRegistry& registry);
+
+// "terrain_slope (incline_x_rad, incline_y_rad), quadratic_drag (...)": the parameters a model
+// file may mark online, for error messages and docs.
+std::string online_parameter_list(const EffectRegistry& registry);
 
 // ---- the shipped effects ----
 

@@ -24,6 +24,26 @@
 // Parameters are estimated relative to the configured terrain (theta_rel = 1: as configured), so
 // the five are of one scale in the covariance.
 //
+// The effects' parameters a model file marks `online = true` (docs/model.md) join the same
+// regression as up to kMaxOnlineEffects more parameters: a fixed 8-parameter RLS (5 terrain + 3,
+// the unused columns with a zero prior covariance, so they never move and cost a few flops)
+// rather than a second estimator, because an effect's force and the terrain's share the same
+// equations of eq. (6) and are correlated in them (a slope and sigma both explain a steady
+// pull): only the joint covariance says how much of the residual each explains. An effect's
+// part of the body force is g(p) * basis(state) (Effect::online_basis / online_shape); its
+// regressor column is g'(p) times the basis's mean over the window, the residual takes g(p) at
+// the current estimate: exact for a force linear in p (quadratic_drag's coefficients),
+// a linearised RLS otherwise (terrain_slope's sin(incline), whose curvature is below 7 % of
+// its slope within the physical range). Sensor-side parameters (an IMU bias) make no force:
+// they are refused at load (EffectRegistry::create names the parameters that may be online).
+// Each effect column updates only where it is informative: the force one prior SD of the
+// parameter would make in that DOF over the window exceeds the excitation level (the terrain
+// pair keeps its own rule); a DOF updates when any of its columns is informative, the others
+// masked. Estimates are clamped to the parameter's physical range (ParamSpec::physical);
+// unlike the terrain's, an effect parameter at its bound does not count as divergence (a drag
+// coefficient's bound 0 may be the truth). The controller keeps the model file's effect
+// values: applying them would rebuild an effect (an allocation) in the loop.
+//
 // No allocation after construction: fixed-size Eigen types only (a test counts allocations).
 #pragma once
 
@@ -40,6 +60,34 @@ namespace auger {
 
 using Vec5 = Eigen::Matrix<double, 5, 1>;
 using Mat5 = Eigen::Matrix<double, 5, 5>;
+// The effects' online parameters: at most this many (a fixed-size regression, no allocation).
+constexpr int kMaxOnlineEffects = 3;
+using VecE = Eigen::Matrix<double, kMaxOnlineEffects, 1>;
+constexpr int kOnlineParams = 5 + kMaxOnlineEffects;
+using VecN = Eigen::Matrix<double, kOnlineParams, 1>;
+using MatN = Eigen::Matrix<double, kOnlineParams, kOnlineParams>;
+
+// An effect's parameter marked `online = true` in the model file (online_effect_params).
+struct OnlineEffectParam {
+  std::size_t effect = 0;  // into Model::effects (the model file's order)
+  std::size_t index = 0;   // into that effect's params()
+  std::string name;        // "terrain_slope.incline_x_rad"
+  std::string unit;        // "rad"
+  double configured = 0;   // the file's value: the prior's mean, the fallback
+  double lower = 0, upper = 0;  // the physical range (ParamSpec::physical): the clamp
+  double prior_sd = 1;     // a quarter of the physical range
+};
+struct ModelFile;
+class EffectRegistry;
+// The parameters the file marks online, in its order. Throws ConfigError (file, line, column of
+// the `online` key) beyond kMaxOnlineEffects; a parameter that cannot be online was refused when
+// the file's effects were created (EffectRegistry::create), as it is here.
+std::vector<OnlineEffectParam> online_effect_params(const ModelFile& file, const EffectRegistry& registry);
+// The regression holds the terrain and the online parameters' forces only: in an effect with a
+// parameter online, another that could be but is not marked, at a non-zero value, makes a force
+// the regression leaves out (a slope's other incline). One line per such parameter,
+// "file:line: terrain_slope.incline_y_rad = 0.1 rad is not marked online: ...", "" none.
+std::string online_effect_caveats(const ModelFile& file, const EffectRegistry& registry);
 
 // Order of the parameter vector.
 enum OnlineParam { kSigmaLong = 0, kSigmaLat = 1, kDx = 2, kDy = 3, kDpsi = 4 };
@@ -113,22 +161,31 @@ struct OnlineEstimate {
   // 1 where the parameter is held at its configured value (prior SD at most kHeldRelSd of it, e.g.
   // drag_prior_rel_sd = 0.01): the data then identify only the ratio sigma / D of its DOF.
   Vec5 held = Vec5::Zero();
+  // The effects' online parameters (OnlineEffectParam order; entries past `effects` unused), in
+  // their units, with SDs; informed as above.
+  int effects = 0;
+  VecE effect_value = VecE::Zero(), effect_sd = VecE::Zero(), effect_informed = VecE::Zero();
 };
 constexpr double kHeldRelSd = 0.05;
 
 class OnlineEstimator {
  public:
   // The configured terrain (the prior and the fallback) and the model's mass and B are taken
-  // from the model; throws std::invalid_argument if the terrain has no D_psi.
-  OnlineEstimator(const Model& model, const OnlineConfig& config);
+  // from the model (copied), and `effects` (online_effect_params) are estimated with it; throws
+  // std::invalid_argument if the terrain has no D_psi, or on more than kMaxOnlineEffects
+  // effects, one not in the model or without a finite physical range.
+  OnlineEstimator(const Model& model, const OnlineConfig& config, const std::vector<OnlineEffectParam>& effects = {});
 
   // Back to the configured terrain with the prior covariance; clears the fallback.
   void reset();
 
   // One cycle: the screw speeds held over the cycle just ended (rpm), the fused body velocity at
-  // its end (u, v in m/s, r in rad/s), dt_s its length. Returns true when a change was detected
-  // in this cycle (the covariance has been reset). No heap allocation.
-  bool step(const Vec4& omega_rpm, const Vec3& zeta, double dt_s);
+  // its end (u, v in m/s, r in rad/s), dt_s its length, and the pose at its end (x, y m, psi rad;
+  // only the online effects read it: a slope's force turns with the heading; a non-finite pose
+  // breaks the window when there are any). Returns true when a change was detected in this
+  // cycle (the covariance has been reset). No heap allocation.
+  bool step(const Vec4& omega_rpm, const Vec3& zeta, double dt_s, const Vec3& eta = Vec3::Constant(NAN));
+  const std::vector<OnlineEffectParam>& effects() const { return effects_; }
 
   // The current estimate (physical units).
   const OnlineEstimate& estimate() const { return est_; }
@@ -164,16 +221,24 @@ class OnlineEstimator {
   void restart_memory();
   void enter_fallback(const char* why);
   void end_window();
-  double update_row(int dof, const Vec5& phi, double y, bool adapt);
+  void publish();
+  double update_row(int dof, const VecN& phi, const VecN& phi_update, double y, bool adapt);
+  void effect_bases(const Vec3& eta, const Vec3& zeta, Vec3* out) const;
 
   OnlineConfig cfg_;
+  Model model_;                   // the effects' bases read it (a copy: no lifetime to keep)
+  std::vector<OnlineEffectParam> effects_;
+  int n_eff_ = 0;
   Vec3 M_;                        // eq. (8) (with the effects' inertia)
   Eigen::Matrix<double, 3, 4> B_;  // eq. (10)
   Vec5 ref_;                      // configured terrain (physical)
-  Vec5 lo_rel_, hi_rel_;          // physical ranges, relative to ref_
-  Mat5 P0_;
-  Vec5 theta_;                    // relative to ref_
-  Mat5 P_;
+  // theta_ times scale_ is the physical value: the terrain's relative to ref_, an effect's in
+  // units of its prior SD; theta0_ the configured values (the reset); lo_/hi_ the physical ranges.
+  VecN scale_, theta0_, lo_rel_, hi_rel_;
+  MatN P0_;
+  VecN theta_;
+  MatN P_;
+  Vec3 eff_prev_[kMaxOnlineEffects], eff_sum_[kMaxOnlineEffects];  // the effects' bases: last, window sum
   Vec3 noise_var_;                // per DOF: the regression's noise variance (adapted)
   Vec3 noise_var0_;
   Vec3 innov_ = Vec3::Constant(NAN), innov_s_ = Vec3::Zero();

@@ -93,6 +93,13 @@ class QuadraticDrag final : public Effect {
       force_n[k] = (v - vf) / ctx.gain[k];
     }
   }
+  // Online: c_k times -v_k |v_k| at the state (the explicit form; the step's implicit solution
+  // above differs from it by the velocity change within one step).
+  Vec3 online_basis(const Model&, std::size_t index, const Vec3&, const Vec3& zeta) const override {
+    Vec3 b = Vec3::Zero();
+    b[static_cast<int>(index)] = -zeta[static_cast<int>(index)] * std::fabs(zeta[static_cast<int>(index)]);
+    return b;
+  }
 
  private:
   Vec3 c_;
@@ -133,9 +140,9 @@ void register_friction(EffectRegistry& r) {
                                    fmt(v[4] * 1000) + " mm/s");
          }});
   r.add({"quadratic_drag", "a resistance -c v |v| per DOF on top of the linear D of eq. (6)",
-         {ParamSpec{"c_x_nspm2", 0, false, "longitudinal coefficient", "N/(m/s)^2", 0, 1e5, 500}.physical(0, 5000),
-          ParamSpec{"c_y_nspm2", 0, false, "lateral coefficient", "N/(m/s)^2", 0, 1e5, 500}.physical(0, 5000),
-          ParamSpec{"c_psi_nmspr2", 0, false, "yaw coefficient", "N m/(rad/s)^2", 0, 1e4, 10}.physical(0, 20)},
+         {ParamSpec{"c_x_nspm2", 0, false, "longitudinal coefficient", "N/(m/s)^2", 0, 1e5, 500}.physical(0, 5000).estimable_online(),
+          ParamSpec{"c_y_nspm2", 0, false, "lateral coefficient", "N/(m/s)^2", 0, 1e5, 500}.physical(0, 5000).estimable_online(),
+          ParamSpec{"c_psi_nmspr2", 0, false, "yaw coefficient", "N m/(rad/s)^2", 0, 1e4, 10}.physical(0, 20).estimable_online()},
          [](const std::vector<double>& v) {
            check_non_negative(v[0], "c_x_nspm2");
            check_non_negative(v[1], "c_y_nspm2");

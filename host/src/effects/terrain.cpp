@@ -29,6 +29,16 @@ class TerrainSlope final : public Effect {
     const double c = std::cos(ctx.eta.z()), s = std::sin(ctx.eta.z());
     force_n << c * fx + s * fy, -s * fx + c * fy, 0.0;  // J(psi)^T f_world
   }
+  // Online: the force is sin(incline) times the full weight along the world axis, turned into the
+  // body frame; the shape sin is exact at every incline (no small-angle approximation).
+  Vec3 online_basis(const Model& model, std::size_t index, const Vec3& eta, const Vec3&) const override {
+    const double w = -model.robot.m_kg * kG, c = std::cos(eta.z()), s = std::sin(eta.z());
+    return index == 0 ? Vec3(c * w, -s * w, 0.0) : Vec3(s * w, c * w, 0.0);
+  }
+  double online_shape(std::size_t, double value, double* derivative) const override {
+    *derivative = std::cos(value);
+    return std::sin(value);
+  }
 
  private:
   double ix_, iy_;
@@ -93,8 +103,8 @@ class TerrainChange final : public Effect {
 
 void register_terrain(EffectRegistry& r) {
   r.add({"terrain_slope", "a plane inclined along world x and y: gravity in the world frame",
-         {ParamSpec{"incline_x_rad", 0, false, "rise towards world +x", "rad", -0.6, 0.6, 0.02}.physical(-0.35, 0.35),
-          ParamSpec{"incline_y_rad", 0, false, "rise towards world +y", "rad", -0.6, 0.6, 0.02}.physical(-0.35, 0.35)},
+         {ParamSpec{"incline_x_rad", 0, false, "rise towards world +x", "rad", -0.6, 0.6, 0.02}.physical(-0.35, 0.35).estimable_online(),
+          ParamSpec{"incline_y_rad", 0, false, "rise towards world +y", "rad", -0.6, 0.6, 0.02}.physical(-0.35, 0.35).estimable_online()},
          [](const std::vector<double>& v) {
            if (!(std::fabs(v[0]) < 1.5 && std::fabs(v[1]) < 1.5)) throw std::invalid_argument("inclines must be in (-1.5, 1.5) rad");
            return std::make_shared<TerrainSlope>(v[0], v[1]);
