@@ -190,9 +190,11 @@ FitOutcome settle_stalls(const Problem& pr, FitOutcome o) {
       if (cost_with(p, i, mid) <= o.cost + tol) hi = mid;
       else lo = mid;
     }
-    o.parts[p].values[i] = hi;
-    o.parts[p].at_least.resize(o.parts[p].specs.size(), 0);
-    o.parts[p].at_least[i] = 1;
+    // The model keeps a margin above the edge: the full log's 10 ms speeds peak above the
+    // decimated log's 50 ms means, and at the edge itself the robot would break away there.
+    o.parts[p].values[i] = std::min(v0, 1.1 * hi);
+    o.parts[p].at_least.resize(o.parts[p].specs.size(), 0.0);
+    o.parts[p].at_least[i] = hi;
   }
   if (residuals(pr, o.parts, r, work)) {
     o.r = r;

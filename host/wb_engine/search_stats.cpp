@@ -121,10 +121,10 @@ void flag_params(std::vector<FitParam>& params, const Part& part) {
     if (!s.fitted || s.integer) continue;
     char buf[200];
     if (!searched) continue;  // held at its default: nothing was fitted
-    if (i < part.at_least.size() && part.at_least[i]) {
+    if (i < part.at_least.size() && part.at_least[i] > 0) {
       // settle_stalls: the robot never overcame it; any larger value predicts the log the same.
       std::snprintf(buf, sizeof buf, "a lower bound: at least %.3g %s (the robot stuck against it; any larger value predicts this log the same)",
-                    p.value, s.unit.c_str());
+                    part.at_least[i], s.unit.c_str());
       p.flag = buf;
       continue;
     }
