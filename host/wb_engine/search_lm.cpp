@@ -190,6 +190,8 @@ FitOutcome settle_stalls(const Problem& pr, FitOutcome o) {
       if (cost_with(p, i, mid) <= o.cost + tol) hi = mid;
       else lo = mid;
     }
+    // No plateau below the value (its column was zero for another reason): not a bound.
+    if (!(hi < v0 * (1 - 1e-3))) continue;
     // The model keeps a margin above the edge: the full log's 10 ms speeds peak above the
     // decimated log's 50 ms means, and at the edge itself the robot would break away there.
     o.parts[p].values[i] = std::min(v0, 1.1 * hi);
