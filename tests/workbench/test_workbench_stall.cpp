@@ -1,4 +1,5 @@
-// Large effects and stalls (issue 25, point 3; docs/workbench.md "Stalls and large effects"):
+// Large effects and stalls (issue 25, point 3; docs/workbench.md "Plausibility", "A stalled robot",
+// and explain's point 3, far from the noise):
 // synthetic logs made with the host model (engine_synth.hpp) on a slow drive, where dry friction
 // above the drive force holds the robot still, or on which two large effects leave the model far
 // from the noise floor.
@@ -69,9 +70,10 @@ TEST_CASE("fit: dry friction above the drive force, the robot stuck: a lower bou
   CHECK(moved > 1e-4);
 }
 
-TEST_CASE("explain: two large effects on a slow drive, the robot stalling; both are taken") {
+TEST_CASE("explain: two large effects on a slow drive, the robot stalling; both are taken", "[slow]") {
   // A slope of 0.7 deg and a dead band of 4 rpm on a drive at 0.6 times drive_profile's speeds:
-  // the screws below 4 rpm push nothing and the robot slides downhill; 3 s.
+  // the screws below 4 rpm push nothing and the robot slides downhill (3 s; [slow]: an explain run,
+  // left out of the sanitizer build).
   SynthOptions o;
   o.seconds = 90;
   o.drive_scale = 0.6;
@@ -90,8 +92,8 @@ TEST_CASE("explain: two large effects on a slow drive, the robot stalling; both 
 TEST_CASE("explain's significance far from the noise: a large held-out gain counts without the BIC's") {
   using explain_internal::significant_gain;
   // The indep generator's log of an offset centre of resistance and a 0.7 deg slope on frozen
-  // grass (docs/workbench-suite.md "Large effects and stalls"): the slope took the held-out error
-  // from 63.31 to 31.69 times the floor with delta BIC +5.7 (n_eff at its floor of 10).
+  // grass (docs/workbench-suite.md "Results: large effects and stalls"): the slope took the
+  // held-out error from 63.31 to 31.69 times the floor with delta BIC +5.7 (n_eff at its floor).
   CHECK(significant_gain(5.7, 63.31, 31.69));
   // Near the noise the BIC still decides: the same halving at 2 times the floor is not enough.
   CHECK_FALSE(significant_gain(5.7, 2.0, 1.0));
