@@ -203,6 +203,11 @@ void Explainer::finish(const State& s, ExplainResult& res, FitOutcome* pre) {
       f.fit.r.resize(0);
     }
   }
+  if (f.fit.JtJ.size()) {  // a size the stalled robot bounds only from below (settle_stalls)
+    f.fit = settle_stalls(all_, std::move(f.fit));
+    f.parts = f.fit.parts;
+    f.cost = f.fit.cost;
+  }
   const double n = static_cast<double>(f.fit.r.size());
   const double n_eff = f.fit.r.size() ? n_eff_of(f.fit, all_) : 1.0;
   res.final_fitted = fitted_of(f, f.fit.r.size() ? f.cost / std::max(1.0, n - f.n_params) * n / n_eff : 1.0);

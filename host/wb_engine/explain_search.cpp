@@ -192,10 +192,11 @@ std::vector<State> Explainer::expand(const State& s, int step) {
   const std::vector<Candidate>& ranked = fitted.ranked;
   const std::vector<std::string>&added = fitted.added, &replaced = fitted.replaced;
   const double n_eff = fitted.n_eff;
-  // Significant: a strong BIC gain and a clear drop of the held-out error.
+  // Significant: a strong BIC gain and a clear drop of the held-out error (far from the noise,
+  // a large drop of the held-out error alone: significant_gain).
   std::vector<std::size_t> order;
   for (std::size_t i = 0; i < cands.size(); ++i)
-    if (ranked[i].delta_bic < kAddBic && cands[i].h < s.h * (1.0 - kAddHeldout)) order.push_back(i);
+    if (significant_gain(ranked[i].delta_bic, s.h, cands[i].h)) order.push_back(i);
   std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
     return score(cands[a]) < score(cands[b]);
   });
@@ -306,7 +307,7 @@ bool Explainer::other_splits(const State& s, const State& c, const std::string& 
     out.delta_bic[fi] = delta_bic(p, out.cand[fi], n_eff_of(out.cand[fi].fit, fit_on(f)));
     out.parent[fi] = std::move(p);
     const State& a = out.cand[fi];
-    pass = out.delta_bic[fi] < kAddBic && a.h < out.parent[fi].h * (1.0 - kAddHeldout) && !a.implausible;
+    pass = significant_gain(out.delta_bic[fi], out.parent[fi].h, a.h) && !a.implausible;
     char buf[160];
     std::snprintf(buf, sizeof buf, "%s split %d: %.2f against %.2f, delta BIC %.1f%s", words.empty() ? "" : ";", f + 1,
                   a.h, out.parent[fi].h, out.delta_bic[fi], a.implausible ? ", implausible" : "");

@@ -29,6 +29,7 @@ struct Part {
   int log = -1;                // the log it applies to (-1: every log of the problem)
   std::string terrain;         // paper_params: the terrain set it re-identifies
   std::vector<std::string> texts;  // text parameters (a discovered term's dof and form)
+  std::vector<double> at_least;    // per parameter: a lower bound from a stalled robot (settle_stalls; 0 none)
 };
 
 // A part for an effect id (or paper_params) at its defaults; the free parameters are those the
@@ -104,6 +105,11 @@ double search_upper(const ParamSpec& s);
 // Levenberg-Marquardt restarted with a fresh damping while it still gains (a stalled step is
 // often a poor finite-difference direction, not the optimum).
 FitOutcome refit(const Problem& pr, std::vector<Part> parts, int max_iter, int restarts = 3);
+// A stalled robot: a free size (a friction level, a dead band, a blocking force) that the log
+// cannot see above some value (any larger one predicts the same, the robot stuck as it is) is
+// moved down near the lowest value that predicts the same, that value recorded as a lower bound
+// (at_least).
+FitOutcome settle_stalls(const Problem& pr, FitOutcome o);
 
 // The best fit of the last part with the parts before it held, over integer choices (which
 // screw), a change time searched over the whole log first, and several starts. coulomb_fit: the

@@ -113,6 +113,7 @@ DiagnoseResult diagnose(const Dataset& full, ModelChoice mc, const DiagnoseOptio
         const Part cand = make_part(ids[i], base, data);
         FitOutcome o = state.empty() ? fit_candidate(pr, {}, cand, 20, coulomb_fit)
                                      : fit_joint(pr, state, cand, 20, coulomb_fit);
+        o = settle_stalls(pr, std::move(o));  // a size the stalled robot bounds only from below
         std::lock_guard<std::mutex> lock(print);
         ++done;
         if (opt.progress)

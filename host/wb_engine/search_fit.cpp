@@ -66,6 +66,7 @@ FitResult fit(const Dataset& full, ModelChoice mc, const std::vector<std::string
     }
   }
   if (!std::isfinite(o.cost)) throw std::runtime_error("the fit failed: no parameter set gives a valid model");
+  o = settle_stalls(pr, std::move(o));  // a size the stalled robot bounds only from below
   const double n = static_cast<double>(o.r.size());
   const double n_eff = effective_n(n, lag1_autocorrelation(pr, o.r));
   const std::vector<FitParam> all_params = fit_params(o, o.cost / std::max(1.0, n - o.n_params) * n / n_eff);

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Cholesky>
 
@@ -151,6 +152,55 @@ FitOutcome refit(const Problem& pr, std::vector<Part> parts, int max_iter, int r
     if (again.cost < o.cost) o = std::move(again);
     else o.sims = again.sims;
     if (!gained) break;
+  }
+  return o;
+}
+
+// LM leaves a parameter on such a plateau where it started (10 N of lateral friction for a
+// truth of 25 N, +- 1e7 N: the robot never slid sideways against either): the value is an
+// accident of the start, and only the plateau's lower edge is in the log. Found by bisection
+// between the search's lower bound (where the cost must differ, else the log does not see the
+// parameter at all and it is left alone) and the value, 16 simulations per parameter.
+FitOutcome settle_stalls(const Problem& pr, FitOutcome o) {
+  if (!std::isfinite(o.cost) || o.JtJ.rows() == 0) return o;
+  const std::vector<FreeRef> f = free_refs(o.parts);
+  if (o.JtJ.rows() != static_cast<Eigen::Index>(f.size())) return o;
+  double amax = 0;
+  for (Eigen::Index j = 0; j < o.JtJ.rows(); ++j) amax = std::max(amax, o.JtJ(j, j));
+  Workspace work;
+  Eigen::VectorXd r;
+  const double tol = 1e-9 * std::max(o.cost, 1.0);
+  auto cost_with = [&](std::size_t p, std::size_t i, double v) {
+    std::vector<Part> trial = o.parts;
+    trial[p].values[i] = v;
+    ++o.sims;
+    return residuals(pr, trial, r, work) ? r.squaredNorm() : std::numeric_limits<double>::infinity();
+  };
+  for (std::size_t j = 0; j < f.size(); ++j) {
+    const auto p = static_cast<std::size_t>(f[j].part), i = static_cast<std::size_t>(f[j].index);
+    const ParamSpec& s = o.parts[p].specs[i];
+    const auto jj = static_cast<Eigen::Index>(j);
+    if (!o.parts[p].entry || s.integer || s.lower < 0 || o.JtJ(jj, jj) > 1e-8 * amax) continue;
+    const double v0 = o.parts[p].values[i], lo0 = std::max(search_lower(s), s.log_scale ? 1e-12 : 0.0);
+    if (!(v0 > lo0 * (1 + 1e-6) + 1e-12)) continue;
+    if (!(cost_with(p, i, lo0) > o.cost + tol)) continue;  // invisible everywhere: not a stall
+    double lo = lo0, hi = v0;
+    for (int k = 0; k < 16; ++k) {
+      const double mid = s.log_scale ? std::sqrt(lo * hi) : 0.5 * (lo + hi);
+      if (cost_with(p, i, mid) <= o.cost + tol) hi = mid;
+      else lo = mid;
+    }
+    // No plateau below the value (its column was zero for another reason): not a bound.
+    if (!(hi < v0 * (1 - 1e-3))) continue;
+    // The model keeps a margin above the edge: the full log's 10 ms speeds peak above the
+    // decimated log's 50 ms means, and at the edge itself the robot would break away there.
+    o.parts[p].values[i] = std::min(v0, 1.1 * hi);
+    o.parts[p].at_least.resize(o.parts[p].specs.size(), 0.0);
+    o.parts[p].at_least[i] = hi;
+  }
+  if (residuals(pr, o.parts, r, work)) {
+    o.r = r;
+    o.cost = r.squaredNorm();
   }
   return o;
 }

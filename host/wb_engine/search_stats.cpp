@@ -121,6 +121,13 @@ void flag_params(std::vector<FitParam>& params, const Part& part) {
     if (!s.fitted || s.integer) continue;
     char buf[200];
     if (!searched) continue;  // held at its default: nothing was fitted
+    if (i < part.at_least.size() && part.at_least[i] > 0) {
+      // settle_stalls: the robot never overcame it; any larger value predicts the log the same.
+      std::snprintf(buf, sizeof buf, "a lower bound: at least %.3g %s (the robot stuck against it; any larger value predicts this log the same)",
+                    part.at_least[i], s.unit.c_str());
+      p.flag = buf;
+      continue;
+    }
     // At the end of the physical range where it is stricter than the effect's own bounds (those
     // are definitions: a breakaway ratio of 1 is Coulomb friction, a force limit of 1e6 N none).
     const double pspan = s.physical_upper - s.physical_lower;

@@ -36,7 +36,9 @@ Dataset synth(const Model& truth, const SynthOptions& o) {
   std::normal_distribution<double> n01(0, 1);
   const double dt = 0.01;
   const auto n = static_cast<std::size_t>(o.seconds / dt) + 1;
-  auto speed = [&](double t) { return o.steps && t <= 0 ? Vec4(Vec4::Zero()) : drive_profile(t, 4.0, !o.steps); };
+  auto speed = [&](double t) {
+    return o.steps && t <= 0 ? Vec4(Vec4::Zero()) : Vec4(o.drive_scale * drive_profile(t, 4.0, !o.steps));
+  };
   DynamicsData dyn(truth);
   Vec3 eta(0.5, -0.2, 0.3), zeta = Vec3::Zero();
   Vec3 force_n;

@@ -24,6 +24,7 @@ struct SynthOptions {
   double pose_delay_s = 0;     // poses show the state this much earlier
   bool gaps = true;            // a 1 s gap without poses every 20 s
   bool steps = false;          // speeds step (from rest at t = 0 straight to the first piece's)
+  double drive_scale = 1;      // drive_profile's speeds times this (a slow drive: a robot that stalls)
   unsigned seed = 1;
 };
 

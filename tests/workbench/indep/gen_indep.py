@@ -5,7 +5,7 @@ physical forms of this generator's own, sizes from just visible to dominant, and
 beside the log.
 
   gen_indep.py --class C --seed N --out LOG.csv [--seconds 240] [--drive open|closed|auto]
-               [--terrain sand|frozen_grass|auto] [--form FORM]
+               [--terrain sand|frozen_grass|auto] [--form FORM] [--size S[,S]]
 
 C is clean, single:FAMILY, pair, pair:FAMILY+FAMILY, outside:MECHANISM, pair_outside
 (`gen_indep.py --list` prints them). Writes LOG.csv and LOG.truth.json; deterministic per
@@ -174,34 +174,60 @@ def search_size(eff, vis):
     return float(math.exp(math.log(grid[i - 1]) + f * (math.log(grid[i]) - math.log(grid[i - 1])))), grid, v
 
 
-def _sizes(c):
+def parse_sizes(text):
+    """--size: one size per effect of the class, in class order, each a number in the effect's
+    size unit (the truth's size.unit) or F% of its maximum. Returns [(value, is_fraction)];
+    raises ValueError naming the bad item."""
+    out = []
+    for k, item in enumerate(text.split(",")):
+        item = item.strip()
+        frac = item.endswith("%")
+        try:
+            v = float(item[:-1] if frac else item)
+        except ValueError:
+            raise ValueError("--size item %d %r: not a number (S or F%%)" % (k + 1, item)) from None
+        if not (math.isfinite(v) and v > 0):
+            raise ValueError("--size item %d %r: must be > 0" % (k + 1, item))
+        out.append((v / 100.0 if frac else v, frac))
+    return out
+
+
+def _sizes(c, sizes=None):
     """The case's effects with their size records: the clean run gives the path and the screw
-    speeds the sizes are searched on. Returns (effects, records, clean run)."""
+    speeds the sizes are searched on. sizes (parse_sizes) replaces the drawn sizes: explicit
+    sizes are not searched, drawn or bumped, and may exceed the drawn range's maximum (a
+    stalling robot). Returns (effects, records, clean run)."""
     clean = run_case(c, [], 2)
     env = Env(c["terrain"], c["seconds"], clean)
     effects = [spec[2](r, env) for spec, r in zip(c["specs"], c["r_eff"])]
     vis = Visibility(c["terrain"], clean, c["sensors"], n_sub=2) if effects else None
+    if sizes is not None and len(sizes) != len(effects):
+        raise ValueError("--size: %d size(s) for %d effect(s) of class %s"
+                         % (len(sizes), len(effects), c["cls"]))
     record = []
-    for e in effects:
+    for k, e in enumerate(effects):
         smin, grid, v = search_size(e, vis)
         smax = e.size_max()
         weak = smin is None
         s = smax if weak else float(math.exp(c["r_size"].uniform(math.log(smin), math.log(smax))))
+        if sizes is not None:
+            s = sizes[k][0] * smax if sizes[k][1] else sizes[k][0]
         record.append(dict(min=smax if weak else smin, max=smax, drawn=s, final=s, weak_at_max=weak,
-                           search_grid=[float(g) for g in grid],
+                           explicit=sizes is not None, search_grid=[float(g) for g in grid],
                            search_visibility=[float(x) for x in v]))
     return effects, record, clean
 
 
-def generate_full(cls, seed, seconds=240.0, drive="auto", terrain="auto", form=None):
-    """Returns (log columns, truth dict, the run, the case)."""
+def generate_full(cls, seed, seconds=240.0, drive="auto", terrain="auto", form=None, sizes=None):
+    """Returns (log columns, truth dict, the run, the case). sizes: parse_sizes's list, or None
+    (drawn)."""
     t_wall = time.time()
     # a drive on which an effect stays below VIS_MIN even at its maximum is drawn again
     # (up to twice; then the truth says weak_at_max)
     for attempt in range(3):
         c = build_case(cls, seed, seconds, drive, terrain, form, attempt)
-        effects, record, clean = _sizes(c)
-        if not any(r["weak_at_max"] for r in record):
+        effects, record, clean = _sizes(c, sizes)
+        if sizes is not None or not any(r["weak_at_max"] for r in record):
             break
     for bump in range(3):
         for e, rec in zip(effects, record):
@@ -218,7 +244,7 @@ def generate_full(cls, seed, seconds=240.0, drive="auto", terrain="auto", form=N
             rec["visibility"] = {ch: round(float(x), 3) for ch, x in zip(CHANNELS, v)}
             # the log's own screw speeds (closed loop: changed by the effect) may show the
             # drawn size below VIS_MIN: scale it up (sizes act about linearly there)
-            if strongest(v) < VIS_MIN and rec["final"] < rec["max"] and bump < 2:
+            if strongest(v) < VIS_MIN and rec["final"] < rec["max"] and bump < 2 and not rec["explicit"]:
                 rec["final"] = min(rec["max"], rec["final"] * 1.2 * VIS_MIN / max(strongest(v), 1e-3))
                 bumped = True
         if not bumped:
@@ -231,9 +257,9 @@ def generate_full(cls, seed, seconds=240.0, drive="auto", terrain="auto", form=N
     return log, truth, run, c
 
 
-def generate(cls, seed, seconds=240.0, drive="auto", terrain="auto", form=None):
+def generate(cls, seed, seconds=240.0, drive="auto", terrain="auto", form=None, sizes=None):
     """Returns (log columns dict, truth dict)."""
-    return generate_full(cls, seed, seconds, drive, terrain, form)[:2]
+    return generate_full(cls, seed, seconds, drive, terrain, form, sizes)[:2]
 
 
 def _fmt(a, spec):
@@ -288,7 +314,8 @@ def make_truth(c, effects, record, run, log, wall_s):
         d = dict(library=e.family is not None, family=e.family, mechanism=e.mechanism, form=e.form,
                  description=" ".join(e.__doc__.split()), params=e.params,
                  size=dict(name=e.size_name, unit=e.size_unit, min=rec["min"], max=rec["max"],
-                           drawn=rec["drawn"], final=rec["final"], weak_at_max=rec["weak_at_max"]),
+                           drawn=rec["drawn"], final=rec["final"], weak_at_max=rec["weak_at_max"],
+                           explicit=rec["explicit"]),
                  visibility=rec["visibility"],
                  strongest_visibility=max(rec["visibility"][ch] for ch in CHANNELS[:4]),
                  search=dict(grid=rec["search_grid"], visibility=rec["search_visibility"]))
@@ -329,6 +356,8 @@ def main(argv=None):
     ap.add_argument("--drive", choices=("open", "closed", "auto"), default="auto")
     ap.add_argument("--terrain", choices=("sand", "frozen_grass", "auto"), default="auto")
     ap.add_argument("--form", help="the form of a single library effect (default: per seed)")
+    ap.add_argument("--size", help="the effects' sizes instead of drawn ones, in class order: "
+                    "S (the truth's size unit) or F%% of the size's maximum, e.g. 5 or 80%%,50%%")
     ap.add_argument("--list", action="store_true", help="print the classes and forms, then exit")
     a = ap.parse_args(argv)
     if a.list:
@@ -343,13 +372,15 @@ def main(argv=None):
     if not 30 <= a.seconds <= 3600:
         ap.error("--seconds %g: must be within 30..3600" % a.seconds)
     try:
-        log, truth = generate(a.cls, a.seed, a.seconds, a.drive, a.terrain, a.form)
+        sizes = parse_sizes(a.size) if a.size else None
+        log, truth = generate(a.cls, a.seed, a.seconds, a.drive, a.terrain, a.form, sizes)
     except ValueError as e:
         print("gen_indep.py: %s" % e, file=sys.stderr)
         return 2
     truth["command"] = ("gen_indep.py --class %s --seed %d --seconds %g --drive %s --terrain %s%s"
                         % (a.cls, a.seed, a.seconds, a.drive, a.terrain,
-                           " --form " + a.form if a.form else ""))
+                           " --form " + a.form if a.form else "")
+                        + (" --size " + a.size if a.size else ""))
     write(a.out, log, truth)
     return 0
 

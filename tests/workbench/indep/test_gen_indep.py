@@ -217,3 +217,23 @@ def test_runner_counts_a_partner_named_beside_the_family_as_false():
     assert ri.unmatched(["coulomb_friction", "quadratic_drag"], truth) == []     # partners
     assert ri.unmatched(["quadratic_drag", "screw_dead_band", "terrain_change", "paper_params"],
                         truth) == ["quadratic_drag", "terrain_change"]
+
+
+def test_explicit_sizes_replace_the_drawn_ones():
+    # --size: a stall beyond the drawn range (dry friction at 12 rpm of drive, the maximum
+    # drawn being 8) and a percentage of the maximum; bad lists are refused by name
+    log, truth = g.generate("single:coulomb_friction", 1, seconds=40.0, drive="open",
+                            terrain="frozen_grass", form="hard_sign_dof", sizes=g.parse_sizes("12"))
+    s = truth["effects"][0]["size"]
+    assert s["final"] == 12.0 and s["drawn"] == 12.0 and s["explicit"] and s["max"] == 8.0
+    _, drawn = g.generate("single:coulomb_friction", 1, seconds=40.0, drive="open",
+                          terrain="frozen_grass", form="hard_sign_dof")
+    assert not drawn["effects"][0]["size"]["explicit"] and drawn["effects"][0]["size"]["final"] < 8.0
+    # the bigger friction moves the robot less: its path is shorter
+    assert truth["path_length_m"] < drawn["path_length_m"]
+    assert g.parse_sizes("50%,0.01") == [(0.5, True), (0.01, False)]
+    for bad in ("0", "x", "5,-1", "nan"):
+        with pytest.raises(ValueError, match="--size item"):
+            g.parse_sizes(bad)
+    with pytest.raises(ValueError, match="1 effect"):
+        g.generate("single:coulomb_friction", 1, seconds=40.0, sizes=g.parse_sizes("1,2"))
