@@ -36,6 +36,7 @@ Part term_part(const DictionaryTerm& d, double coefficient) {
 }
 
 bool is_term(const Part& p) { return !p.texts.empty(); }
+bool paper_refitted(const Part& p) { return !p.entry && !p.free.empty(); }
 bool is_library_effect(const Part& p) { return p.entry && p.texts.empty(); }
 
 double largest(const ChannelValues& v) {
@@ -137,21 +138,33 @@ FitOutcome Explainer::drop_not_paying(FitOutcome with, bool terms, std::vector<R
     const double err = compare_error(with.parts);
     for (std::size_t i = 0; i < with.parts.size(); ++i) {
       const Part& p = with.parts[i];
-      if (terms ? !is_term(p) : !is_library_effect(p)) continue;
+      // The paper's parameters re-identified are checked as a library effect is: they too can
+      // stand in for the missing term (a lower sigma for a traction that sags over the log), and
+      // their removal is to hold them at the paper's values.
+      const bool paper = !terms && paper_refitted(p);
+      if (terms ? !is_term(p) : !(is_library_effect(p) || paper)) continue;
       // A term that changes the prediction by less than an effect must goes without asking.
       const bool weak = terms && largest(contribution(with.parts, i)) < kMinContribution;
       std::vector<Part> without = with.parts;
-      without.erase(without.begin() + static_cast<std::ptrdiff_t>(i));
+      if (paper) {
+        Part& held = without[i];
+        for (std::size_t k = 0; k < held.values.size(); ++k) held.values[k] = held.specs[k].default_value;
+        held.free.clear();
+      } else {
+        without.erase(without.begin() + static_cast<std::ptrdiff_t>(i));
+      }
       FitOutcome w = refit(all_, without, 12, 1);
       ++structures_;
       if (!std::isfinite(w.cost) || (!weak && compare_error(w.parts) > err * (1.0 + kAddHeldout))) continue;
       if (stand_ins)
         stand_ins->push_back({label(p, ctx_.size()),
-                              "removed: with the discovered term the model predicts as well without it (it stood in "
-                              "for the missing term)",
+                              paper ? "held at the paper's values: with the discovered term the model predicts as well "
+                                      "with them (re-identified, they stood in for the missing term)"
+                                    : "removed: with the discovered term the model predicts as well without it (it "
+                                      "stood in for the missing term)",
                               kNaN});
-      progress("explain: discovery: %s no longer pays%s; removed", label(p, ctx_.size()).c_str(),
-               terms ? "" : " with the discovered terms");
+      progress("explain: discovery: %s no longer pays%s; %s", label(p, ctx_.size()).c_str(),
+               terms ? "" : " with the discovered terms", paper ? "held at the paper's values" : "removed");
       with = std::move(w);
       again = true;
       break;
@@ -184,6 +197,34 @@ FitOutcome Explainer::simpler_terms(FitOutcome with, const std::vector<Dictionar
     }
   }
   return with;
+}
+
+bool Explainer::drop_unidentified_terms(FitOutcome& with) {
+  bool any = false;
+  for (bool again = true; again;) {
+    again = false;
+    const double n = static_cast<double>(with.r.size());
+    const std::vector<FitParam> params =
+        fit_params(with, with.cost / std::max(1.0, n - with.n_params) * n / n_eff_of(with, all_));
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < with.parts.size(); ++i) {
+      const Part& p = with.parts[i];
+      const std::size_t at = k;
+      k += p.specs.size();
+      if (!is_term(p) || at >= params.size() || !(params[at].sigma > 0.5 * std::fabs(p.values[0]))) continue;
+      progress("explain: discovery: %s: %s not identified (%.3g +- %.3g); removed", p.texts[0].c_str(),
+               p.texts[1].c_str(), p.values[0], params[at].sigma);
+      std::vector<Part> rest = with.parts;
+      rest.erase(rest.begin() + static_cast<std::ptrdiff_t>(i));
+      FitOutcome w = refit(all_, rest, 12, 1);
+      ++structures_;
+      if (!std::isfinite(w.cost)) return any;
+      with = std::move(w);
+      any = again = true;
+      break;
+    }
+  }
+  return any;
 }
 
 bool Explainer::discover(FitOutcome& o, ExplainResult& res) {
@@ -251,6 +292,7 @@ bool Explainer::discover(FitOutcome& o, ExplainResult& res) {
         r.fit = drop_not_paying(std::move(r.fit), true, nullptr);
         left = refused;
       }
+      r.fit = drop_not_paying(std::move(r.fit), false, &r.stand_ins);
       for (const Part* e : left)
         r.stand_ins.push_back({label(*e, ctx_.size()),
                                "removed: with the discovered term the model predicts as well without it (it stood in "
@@ -262,6 +304,7 @@ bool Explainer::discover(FitOutcome& o, ExplainResult& res) {
   for (Route& r : routes) {
     r.fit = simpler_terms(std::move(r.fit), dict);
     polish(r.fit);
+    if (drop_unidentified_terms(r.fit)) polish(r.fit);
     r.err = compare_error(r.fit.parts);
     for (const Part& p : r.fit.parts) r.parts += p.entry != nullptr;
   }

@@ -345,6 +345,9 @@ class Explainer {
   // the model predicts the 25 s segments within 2 % as well with it: y: u_mps*cos2(psi_rad) on a
   // log whose heading hardly turns is y: u_mps.
   FitOutcome simpler_terms(FitOutcome with, const std::vector<DictionaryTerm>& dict);
+  // A term whose coefficient's uncertainty is over half its size is not identified ("Plausibility")
+  // and leaves, the rest refitted; true if any left.
+  bool drop_unidentified_terms(FitOutcome& with);
 
   void verdict(const State& f, ExplainResult& res) const;
 
