@@ -117,6 +117,10 @@ std::vector<DictionaryTerm> term_dictionary(const Model& model, const Dataset& d
     for (const char* f : {"omega_rpm", "sign(omega_rpm)", "pos(omega_rpm)", "neg(omega_rpm)", "sqs(omega_rpm)",
                           "omega_rpm*t_s"})
       raw.push_back({dof, f});
+  // Traction that changes with how the body moves over the ground (soil churned by turning,
+  // screws slipping sideways or at speed), on every screw alike: omega times |u|, |v|, |r|.
+  for (const char* f : {"omega_rpm*abs(u_mps)", "omega_rpm*abs(v_mps)", "omega_rpm*abs(r_radps)"})
+    raw.push_back({"screws", f});
   // Forms the library has are left out: a term must be what no library effect is (else the
   // regression proposes a Coulomb friction as sign(u) in place of the library's own).
   raw.erase(std::remove_if(raw.begin(), raw.end(), [](const auto& dt) { return library_form(dt.first, dt.second); }),
@@ -132,6 +136,41 @@ std::vector<DictionaryTerm> term_dictionary(const Model& model, const Dataset& d
   return out;
 }
 
+std::vector<int> harmonic_partners(const std::vector<DictionaryTerm>& dict) {
+  std::vector<int> partner(dict.size(), -1);
+  auto swap_fn = [](std::string form) {
+    // sin2 <-> cos2, sin <-> cos (of the heading), the rest of the form the same.
+    for (const auto& [a, b] : {std::pair<std::string, std::string>{"sin2(psi_rad)", "cos2(psi_rad)"},
+                               {"sin(psi_rad)", "cos(psi_rad)"}}) {
+      std::size_t at = form.find(a);
+      if (at != std::string::npos) return form.replace(at, a.size(), b);
+      at = form.find(b);
+      if (at != std::string::npos) return form.replace(at, b.size(), a);
+    }
+    return std::string();
+  };
+  for (std::size_t i = 0; i < dict.size(); ++i) {
+    const std::string other = swap_fn(dict[i].form);
+    if (other.empty()) continue;
+    for (std::size_t j = 0; j < dict.size(); ++j)
+      if (j != i && dict[j].dof == dict[i].dof && dict[j].form == other) partner[i] = static_cast<int>(j);
+  }
+  return partner;
+}
+
+double matched_coefficient(const Model& model, const Dataset& data, const std::string& dof, const std::string& from,
+                           double c, const std::string& to) {
+  const TermForm a(dof, from), b(dof, to);
+  double ab = 0, bb = 0;
+  for (const TermInputs& r : term_rows(model, data))
+    for (int i = a.dof() >= TermDof::kScrew0 ? 0 : -1; i < (a.dof() >= TermDof::kScrew0 ? 4 : 0); ++i) {
+      const double va = a.value(r, i), vb = b.value(r, i);
+      ab += va * vb;
+      bb += vb * vb;
+    }
+  return bb > 0 ? c * ab / bb : 0.0;
+}
+
 double term_scale(const Model& model, const Dataset& data, const std::string& dof, const std::string& form) {
   double scale = 0;
   const TermForm f(dof, form);
@@ -140,70 +179,155 @@ double term_scale(const Model& model, const Dataset& data, const std::string& do
   return scale;
 }
 
-Selection select_terms(const Eigen::VectorXd& r_train, const Eigen::MatrixXd& S_train, const Eigen::VectorXd& r_held,
-                       const Eigen::MatrixXd& S_held, double n_eff, int max_terms, double min_heldout_gain,
+namespace {
+
+// The columns cols of one fold's rows.
+Eigen::MatrixXd columns_of(const Eigen::MatrixXd& S, const std::vector<int>& cols) {
+  Eigen::MatrixXd A(S.rows(), static_cast<Eigen::Index>(cols.size()));
+  for (std::size_t k = 0; k < cols.size(); ++k) A.col(static_cast<Eigen::Index>(k)) = S.col(cols[k]);
+  return A;
+}
+
+// The columns cols of every fold's rows but skip's, stacked.
+Eigen::MatrixXd stack_cols(const std::vector<Eigen::MatrixXd>& S, const std::vector<int>& cols, int skip) {
+  Eigen::Index n = 0;
+  for (std::size_t f = 0; f < S.size(); ++f)
+    if (static_cast<int>(f) != skip) n += S[f].rows();
+  Eigen::MatrixXd A(n, static_cast<Eigen::Index>(cols.size()));
+  Eigen::Index at = 0;
+  for (std::size_t f = 0; f < S.size(); ++f) {
+    if (static_cast<int>(f) == skip) continue;
+    A.middleRows(at, S[f].rows()) = columns_of(S[f], cols);
+    at += S[f].rows();
+  }
+  return A;
+}
+
+// The rows of every fold but skip's, stacked.
+Eigen::VectorXd stack_rows(const std::vector<Eigen::VectorXd>& r, int skip) {
+  Eigen::Index n = 0;
+  for (std::size_t f = 0; f < r.size(); ++f)
+    if (static_cast<int>(f) != skip) n += r[f].size();
+  Eigen::VectorXd out(n);
+  Eigen::Index at = 0;
+  for (std::size_t f = 0; f < r.size(); ++f) {
+    if (static_cast<int>(f) == skip) continue;
+    out.segment(at, r[f].size()) = r[f];
+    at += r[f].size();
+  }
+  return out;
+}
+
+}  // namespace
+
+Selection select_terms(const std::vector<Eigen::VectorXd>& r, const std::vector<Eigen::MatrixXd>& S, int nuisance,
+                       const std::vector<int>& partner, double n_eff, int max_terms, double min_heldout_gain,
                        double min_bic) {
   Selection sel;
-  double rss = r_train.squaredNorm(), held = r_held.squaredNorm();
+  const Eigen::VectorXd r_all = stack_rows(r, -1);
+  const int folds = static_cast<int>(r.size());
+  sel.coefficients.resize(0);
+  if (S.empty()) return sel;
+  std::vector<int> always(static_cast<std::size_t>(nuisance));
+  for (int k = 0; k < nuisance; ++k) always[static_cast<std::size_t>(k)] = k;
+  const Eigen::MatrixXd S_all = [&] {
+    std::vector<int> every(static_cast<std::size_t>(S.front().cols()));
+    for (std::size_t j = 0; j < every.size(); ++j) every[j] = static_cast<int>(j);
+    return stack_cols(S, every, -1);
+  }();
+  const Eigen::Index P = S_all.cols();
+  Eigen::VectorXd resid = r_all;
+  constexpr std::size_t kShortlist = 8;
+  struct Trial {
+    std::vector<int> cols;  // the terms' columns (the nuisance columns are in every fit)
+    Eigen::VectorXd c, resid;
+    double rss = 0, held = std::numeric_limits<double>::infinity();
+  };
+  auto trial = [&](std::vector<int> cols) {
+    Trial tr;
+    tr.cols = std::move(cols);
+    std::vector<int> with = always;
+    with.insert(with.end(), tr.cols.begin(), tr.cols.end());
+    if (with.empty()) {
+      tr.resid = r_all;
+      tr.rss = tr.held = r_all.squaredNorm();
+      return tr;
+    }
+    const Eigen::MatrixXd A = stack_cols(S, with, -1);
+    const Eigen::VectorXd c = A.colPivHouseholderQr().solve(-r_all);
+    if (!c.allFinite()) return tr;
+    tr.c = c.tail(static_cast<Eigen::Index>(tr.cols.size()));
+    tr.resid = r_all + A * c;
+    tr.rss = tr.resid.squaredNorm();
+    if (folds <= 1) {
+      tr.held = tr.rss;
+      return tr;
+    }
+    tr.held = 0;
+    for (int f = 0; f < folds; ++f) {
+      const Eigen::VectorXd cf = stack_cols(S, with, f).colPivHouseholderQr().solve(-stack_rows(r, f));
+      const Eigen::VectorXd rf = r[static_cast<std::size_t>(f)] + columns_of(S[static_cast<std::size_t>(f)], with) * cf;
+      tr.held += cf.allFinite() ? rf.squaredNorm() : std::numeric_limits<double>::infinity();
+    }
+    return tr;
+  };
+  // The start: the model's own (nuisance) parameters alone, refitted as every trial refits them.
+  const Trial start = trial({});
+  if (start.resid.size() == r_all.size()) resid = start.resid;
+  double rss = resid.squaredNorm(), held = std::isfinite(start.held) ? start.held : rss;
   sel.train_rss.push_back(rss);
   sel.heldout_rss.push_back(held);
-  sel.coefficients.resize(0);
-  const Eigen::Index P = S_train.cols();
-  std::vector<double> norms(static_cast<std::size_t>(P));
-  for (Eigen::Index j = 0; j < P; ++j) norms[static_cast<std::size_t>(j)] = S_train.col(j).norm();
-  Eigen::VectorXd resid = r_train;
-  constexpr std::size_t kShortlist = 8;
-  for (int round = 0; round < max_terms; ++round) {
-    // The columns that lower the training residual most, each added to those chosen (least
-    // squares with them); of the best few, the one that predicts the held-out segments best: a
-    // term fitted to the training segments' drift (a slow function of time, of the position on
-    // the field) lowers their residual but not the held-out one.
-    std::vector<std::pair<double, Eigen::Index>> by_train;
-    for (Eigen::Index j = 0; j < P; ++j) {
+  while (static_cast<int>(sel.columns.size()) < max_terms) {
+    // The columns that lower the residual most, each added to those chosen; of the best few, the
+    // one that predicts each fold best from the others: a term fitted to one part of the log's
+    // drift (a slow function of time, of the position on the field) lowers its residual there
+    // but not elsewhere. Every segment is judged once: with a few 25 s segments to a log, one
+    // held-out third alone can miss the motion the term needs (the turns of a log).
+    std::vector<std::pair<double, Eigen::Index>> by_fit;
+    for (Eigen::Index j = nuisance; j < P; ++j) {
       if (std::find(sel.columns.begin(), sel.columns.end(), static_cast<int>(j)) != sel.columns.end()) continue;
-      const double nj = norms[static_cast<std::size_t>(j)];
+      const double nj = S_all.col(j).norm();
       if (!(nj > 1e-12)) continue;
-      const double score = std::fabs(S_train.col(j).dot(resid)) / nj;
-      by_train.push_back({-score, j});
+      by_fit.push_back({-std::fabs(S_all.col(j).dot(resid)) / nj, j});
     }
-    if (by_train.empty()) break;
-    std::sort(by_train.begin(), by_train.end());
-    if (by_train.size() > kShortlist) by_train.resize(kShortlist);
-    struct Trial {
-      std::vector<int> cols;
-      Eigen::VectorXd c, resid;
-      double rss = 0, held = 0;
-    };
-    Trial best;
-    best.held = std::numeric_limits<double>::infinity();
-    for (const auto& [neg_score, j] : by_train) {
-      Trial tr;
-      tr.cols = sel.columns;
-      tr.cols.push_back(static_cast<int>(j));
-      Eigen::MatrixXd A(S_train.rows(), static_cast<Eigen::Index>(tr.cols.size()));
-      Eigen::MatrixXd H(S_held.rows(), static_cast<Eigen::Index>(tr.cols.size()));
-      for (std::size_t k = 0; k < tr.cols.size(); ++k) {
-        A.col(static_cast<Eigen::Index>(k)) = S_train.col(tr.cols[k]);
-        H.col(static_cast<Eigen::Index>(k)) = S_held.col(tr.cols[k]);
-      }
-      tr.c = A.colPivHouseholderQr().solve(-r_train);
-      if (!tr.c.allFinite()) continue;
-      tr.resid = r_train + A * tr.c;
-      tr.rss = tr.resid.squaredNorm();
-      tr.held = (r_held + H * tr.c).squaredNorm();
-      if (tr.held < best.held) best = std::move(tr);
+    if (by_fit.empty()) break;
+    std::sort(by_fit.begin(), by_fit.end());
+    if (by_fit.size() > kShortlist) by_fit.resize(kShortlist);
+    auto chosen = [&](int j) { return std::find(sel.columns.begin(), sel.columns.end(), j) != sel.columns.end(); };
+    // A term of the heading's harmonics (u sin 2psi) is also tried with its partner (u cos 2psi):
+    // together they are one direction on the field whose angle the data fix (furrows, a slope),
+    // which neither alone is. The pair must predict 2 % better than the best single term, as a
+    // term must.
+    Trial best, best_pair;
+    for (const auto& [neg_score, j] : by_fit) {
+      std::vector<int> cols = sel.columns;
+      cols.push_back(static_cast<int>(j));
+      Trial tr = trial(cols);
+      if (tr.held < best.held) best = tr;
+      const int pj = partner.empty() || partner[static_cast<std::size_t>(j - nuisance)] < 0
+                         ? -1
+                         : partner[static_cast<std::size_t>(j - nuisance)] + nuisance;
+      if (pj < 0 || chosen(pj)) continue;
+      cols.push_back(pj);
+      Trial pr = trial(cols);
+      if (pr.held < best_pair.held) best_pair = std::move(pr);
     }
-    if (best.cols.empty()) break;
-    const double dbic = n_eff * std::log(std::max(best.rss, 1e-300) / std::max(rss, 1e-300)) + std::log(n_eff);
-    if (!(best.held < held * (1.0 - min_heldout_gain)) || !(dbic < -min_bic)) break;
+    if (!best_pair.cols.empty() && best_pair.held < best.held * (1.0 - min_heldout_gain)) best = std::move(best_pair);
+    if (best.cols.empty() || !std::isfinite(best.held)) break;
+    const double added = static_cast<double>(best.cols.size() - sel.columns.size());
+    const double dbic = n_eff * std::log(std::max(best.rss, 1e-300) / std::max(rss, 1e-300)) + added * std::log(n_eff);
+    if (!(best.held < held * (1.0 - min_heldout_gain)) || !(dbic < -added * min_bic)) break;
     sel.columns = best.cols;
     sel.coefficients = best.c;
     resid = best.resid;
     rss = best.rss;
     held = best.held;
-    sel.train_rss.push_back(rss);
-    sel.heldout_rss.push_back(held);
+    for (double k = 0; k < added; ++k) {
+      sel.train_rss.push_back(rss);
+      sel.heldout_rss.push_back(held);
+    }
   }
+  for (int& c : sel.columns) c -= nuisance;
   return sel;
 }
 

@@ -31,24 +31,39 @@ struct DictionaryTerm {
 // out; so is everything on a gantry log but its moving axis.
 std::vector<DictionaryTerm> term_dictionary(const Model& model, const Dataset& data);
 
+// For each term, the index of the one with sin and cos of the heading swapped in its form
+// (x: u_mps*sin2(psi_rad) and x: u_mps*cos2(psi_rad)), or -1.
+std::vector<int> harmonic_partners(const std::vector<DictionaryTerm>& dict);
+
+// The coefficient of term (dof, to) closest to (dof, from) with coefficient c over the log (least
+// squares over its rows): where a simpler form of a term starts its fit.
+double matched_coefficient(const Model& model, const Dataset& data, const std::string& dof, const std::string& from,
+                           double c, const std::string& to);
+
 // The scale of one term on a log (as the dictionary's): throws std::invalid_argument on a bad dof
 // or form, or a term that does not vary over the log.
 double term_scale(const Model& model, const Dataset& data, const std::string& dof, const std::string& form);
 
-// Forward selection (orthogonal matching pursuit) on the linearized problem r + S c: at each round
-// the column of S that lowers the training residual most joins, the coefficients are refitted by
-// least squares, and the round is kept only while the held-out residual (the same columns over
-// segments the fit did not see) falls by at least min_heldout_gain and the training BIC (n_eff
-// samples) by at least min_bic. Returns the chosen columns in the order chosen and their
-// coefficients (in units of each column's scale).
+// Forward selection (orthogonal matching pursuit) on the linearized problem r + S c, rows split
+// into folds (the log's segments, a third each). The first `nuisance` columns of S are the
+// model's own parameters (the paper's sigma and D): in every least-squares fit, never chosen, so
+// that a term is not refused for what they would take up (a traction lost over time is partly a
+// lower sigma). At each round, of the columns that lower the residual over every fold most
+// (least squares with those chosen), the one whose cross-validated residual is lowest joins (each
+// fold predicted by the coefficients fitted on the others); the round is kept only while that
+// residual falls by at least min_heldout_gain and the BIC over every fold (n_eff samples) by at
+// least min_bic per column added. Returns the chosen terms (column - nuisance) in the order
+// chosen and their coefficients over every fold (in units of each column's scale).
 struct Selection {
   std::vector<int> columns;
   Eigen::VectorXd coefficients;
-  std::vector<double> heldout_rss;  // after each round (index 0: nothing added)
-  std::vector<double> train_rss;
+  std::vector<double> heldout_rss;  // cross-validated, after each round (index 0: nothing added)
+  std::vector<double> train_rss;    // over every fold
 };
-Selection select_terms(const Eigen::VectorXd& r_train, const Eigen::MatrixXd& S_train, const Eigen::VectorXd& r_held,
-                       const Eigen::MatrixXd& S_held, double n_eff, int max_terms, double min_heldout_gain,
+// partner[j]: the term that is term j's form with sin and cos of the heading swapped (-1: none);
+// the two are also tried together.
+Selection select_terms(const std::vector<Eigen::VectorXd>& r, const std::vector<Eigen::MatrixXd>& S, int nuisance,
+                       const std::vector<int>& partner, double n_eff, int max_terms, double min_heldout_gain,
                        double min_bic);
 
 }  // namespace auger::wb

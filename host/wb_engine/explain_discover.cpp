@@ -2,9 +2,11 @@
 // terms"): when the library's best model does not fit a log in form, the missing term is sought in
 // a dictionary of physically meaningful forms that no library effect has, by sparse regression of
 // what a model leaves. Each dictionary term's effect on the simulated residuals is one simulation
-// (the model is linear in a small added force, eqs. (6)-(8)); forward selection picks terms on the
-// training segments while they lower the held-out error; the chosen terms are refitted jointly
-// with the model by simulation error.
+// (the model is linear in a small added force, eqs. (6)-(8)), and so is each of the paper's free
+// parameters' (in every fit of the regression); forward selection picks terms while they lower the
+// cross-validated error (each third of the segments judged by the others); the chosen terms are
+// refitted jointly with the model by simulation error, and a term of two factors gives way to one
+// of them alone where that predicts as well.
 // Two starts: the library's model (its effects may have taken up part of the missing term in their
 // own forms, and the terms then fit what is left), and the paper's model alone (the residual is the
 // missing physics itself), to which the library's effects are then added back one at a time where
@@ -34,6 +36,7 @@ Part term_part(const DictionaryTerm& d, double coefficient) {
 }
 
 bool is_term(const Part& p) { return !p.texts.empty(); }
+bool paper_refitted(const Part& p) { return !p.entry && !p.free.empty(); }
 bool is_library_effect(const Part& p) { return p.entry && p.texts.empty(); }
 
 double largest(const ChannelValues& v) {
@@ -48,42 +51,62 @@ double largest(const ChannelValues& v) {
 bool Explainer::select_terms_on(const std::vector<Part>& base_parts, const std::vector<DictionaryTerm>& dict,
                                 std::vector<Part>& chosen) {
   chosen.clear();
-  // The model as the training segments of the search's split fit it: the regression is judged on
-  // segments neither saw.
-  FitOutcome base = refit(fit_on(0), base_parts, 10, 0);
+  // The model fitted on every segment; the regression judges each third of the segments (the
+  // cross-validation folds) by coefficients fitted on the other two.
+  FitOutcome base = refit(all_, base_parts, 10, 0);
   ++structures_;
   if (!std::isfinite(base.cost)) return false;
-  Eigen::VectorXd r_train, r_held;
+  std::vector<Eigen::VectorXd> r(kFolds);
   {
     Workspace w;
-    if (!residuals(fit_on(0), base.parts, r_train, w) || !residuals(judge_[0], base.parts, r_held, w)) return false;
+    for (int f = 0; f < kFolds; ++f)
+      if (!residuals(judge_[static_cast<std::size_t>(f)], base.parts, r[static_cast<std::size_t>(f)], w)) return false;
   }
-  const auto P = static_cast<Eigen::Index>(dict.size());
-  Eigen::MatrixXd S_train = Eigen::MatrixXd::Zero(r_train.size(), P), S_held = Eigen::MatrixXd::Zero(r_held.size(), P);
-  std::vector<std::size_t> all(dict.size());
+  // The paper's free parameters are columns too (nuisance, in every fit of the regression): a term
+  // is judged with them free to take their share back, as the joint refit after it does.
+  std::vector<std::pair<std::size_t, int>> nuisance;
+  for (std::size_t p = 0; p < base.parts.size(); ++p)
+    if (!base.parts[p].entry)
+      for (int i : base.parts[p].free) nuisance.push_back({p, i});
+  const auto K = static_cast<Eigen::Index>(nuisance.size());
+  const auto P = K + static_cast<Eigen::Index>(dict.size());
+  std::vector<Eigen::MatrixXd> S(kFolds);
+  for (int f = 0; f < kFolds; ++f) S[static_cast<std::size_t>(f)] = Eigen::MatrixXd::Zero(r[static_cast<std::size_t>(f)].size(), P);
+  std::vector<std::size_t> all(static_cast<std::size_t>(P));
   for (std::size_t j = 0; j < all.size(); ++j) all[j] = j;
   search::run_parallel(opt_.threads, all, [](std::size_t) { return -1; }, [&](std::size_t j) {
     std::vector<Part> with = base.parts;
-    with.push_back(term_part(dict[j], dict[j].scale));
-    Eigen::VectorXd a, b;
+    if (j < nuisance.size()) {
+      // A step of 1 % of the parameter, away from the bound it may sit at.
+      const auto [p, i] = nuisance[j];
+      double& v = with[p].values[static_cast<std::size_t>(i)];
+      const ParamSpec& sp = with[p].specs[static_cast<std::size_t>(i)];
+      double h = 0.01 * std::max(std::fabs(v), std::fabs(sp.typical));
+      if (v + h > search_upper(sp)) h = -h;
+      v += h;
+    } else {
+      const DictionaryTerm& d = dict[j - nuisance.size()];
+      with.push_back(term_part(d, d.scale));
+    }
     Workspace w;
-    if (!residuals(fit_on(0), with, a, w) || !residuals(judge_[0], with, b, w)) return;
-    S_train.col(static_cast<Eigen::Index>(j)) = a - r_train;
-    S_held.col(static_cast<Eigen::Index>(j)) = b - r_held;
+    for (std::size_t f = 0; f < static_cast<std::size_t>(kFolds); ++f) {
+      Eigen::VectorXd a;
+      if (!residuals(judge_[f], with, a, w)) return;
+      S[f].col(static_cast<Eigen::Index>(j)) = a - r[f];
+    }
   });
-  structures_ += static_cast<int>(dict.size());
+  structures_ += static_cast<int>(P);
   // A term chosen from the dictionary pays for the choice among its P columns as well as for its
   // coefficient (a BIC of 10 plus 2 ln P), and must lower the held-out error by 2 % as an effect must.
-  const double min_bic = -kAddBic + 2.0 * std::log(static_cast<double>(P));
+  const double min_bic = -kAddBic + 2.0 * std::log(static_cast<double>(dict.size()));
   const double min_held = 1.0 - (1.0 - kAddHeldout) * (1.0 - kAddHeldout);
-  const Selection sel = select_terms(r_train, S_train, r_held, S_held, n_eff_of(base, fit_on(0)), kMaxTerms, min_held,
-                                     min_bic);
-  progress("explain: discovery: %zu dictionary terms, %zu chosen on the training segments (held-out residual %.0f -> %.0f)",
+  const Selection sel = select_terms(r, S, static_cast<int>(K), harmonic_partners(dict), n_eff_of(base, all_), kMaxTerms, min_held, min_bic);
+  progress("explain: discovery: %zu dictionary terms, %zu chosen (cross-validated residual %.0f -> %.0f)",
            dict.size(), sel.columns.size(), sel.heldout_rss.front(), sel.heldout_rss.back());
   if (sel.columns.empty()) return false;
   for (std::size_t k = 0; k < sel.columns.size(); ++k) {
     const DictionaryTerm& d = dict[static_cast<std::size_t>(sel.columns[k])];
-    detail("explain: discovery:   %s: %s, coefficient %.4g (held-out residual then %.0f)", d.dof.c_str(), d.form.c_str(),
+    detail("explain: discovery:   %s: %s, coefficient %.4g (cross-validated residual then %.0f)", d.dof.c_str(), d.form.c_str(),
            sel.coefficients[static_cast<Eigen::Index>(k)] * d.scale, sel.heldout_rss[k + 1]);
   }
   // From the linearized coefficients scaled back as far as the simulation says (a large term
@@ -100,10 +123,10 @@ bool Explainer::select_terms_on(const std::vector<Part>& base_parts, const std::
   for (double scale : {1.0, 0.5, 0.25, 0.1}) {
     std::vector<Part> parts = base.parts;
     for (const Part& p : with_terms(scale)) parts.push_back(p);
-    Eigen::VectorXd r;
+    Eigen::VectorXd res_all;
     Workspace w;
-    if (!residuals(fit_on(0), parts, r, w) || !(r.squaredNorm() < best_cost)) continue;
-    best_cost = r.squaredNorm();
+    if (!residuals(all_, parts, res_all, w) || !(res_all.squaredNorm() < best_cost)) continue;
+    best_cost = res_all.squaredNorm();
     chosen = with_terms(scale);
   }
   return !chosen.empty();
@@ -115,27 +138,93 @@ FitOutcome Explainer::drop_not_paying(FitOutcome with, bool terms, std::vector<R
     const double err = compare_error(with.parts);
     for (std::size_t i = 0; i < with.parts.size(); ++i) {
       const Part& p = with.parts[i];
-      if (terms ? !is_term(p) : !is_library_effect(p)) continue;
+      // The paper's parameters re-identified are checked as a library effect is: they too can
+      // stand in for the missing term (a lower sigma for a traction that sags over the log), and
+      // their removal is to hold them at the paper's values.
+      const bool paper = !terms && paper_refitted(p);
+      if (terms ? !is_term(p) : !(is_library_effect(p) || paper)) continue;
       // A term that changes the prediction by less than an effect must goes without asking.
       const bool weak = terms && largest(contribution(with.parts, i)) < kMinContribution;
       std::vector<Part> without = with.parts;
-      without.erase(without.begin() + static_cast<std::ptrdiff_t>(i));
+      if (paper) {
+        Part& held = without[i];
+        for (std::size_t k = 0; k < held.values.size(); ++k) held.values[k] = held.specs[k].default_value;
+        held.free.clear();
+      } else {
+        without.erase(without.begin() + static_cast<std::ptrdiff_t>(i));
+      }
       FitOutcome w = refit(all_, without, 12, 1);
       ++structures_;
       if (!std::isfinite(w.cost) || (!weak && compare_error(w.parts) > err * (1.0 + kAddHeldout))) continue;
       if (stand_ins)
         stand_ins->push_back({label(p, ctx_.size()),
-                              "removed: with the discovered term the model predicts as well without it (it stood in "
-                              "for the missing term)",
+                              paper ? "held at the paper's values: with the discovered term the model predicts as well "
+                                      "with them (re-identified, they stood in for the missing term)"
+                                    : "removed: with the discovered term the model predicts as well without it (it "
+                                      "stood in for the missing term)",
                               kNaN});
-      progress("explain: discovery: %s no longer pays%s; removed", label(p, ctx_.size()).c_str(),
-               terms ? "" : " with the discovered terms");
+      progress("explain: discovery: %s no longer pays%s; %s", label(p, ctx_.size()).c_str(),
+               terms ? "" : " with the discovered terms", paper ? "held at the paper's values" : "removed");
       with = std::move(w);
       again = true;
       break;
     }
   }
   return with;
+}
+
+FitOutcome Explainer::simpler_terms(FitOutcome with, const std::vector<DictionaryTerm>& dict) {
+  for (std::size_t i = 0; i < with.parts.size(); ++i) {
+    if (!is_term(with.parts[i])) continue;
+    const Part p = with.parts[i];
+    const std::string& form = p.texts[1];
+    const std::size_t star = form.find('*');
+    if (star == std::string::npos) continue;
+    const double err = compare_error(with.parts);
+    for (const std::string& part : {form.substr(0, star), form.substr(star + 1)}) {
+      const auto d = std::find_if(dict.begin(), dict.end(),
+                                  [&](const DictionaryTerm& t) { return t.dof == p.texts[0] && t.form == part; });
+      if (d == dict.end()) continue;
+      std::vector<Part> alt = with.parts;
+      alt[i] = term_part(*d, matched_coefficient(ctx_.front().base, ctx_.front().data, d->dof, form, p.values[0], d->form));
+      FitOutcome w = refit(all_, alt, 12, 1);
+      ++structures_;
+      if (!std::isfinite(w.cost) || compare_error(w.parts) > err * (1.0 + kAddHeldout)) continue;
+      progress("explain: discovery: %s: %s gives way to its simpler form %s", p.texts[0].c_str(), form.c_str(),
+               d->form.c_str());
+      with = std::move(w);
+      break;
+    }
+  }
+  return with;
+}
+
+bool Explainer::drop_unidentified_terms(FitOutcome& with) {
+  bool any = false;
+  for (bool again = true; again;) {
+    again = false;
+    const double n = static_cast<double>(with.r.size());
+    const std::vector<FitParam> params =
+        fit_params(with, with.cost / std::max(1.0, n - with.n_params) * n / n_eff_of(with, all_));
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < with.parts.size(); ++i) {
+      const Part& p = with.parts[i];
+      const std::size_t at = k;
+      k += p.specs.size();
+      if (!is_term(p) || at >= params.size() || !(params[at].sigma > 0.5 * std::fabs(p.values[0]))) continue;
+      progress("explain: discovery: %s: %s not identified (%.3g +- %.3g); removed", p.texts[0].c_str(),
+               p.texts[1].c_str(), p.values[0], params[at].sigma);
+      std::vector<Part> rest = with.parts;
+      rest.erase(rest.begin() + static_cast<std::ptrdiff_t>(i));
+      FitOutcome w = refit(all_, rest, 12, 1);
+      ++structures_;
+      if (!std::isfinite(w.cost)) return any;
+      with = std::move(w);
+      any = again = true;
+      break;
+    }
+  }
+  return any;
 }
 
 bool Explainer::discover(FitOutcome& o, ExplainResult& res) {
@@ -203,6 +292,7 @@ bool Explainer::discover(FitOutcome& o, ExplainResult& res) {
         r.fit = drop_not_paying(std::move(r.fit), true, nullptr);
         left = refused;
       }
+      r.fit = drop_not_paying(std::move(r.fit), false, &r.stand_ins);
       for (const Part* e : left)
         r.stand_ins.push_back({label(*e, ctx_.size()),
                                "removed: with the discovered term the model predicts as well without it (it stood in "
@@ -212,7 +302,9 @@ bool Explainer::discover(FitOutcome& o, ExplainResult& res) {
     }
   }
   for (Route& r : routes) {
+    r.fit = simpler_terms(std::move(r.fit), dict);
     polish(r.fit);
+    if (drop_unidentified_terms(r.fit)) polish(r.fit);
     r.err = compare_error(r.fit.parts);
     for (const Part& p : r.fit.parts) r.parts += p.entry != nullptr;
   }

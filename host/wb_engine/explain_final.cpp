@@ -162,7 +162,14 @@ void Explainer::finish(const State& s, ExplainResult& res, FitOutcome* pre) {
       f.fit = std::move(o);
     }
   }
-  if (!f.parts.empty() && std::isfinite(f.fit.cost)) {
+  if (f.parts.empty() && folds_) {
+    // No library effect was significant: the paper's model as it is, on every segment. Where it
+    // is far from the noise floor the missing term is sought on it as on any library model (a
+    // log whose missing physics no library effect even approaches, 150 times the noise floor,
+    // was refused the dictionary before).
+    f.fit = refit(all_, {}, 1, 0);
+  }
+  if (std::isfinite(f.fit.cost) && (!f.parts.empty() || f.fit.r.size() == static_cast<Eigen::Index>(all_.size()))) {
     // The final checks, then, where the library's model does not fit in form, discovered terms.
     const std::size_t before = f.parts.size();
     parsimony(f.fit, res.removed);

@@ -77,7 +77,13 @@ void Explainer::verdict(const State& f, ExplainResult& res) const {
                   lib_worst > kVerdictNoise ? "leaves" : "is within its size, at", lib_worst, channel_name(lib_c),
                   lib_worst > kVerdictNoise ? "" : ", but its residuals are not noise in form",
                   terms.c_str(), worst,
-                  stand_ins.empty() ? "" : (" (" + stand_ins + " only stood in for it and left the model)").c_str(),
+                  stand_ins.empty() ? ""
+                                    : (" (" + stand_ins + " only stood in for it and left the model" +
+                                       (stand_ins.find(kPaperParams) != std::string::npos
+                                            ? "; the paper's parameters are held at the paper's values"
+                                            : "") +
+                                       ")")
+                                          .c_str(),
                   tests_words.empty() ? "" : "; still ", tests_words.c_str());
   } else if (noise && tests_ok) {
     res.verdict_kind = "noise";

@@ -31,6 +31,9 @@ TEST_CASE("term form: parsed to a canonical spelling; a bad dof, function, input
   // A screw's own speed names its screw; every screw's, all four.
   CHECK(TermForm("screw_2", "neg(omega_rpm)").input_names() == std::vector<std::string>{"omega_rpm_2"});
   CHECK(TermForm("screws", "omega_rpm*t_s").input_names().size() == 5);
+  // Beside its own speed a screw's term may read the body's motion; alone it may not.
+  CHECK(TermForm("screws", "omega_rpm*abs(r_radps)").input_names().back() == "r_radps");
+  CHECK_THROWS_WITH(TermForm("screw_0", "t_s*abs(r_radps)"), Catch::Contains("own omega_rpm"));
 }
 
 TEST_CASE("term form: values of the functions, the force through S B for a screw, units of the coefficient") {
@@ -46,6 +49,7 @@ TEST_CASE("term form: values of the functions, the force through S B for a screw
   CHECK(TermForm("screw_0", "pos(omega_rpm)").value(in, 0) == 0.0);
   CHECK(TermForm("screw_0", "neg(omega_rpm)").value(in, 0) == -4.0);
   CHECK(TermForm("screw_3", "omega_rpm*t_s").value(in, 3) == Approx(60.0));
+  CHECK(TermForm("screws", "omega_rpm*abs(r_radps)").value(in, 2) == Approx(-1.5));
   const Model m = make_model(RobotParams{}, kSand, {});
   // Screw 2 turning backwards at 5 rpm, its thrust 30 % weaker: -0.3 x (-5) rpm more through its
   // column of S B (eq. (7)); a body dof puts c x value on its own axis only.

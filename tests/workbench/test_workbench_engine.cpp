@@ -10,6 +10,7 @@
 #include <limits>
 #include <random>
 
+#include "discover.hpp"
 #include "engine_synth.hpp"
 #include "fitting.hpp"  // flag_params (the plausibility rule itself), make_part, fitted_effect
 #include "workbench.hpp"
@@ -427,4 +428,40 @@ TEST_CASE("model file: the terrain's comment says whether the paper's parameters
   paper.free.clear();  // as explain holds them
   CHECK(comment(paper).find("not refitted here") != std::string::npos);
   CHECK(fitted_model_file(m, d, {}).terrains.front().comment.find("not refitted here") != std::string::npos);
+}
+
+TEST_CASE("discovered terms' regression: the model's own parameters refit in every trial; pure noise chooses nothing") {
+  // Three folds of 300 rows. Column 0 is the model's own parameter (nuisance); term 0 is the
+  // missing form; term 1 a decoy, the parameter plus a little of the form, which alone takes up
+  // more of the residual than the form does.
+  std::mt19937 rng(5);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  std::vector<Eigen::VectorXd> r(3), noise(3);
+  std::vector<Eigen::MatrixXd> S(3);
+  for (int f = 0; f < 3; ++f) {
+    Eigen::MatrixXd m(300, 3);
+    noise[static_cast<std::size_t>(f)].resize(300);
+    for (int i = 0; i < 300; ++i) {
+      const double p = n01(rng), t = n01(rng), w = n01(rng);
+      m.row(i) << p, t, p + 0.1 * t + 0.3 * w;
+      noise[static_cast<std::size_t>(f)][i] = 0.05 * n01(rng);
+    }
+    S[static_cast<std::size_t>(f)] = m;
+    r[static_cast<std::size_t>(f)] = -(m.col(0) + 0.5 * m.col(1)) + noise[static_cast<std::size_t>(f)];
+  }
+  const double min_bic = 10 + 2 * std::log(2.0);
+  const Selection sel = select_terms(r, S, 1, {-1, -1}, 900, 4, 0.04, min_bic);
+  REQUIRE(sel.columns.size() == 1);
+  CHECK(sel.columns[0] == 0);
+  CHECK(sel.coefficients[0] == Approx(0.5).epsilon(0.05));
+  CHECK(sel.heldout_rss.back() < 0.1 * sel.heldout_rss.front());
+  // Without the parameter in the fits the decoy wins the first round.
+  std::vector<Eigen::MatrixXd> terms_only;
+  for (const Eigen::MatrixXd& m : S) terms_only.push_back(m.rightCols(2));
+  const Selection plain = select_terms(r, terms_only, 0, {-1, -1}, 900, 1, 0.04, min_bic);
+  REQUIRE(plain.columns.size() == 1);
+  CHECK(plain.columns[0] == 1);
+  // What is left is noise: no term lowers the cross-validated residual by 4 %.
+  const Selection none = select_terms(noise, S, 1, {-1, -1}, 900, 4, 0.04, min_bic);
+  CHECK(none.columns.empty());
 }

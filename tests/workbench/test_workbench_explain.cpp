@@ -187,6 +187,27 @@ TEST_CASE("explain: physics outside the library is said so, with the missing ter
   CHECK(term);
 }
 
+TEST_CASE("explain: where no library effect is significant, the missing term is still sought", "[slow]") {
+  // A library that cannot touch a drive force (an IMU bias alone): the search adds nothing, and
+  // explain once ended "unexplained" without trying the dictionary.
+  SynthOptions o;
+  o.seconds = 90;
+  o.seed = 8;
+  const Model truth = make_model(RobotParams{}, kSand, {std::make_shared<BackwardThrustLoss>(0.5)});
+  ExplainOptions eo;
+  eo.only = {"imu_heading_bias"};
+  const ExplainResult r = explain({synth(truth, o)}, {nominal()}, eo);
+  INFO(r.verdict);
+  CHECK(r.effects.empty());
+  CHECK(r.verdict_kind == "outside_library");
+  bool reads_screw_2 = false;
+  for (const auto& g : r.discovered)
+    for (const auto& t : g.terms)
+      for (const auto& in : t.inputs) reads_screw_2 = reads_screw_2 || in == "omega_rpm_2";
+  CHECK(reads_screw_2);
+  for (int c = 0; c < kChannels; ++c) CHECK(r.final_ratio[static_cast<std::size_t>(c)] < 1.2);
+}
+
 TEST_CASE("explain: a parameter the log does not identify gives way to the simpler form; tiny effects leave",
           "[slow]") {
   // Hard Coulomb friction: stick-slip fits it with its Stribeck speed at the end of its range and

@@ -113,14 +113,20 @@ TermForm::TermForm(const std::string& dof, const std::string& form) {
       throw std::invalid_argument("term form '" + form + "': at most two factors");
     factors_.push_back(parse_factor(form.substr(star + 1), form));
   }
+  bool has_own = false;
+  for (const TermFactor& f : factors_) has_own = has_own || f.input == TermInput::kOmegaOwn;
   for (const TermFactor& f : factors_) {
     const bool own = f.input == TermInput::kOmegaOwn;
     if (own && !is_screw_dof(dof_))
       throw std::invalid_argument("term form '" + form + "': omega_rpm (the screw's own) needs a screw dof "
                                   "(screw_0..screw_3, screws); on " + dof_text_ + " name the screw: omega_rpm_0..3");
-    if (is_screw_dof(dof_) && !own && f.input != TermInput::kT && f.input != TermInput::kOne)
+    // A screw's speed may change with time or, beside its own speed, with the body's motion over
+    // the ground (traction that falls in turns: omega_rpm*abs(r_radps)).
+    const bool body = f.input == TermInput::kU || f.input == TermInput::kV || f.input == TermInput::kR;
+    if (is_screw_dof(dof_) && !own && f.input != TermInput::kT && f.input != TermInput::kOne && !(body && has_own))
       throw std::invalid_argument("term form '" + form + "' on " + dof_text_ +
-                                  ": a screw's term reads its own omega_rpm and t_s only");
+                                  ": a screw's term reads its own omega_rpm and t_s, or u_mps, v_mps, r_radps "
+                                  "beside its own omega_rpm");
   }
   std::string canon;
   for (const TermFactor& f : factors_) {
