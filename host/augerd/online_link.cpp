@@ -66,8 +66,11 @@ void Daemon::online_step(const std::array<auger::ScrewTelemetry, 4>& tel) {
   }
   if (cfg_.online_apply && online_->applied_changed()) {
     // eqs. (6), (7), (22) of the controller's model (it holds a reference to model_): its EKF's
-    // prediction, the allocator's (S B)^+ and the null-space allocator's weights from the next step.
+    // prediction, the allocator's (S B)^+ and the null-space allocator's weights from the next step;
+    // the online effects' parameters (a slope, a drag) into the model's fixed override slots, which
+    // the effects' body forces in the EKF's prediction read (no effect rebuilt, no allocation).
     auger::set_terrain_parameters(model_, online_->control_parameters());
+    auger::set_effect_parameters(model_, online_->effects(), online_->control_effect_parameters());
     auger::OnlineEstimate used;
     used.value = online_->control_parameters();
     used.sd = online_->estimate().sd;
@@ -92,7 +95,8 @@ void Daemon::online_effects_event(const char* what, const char* lead) {
     text += buf;
     effects_said_[k] = e.effect_value[k];
   }
-  event(-1, what, text + " (the controller keeps the model file's values)");
+  event(-1, what, text + (cfg_.online_apply ? " (the controller takes each once its SD is below apply_rel_sd of its prior's)"
+                                             : " (the controller keeps the model file's values: apply is off)"));
 }
 
 void Daemon::online_values(double* out) const {

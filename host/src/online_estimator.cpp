@@ -56,6 +56,7 @@ OnlineEstimator::OnlineEstimator(const Model& model, const OnlineConfig& config,
     theta0_[5 + k] = std::clamp(e.configured, e.lower, e.upper) / e.prior_sd;
     lo_rel_[5 + k] = e.lower / e.prior_sd;
     hi_rel_[5 + k] = e.upper / e.prior_sd;
+    configured_eff_[k] = std::clamp(e.configured, e.lower, e.upper);
   }
   if (!(cfg_.window_s > 0) || !(cfg_.memory_s > 0) || !(cfg_.prior_rel_sd > 0) || !(cfg_.drag_prior_rel_sd > 0) ||
       !(cfg_.cusum_ratio > 1) || !(cfg_.cusum_threshold > 0) || !(cfg_.velocity_sd.minCoeff() > 0))
@@ -77,6 +78,7 @@ OnlineEstimator::OnlineEstimator(const Model& model, const OnlineConfig& config,
 void OnlineEstimator::reset() {
   theta_ = theta0_;
   applied_ = ref_;
+  applied_eff_ = configured_eff_;
   applied_changed_ = false;
   noise_var_ = noise_var0_;
   e_prev_.setConstant(NAN);
@@ -117,8 +119,9 @@ void OnlineEstimator::publish() {
 void OnlineEstimator::enter_fallback(const char* why) {
   if (fallback_.empty()) fallback_ = why;  // latched: the first reason (no allocation: short, SSO)
   theta_ = theta0_;
-  applied_changed_ = applied_ != ref_;
+  applied_changed_ = applied_ != ref_ || applied_eff_ != configured_eff_;
   applied_ = ref_;
+  applied_eff_ = configured_eff_;
   restart_memory();
 }
 
@@ -327,6 +330,13 @@ void OnlineEstimator::end_window() {
       applied_changed_ = true;
     }
   }
+  for (int k = 0; k < n_eff_; ++k) {
+    const double v = est_.effect_value[k], sd = est_.effect_sd[k];
+    if (est_.effect_informed[k] > 0 && sd < cfg_.apply_rel_sd * scale_[5 + k] && std::fabs(v - applied_eff_[k]) > 2 * sd) {
+      applied_eff_[k] = v;
+      applied_changed_ = true;
+    }
+  }
 }
 
 std::vector<OnlineEffectParam> online_effect_params(const ModelFile& file, const EffectRegistry& registry) {
@@ -449,6 +459,16 @@ std::string believed_terrain(const OnlineEstimate& e, const std::vector<TerrainP
 
 const char* believed_basis(const OnlineEstimate& e) {
   return e.held.segment<3>(kDx).maxCoeff() > 0 ? "sigma / D (D held)" : "sigma, D";
+}
+
+void set_effect_parameters(Model& m, const std::vector<OnlineEffectParam>& effects, const VecE& values) {
+  if (effects.size() > std::size_t(kMaxOnlineEffects))
+    throw std::invalid_argument("set_effect_parameters: more online parameters than the model holds");
+  for (std::size_t k = 0; k < effects.size(); ++k) {
+    if (!std::isfinite(values[int(k)]) || effects[k].effect >= m.effects.size())
+      throw std::invalid_argument("set_effect_parameters: " + effects[k].name + " non-finite or not in the model");
+    m.effect_overrides[k] = {m.effects[effects[k].effect].get(), effects[k].index, values[int(k)]};
+  }
 }
 
 void set_terrain_parameters(Model& m, const Vec5& p) {

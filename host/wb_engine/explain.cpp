@@ -98,7 +98,7 @@ ExplainResult Explainer::run() {
   }
   // Step 0: the model as given (its own effects, if any, at their values).
   State s0;
-  s0.parts = parts_of(ctx_.front().choice.model, ctx_.front().data);
+  s0.parts = parts_of(ctx_.front().choice.model, ctx_.front().data, ctx_.front().choice.online);
   evaluate(s0);
   ExplainStep st0;
   st0.effects = effect_labels(s0.parts, ctx_.size());

@@ -226,6 +226,7 @@ void Explainer::finish(const State& s, ExplainResult& res, FitOutcome* pre) {
   for (std::size_t i = 0; i < ctx_.size(); ++i) {
     ModelChoice mc = ctx_[i].choice;
     mc.model = build(ctx_[i].base, f.parts, static_cast<int>(i));
+    mc.online = online_marks({}, ctx_[i].base.effects.size(), f.parts, static_cast<int>(i));
     mc.source = "explained from " + ctx_[i].full->path;
     Prediction p;
     simulate(mc.model, *ctx_[i].full, sim_options_for(mc.model), p);
@@ -251,7 +252,8 @@ void Explainer::finish(const State& s, ExplainResult& res, FitOutcome* pre) {
 }
 
 std::string Explainer::model_file(const ExplainResult& res) const {
-  ModelFile file = fitted_model_file(res.final_models.front().model, *ctx_.front().full, res.final_fitted);
+  ModelFile file = fitted_model_file(res.final_models.front().model, *ctx_.front().full, res.final_fitted,
+                                     res.final_models.front().online);
   // Other terrains' re-identified parameters (several logs on different ground).
   std::set<std::string> written{ctx_.front().base.terrain.name};
   for (std::size_t i = 1; i < ctx_.size(); ++i) {

@@ -30,6 +30,7 @@ struct Part {
   std::string terrain;         // paper_params: the terrain set it re-identifies
   std::vector<std::string> texts;  // text parameters (a discovered term's dof and form)
   std::vector<double> at_least;    // per parameter: a lower bound from a stalled robot (settle_stalls; 0 none)
+  std::vector<std::string> online;  // parameters its model file marks `online = true` (ModelChoice::online)
 };
 
 // A part for an effect id (or paper_params) at its defaults; the free parameters are those the
@@ -38,13 +39,20 @@ Part make_part(const std::string& id, const Model& base, const Dataset& d);
 // A discovered term (auger/term_form.hpp) as a part: its coefficient free, typical_coefficient the
 // size its fit starts from and scales by. Throws std::invalid_argument on a bad dof or form.
 Part make_term_part(const std::string& dof, const std::string& form, double typical_coefficient);
-// The parts of a model's own effects, at the model's values (so they can be refitted).
-std::vector<Part> parts_of(const Model& model, const Dataset& d);
+// The parts of a model's own effects, at the model's values (so they can be refitted), with
+// their marks (ModelChoice::online, aligned with model.effects; empty: none).
+std::vector<Part> parts_of(const Model& model, const Dataset& d,
+                           const std::vector<std::vector<std::string>>& online = {});
 // The model without its effects (the base the parts are applied to).
 Model without_effects(const Model& model);
 // The model with the parts that apply to log `log` (paper_params replaces the terrain set, the
 // effects are added after the base model's own).
 Model build(const Model& base, const std::vector<Part>& parts, int log = 0);
+// The online marks of build(base, parts, log)'s effects, in its order: base_online (aligned with
+// base.effects) then each part's own, so an effect the fit dropped takes its marks with it.
+std::vector<std::vector<std::string>> online_marks(const std::vector<std::vector<std::string>>& base_online,
+                                                   std::size_t base_effects, const std::vector<Part>& parts,
+                                                   int log = 0);
 // Parts with nothing free (held while other parts are fitted).
 std::vector<Part> frozen(std::vector<Part> parts);
 

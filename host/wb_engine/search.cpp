@@ -121,21 +121,24 @@ Part make_term_part(const std::string& dof, const std::string& form, double typi
   return p;
 }
 
-std::vector<Part> parts_of(const Model& model, const Dataset& d) {
+std::vector<Part> parts_of(const Model& model, const Dataset& d, const std::vector<std::vector<std::string>>& online) {
   std::vector<Part> out;
   for (const auto& e : model.effects) {
+    const std::size_t i = out.size();
     const auto texts = e->text_params();
     if (!texts.empty()) {
       // A discovered term: its coefficient's typical size from its value.
       const double c = e->params().front().second;
       Part p = make_term_part(texts.at(0).second, texts.at(1).second, std::fabs(c) > 0 ? std::fabs(c) : 1.0);
       p.values = {c};
+      if (i < online.size()) p.online = online[i];
       out.push_back(std::move(p));
       continue;
     }
     Part p = make_part(e->id(), model, d);
     const auto values = e->params();
-    for (std::size_t i = 0; i < p.values.size() && i < values.size(); ++i) p.values[i] = values[i].second;
+    for (std::size_t k = 0; k < p.values.size() && k < values.size(); ++k) p.values[k] = values[k].second;
+    if (i < online.size()) p.online = online[i];
     out.push_back(std::move(p));
   }
   return out;
@@ -160,6 +163,15 @@ Model build(const Model& base, const std::vector<Part>& parts, int log) {
     }
   }
   return make_model(base.robot, t, std::move(effects));
+}
+
+std::vector<std::vector<std::string>> online_marks(const std::vector<std::vector<std::string>>& base_online,
+                                                   std::size_t base_effects, const std::vector<Part>& parts, int log) {
+  std::vector<std::vector<std::string>> out(base_effects);
+  for (std::size_t i = 0; i < base_effects && i < base_online.size(); ++i) out[i] = base_online[i];
+  for (const Part& p : parts)
+    if (p.entry && (p.log < 0 || p.log == log)) out.push_back(p.online);
+  return out;
 }
 
 std::vector<Part> frozen(std::vector<Part> parts) {

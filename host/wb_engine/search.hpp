@@ -118,7 +118,9 @@ std::vector<LibraryEffect> effect_library();
 
 // The model file (docs/model.md) of a model and its fitted effects, as `fit` and `explain` write
 // it (auger::write_model_file): the gantry's mass or the robot, the terrain set re-identified,
-// the effects with their descriptions as comments.
-ModelFile fitted_model_file(const Model& model, const Dataset& data, const std::vector<FittedEffect>& effects);
+// the effects with their descriptions as comments, and `online = true` on the parameters
+// `online` (aligned with model.effects, ModelChoice::online) names.
+ModelFile fitted_model_file(const Model& model, const Dataset& data, const std::vector<FittedEffect>& effects,
+                            const std::vector<std::vector<std::string>>& online = {});
 
 }  // namespace auger::wb

@@ -76,6 +76,7 @@ FitResult fit(const Dataset& full, ModelChoice mc, const std::vector<std::string
   }
   res.after = mc;
   res.after.model = build(base, o.parts);
+  res.after.online = online_marks(mc.online, base.effects.size(), o.parts);
   res.after.source = "fitted from " + data.path;
   // Reported as compare reports it (segments of 25 s), so the two commands agree.
   Prediction p;
@@ -83,12 +84,13 @@ FitResult fit(const Dataset& full, ModelChoice mc, const std::vector<std::string
   res.err_before = error_stats(full, p, res.segment_floor);
   simulate(res.after.model, full, sim_options_for(res.after.model), p);
   res.err_after = error_stats(full, p, res.segment_floor);
-  res.model_toml = write_model_file(fitted_model_file(res.after.model, data, res.effects));
+  res.model_toml = write_model_file(fitted_model_file(res.after.model, data, res.effects, res.after.online));
   return res;
 }
 
 // ---------------------------------------------------------------- model file
-ModelFile fitted_model_file(const Model& m, const Dataset& d, const std::vector<FittedEffect>& effects) {
+ModelFile fitted_model_file(const Model& m, const Dataset& d, const std::vector<FittedEffect>& effects,
+                            const std::vector<std::vector<std::string>>& online) {
   ModelFile f;
   f.comment = "Written by auger fit from " + d.path + " (docs/workbench.md). Schema: docs/model.md.";
   if (d.gantry)
@@ -104,13 +106,17 @@ ModelFile fitted_model_file(const Model& m, const Dataset& d, const std::vector<
   t.comment = refitted ? "paper_params (eqs. (15)-(17)), re-identified" : "paper_params (eqs. (15)-(17)), not refitted here";
   f.terrains.push_back(t);
   std::map<std::string, int> seen;  // the n-th model effect of an id is the n-th fitted one (several terms)
-  for (const auto& e : m.effects) {
+  for (std::size_t i = 0; i < m.effects.size(); ++i) {
+    const auto& e = m.effects[i];
     EffectConfig c;
     c.id = e->id();
     int n = seen[c.id]++;
     for (const auto& fe : effects)
       if (fe.effect == e->id() && n-- == 0) c.comment = fe.description;
-    for (const auto& [name, value] : e->params()) c.params.push_back({name, value, 0, 0});
+    for (const auto& [name, value] : e->params()) {
+      c.params.push_back({name, value, 0, 0});
+      c.params.back().online = i < online.size() && std::count(online[i].begin(), online[i].end(), name) > 0;
+    }
     for (const auto& [name, value] : e->text_params()) c.texts.push_back({name, value, 0, 0});
     f.effects.push_back(std::move(c));
   }

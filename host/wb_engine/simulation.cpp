@@ -93,6 +93,11 @@ ModelChoice choose_model(const Dataset& data, const std::string& model_path, con
   }
   mc.terrain = te->params.name;
   mc.source = model_path + " (terrain " + mc.terrain + ")";
+  for (const EffectConfig& c : f.effects) {
+    mc.online.emplace_back();
+    for (const EffectParamValue& p : c.params)
+      if (p.online) mc.online.back().push_back(p.name);
+  }
   if (data.gantry) {
     TerrainParams t = te->params;
     t.D_psi = kGantryYawDamping;

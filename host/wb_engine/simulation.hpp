@@ -23,6 +23,9 @@ struct ModelChoice {
   Model model;
   std::string source;   // what was loaded, for reports
   std::string terrain;  // the terrain set used
+  // Per model.effects: the parameters its model file marks `online = true` (augerd estimates
+  // them, docs/model.md), so that a file written from this model keeps the marks.
+  std::vector<std::vector<std::string>> online;
 };
 ModelChoice choose_model(const Dataset& data, const std::string& model_path = "", const std::string& terrain = "");
 // The terrains of the paper's tables: robot (Table 3) sand, frozen_grass; gantry (Table 2) sand, gravel.

@@ -260,7 +260,8 @@ int main(int argc, char** argv) {
     }
     // augerd's [online] with apply (host/augerd/online_link.cpp), in lock-step: the kinematic
     // velocity from this period's camera and IMU, the screw speeds (the true ones; augerd has the
-    // modules' measured), the identified terrain written into the controller's model.
+    // modules' measured), the identified terrain and online effect parameters written into the
+    // controller's model.
     std::unique_ptr<OnlineEstimator> online;
     KinematicVelocity kin;
     if (online_apply) {
@@ -285,7 +286,10 @@ int main(int argc, char** argv) {
         }
         online->step(s.omega_true_rpm(), kin.step(in, sc.control_period_s), sc.control_period_s,
                      Vec3(0, 0, imu->psi_rad));
-        if (online->applied_changed()) set_terrain_parameters(m, online->control_parameters());
+        if (online->applied_changed()) {
+          set_terrain_parameters(m, online->control_parameters());
+          set_effect_parameters(m, online->effects(), online->control_effect_parameters());
+        }
       });
     }
     const double boot_s = 0.1;
@@ -313,9 +317,11 @@ int main(int argc, char** argv) {
                    static_cast<unsigned long long>(online->changes()), online->control_parameters()[kSigmaLong],
                    online->fallback().empty() ? "" : (", fallback: " + online->fallback()).c_str());
     for (int k = 0; online && k < online->estimate().effects; ++k)
-      std::fprintf(stderr, "auger-sim-drive: [online] %s %.4g +- %.2g %s%s\n", online->effects()[std::size_t(k)].name.c_str(),
-                   online->estimate().effect_value[k], online->estimate().effect_sd[k],
-                   online->effects()[std::size_t(k)].unit.c_str(), online->estimate().effect_informed[k] > 0 ? "" : " (not informed)");
+      std::fprintf(stderr, "auger-sim-drive: [online] %s %.4g +- %.2g %s%s, used at the end %.4g %s\n",
+                   online->effects()[std::size_t(k)].name.c_str(), online->estimate().effect_value[k],
+                   online->estimate().effect_sd[k], online->effects()[std::size_t(k)].unit.c_str(),
+                   online->estimate().effect_informed[k] > 0 ? "" : " (not informed)",
+                   online->control_effect_parameters()[k], online->effects()[std::size_t(k)].unit.c_str());
     log.close();
     if (!log) {
       std::fprintf(stderr, "auger-sim-drive: writing %s failed\n", out_path.c_str());

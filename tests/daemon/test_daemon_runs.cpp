@@ -227,6 +227,7 @@ TEST_CASE("augerd's [online] estimates the effects the model file marks online",
     const std::string events = events_log(r.dir + "/log");
     INFO(events);
     CHECK(events.find("event=online-effects action=\"the estimate is now terrain_slope.incline_x_rad ") != std::string::npos);
+    CHECK(events.find("(the controller keeps the model file's values: apply is off)") != std::string::npos);
   }
   // A sensor's offset marked online: exit 2 at --check, naming the file, line and column.
   std::ofstream(dir + "/bias.toml") << robot << "[[effect]]\nid = \"imu_heading_bias\"\n"

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "alloc_counter.hpp"
+#include "closed_loop.hpp"
 #include "auger/controller.hpp"
 #include "auger/effect.hpp"
 
@@ -127,18 +128,7 @@ TEST_CASE("paper's open problem: the pseudo-inverse stalls on the force diagonal
     std::array<ScrewTelemetry, 4> tel{};
     c.set_waypoints({{0.0, goal}});
     c.set_enabled(true);
-    SensorInput s;
-    for (int k = 0; k < 3000; ++k) {
-      s.has_pose = k % 10 == 0;
-      s.pose = eta;
-      s.has_imu_psi = s.has_imu_r = true;
-      s.imu_psi_rad = eta.z();
-      s.imu_r_radps = zeta.z();
-      const auto& sp = c.step(0.01 * k, tel, s);
-      const Vec4 omega(sp[0], sp[1], sp[2], sp[3]);
-      dynamics_step(plant, dyn, eta, zeta, omega, 0.01);
-      for (int i = 0; i < 4; ++i) tel[static_cast<std::size_t>(i)] = {omega[i], true};
-    }
+    for (int k = 0; k < 3000; ++k) test::closed_loop_cycle(c, plant, dyn, eta, zeta, tel, 0.01 * k, k % 10 == 0);
     const double miss_m = (eta.head<2>() - goal.head<2>()).norm();
     if (kind == AllocatorKind::pseudo_inverse) {
       CHECK(miss_m > 0.4);  // stuck near the start

@@ -1,13 +1,15 @@
 // The effects' parameters a model file marks `online = true` (auger/online_estimator.hpp): a slope
 // recovered within its SD on data of the core's own model (bench/online_drive.hpp), a parameter
 // the driving does not excite keeps its prior, the clamp to the physical range, no allocation,
-// and the model file's errors (file, line, column) for what cannot be online.
+// the model file's errors (file, line, column) for what cannot be online, and the estimates
+// applied to the controller's model (augerd's `[online] apply`).
 #include <catch2/catch.hpp>
 
 #include <fstream>
 #include <sstream>
 
 #include "alloc_counter.hpp"
+#include "closed_loop.hpp"
 #include "auger/model_file.hpp"
 #include "auger/online_estimator.hpp"
 #include "online_drive.hpp"
@@ -190,4 +192,95 @@ TEST_CASE("online effects: the model file's errors name the file, line and colum
   CHECK(p[0].name == "terrain_slope.incline_x_rad");
   CHECK(p[0].configured == 0.1);
   CHECK(p[1].configured == 0.02);
+}
+
+namespace {
+// The controller's setpoints and estimated pose over 3 s of closed loop on `plant` (ideal
+// screws, a camera pose every third cycle, the IMU every cycle), its model `model`.
+std::vector<double> closed_loop(const Model& model, const Model& plant) {
+  ControllerConfig cfg;
+  cfg.gamma_per_s = Vec3::Constant(1.0);
+  Controller c(model, cfg);
+  c.set_waypoints({{0.0, Vec3(0.3, 0.2, 0.4)}});
+  c.set_enabled(true);
+  DynamicsData data(plant);
+  Vec3 eta = Vec3::Zero(), zeta = Vec3::Zero();
+  std::array<ScrewTelemetry, 4> tel{};
+  std::vector<double> out;
+  for (int k = 0; k < 300; ++k) {
+    const std::array<double, 4> sp = test::closed_loop_cycle(c, plant, data, eta, zeta, tel, 0.01 * k, k % 3 == 0);
+    out.insert(out.end(), sp.begin(), sp.end());
+    for (int i = 0; i < 3; ++i) out.push_back(c.eta_estimate()[i]);
+  }
+  return out;
+}
+}  // namespace
+
+TEST_CASE("online effects applied: the controller with the slope's estimate steps as with the slope in the file") {
+  const ModelFile marked = with_effects(slope(0, 0, true));
+  Model applied = build_model(marked, "sand");
+  set_effect_parameters(applied, online_effect_params(marked, EffectRegistry::builtin()), VecE(0.05, -0.02, 0));
+  const Model in_file = build_model(with_effects(slope(0.05, -0.02, false)), "sand");
+  const Model flat = build_model(marked, "sand");
+  // On tilted ground (the truth is the file's slope): bit for bit the same controller, and not
+  // the controller that keeps the file's 0.
+  const std::vector<double> a = closed_loop(applied, in_file), b = closed_loop(in_file, in_file);
+  CHECK(a == b);
+  CHECK(closed_loop(flat, in_file) != b);
+}
+
+TEST_CASE("online effects applied: no allocation in the apply path; the fallback restores the file's values") {
+  const ModelFile configured = with_effects(slope(0, 0, true) +
+                                            "[[effect]]\nid = \"quadratic_drag\"\nc_x_nspm2 = { value = 10, online = true }\n");
+  const Model cm = build_model(configured, "sand");
+  const Model tm = build_model(with_effects(slope(0.08, 0, false)), "sand");
+  const std::vector<OnlineEffectParam> params = online_effect_params(configured, EffectRegistry::builtin());
+  OnlineEstimator est(cm, on(), params);
+  Model ctl = cm;  // the controller's model, updated in place as augerd does (online_link.cpp)
+  Controller c(ctl, ControllerConfig{});
+  c.set_enabled(true);
+  OnlineDrive drive(tm, tm, OnlineDriveOptions{});
+  std::array<ScrewTelemetry, 4> tel{};
+  SensorInput s;
+  double t_s = 0;
+  const auto cycle = [&](bool diverge) {
+    if (!diverge) drive.next();  // diverging: the screws held, an absurd velocity
+    t_s += OnlineDrive::kDt;
+    for (int i = 0; i < 4; ++i) tel[std::size_t(i)] = {drive.omega_rpm[i], true};
+    s.has_pose = true;
+    s.pose = drive.eta_true();
+    c.step(t_s, tel, s);
+    est.step(drive.omega_rpm, diverge ? Vec3(5, 5, 5) : drive.zeta_meas, OnlineDrive::kDt, drive.eta_true());
+    if (est.applied_changed()) {
+      set_terrain_parameters(ctl, est.control_parameters());
+      set_effect_parameters(ctl, est.effects(), est.control_effect_parameters());
+    }
+  };
+  alloc_counter::start();
+  for (int k = 0; k < 3000; ++k) cycle(false);
+  const double incline_used = ctl.effect_overrides[0].value;
+  for (int k = 0; k < 800; ++k) cycle(true);
+  const long n = alloc_counter::stop();
+  INFO("incline_x applied " << incline_used << " rad (truth 0.08), estimate " << est.estimate().effect_value[0]);
+  // The estimate reached the controller's model (within 10 % of the truth), the slope's force with it.
+  CHECK(std::fabs(incline_used - 0.08) < 0.008);
+  CHECK(ctl.effect_overrides[0].effect == ctl.effects[0].get());
+  CHECK_FALSE(est.fallback().empty());
+  // The fallback: the file's values, in the override slots and so in the effects' forces.
+  CHECK(ctl.effect_overrides[0].value == 0);
+  CHECK(ctl.effect_overrides[1].value == 0);
+  CHECK(ctl.effect_overrides[2].value == 10);
+  CHECK(est.control_effect_parameters() == VecE(0, 0, 10));
+  CHECK(n == 0);
+}
+
+TEST_CASE("online effects applied: a parameter's estimate is applied within its physical range only") {
+  // 0.45 rad of true incline, the physical range ends at 0.35: the controller gets at most 0.35.
+  const ModelFile configured = with_effects(slope(0, 0, true));
+  const OnlineEstimator est = run(configured, with_effects(slope(0.45, 0, false)), 20);
+  CHECK(est.control_effect_parameters()[0] <= 0.35);
+  CHECK(est.control_effect_parameters()[0] > 0.3);
+  Model m = build_model(configured, "sand");
+  CHECK_THROWS_AS(set_effect_parameters(m, online_effect_params(configured, EffectRegistry::builtin()), VecE(NAN, 0, 0)),
+                  std::invalid_argument);
 }

@@ -6,7 +6,8 @@
 # finds sand's sigma_long from the true velocity once the slow (blocking) screws' windows are out,
 # and not with them in; stall-check.py finds no stall on the field's edges; auger-sim-drive
 # --online-apply closes the loop without falling back, and on a tilted ground (--incline-pitch-rad)
-# estimates the slope a model file marks online within 3 of its SDs.
+# estimates the slope a model file marks online within 3 of its SDs, and the controller's model
+# takes it.
 set -eu
 src=$1 build=$2 work=$3
 rm -rf "$work"
@@ -60,10 +61,13 @@ slope=$("$build/sim/robot/auger-sim-drive" --out "$work/slope.csv" --drive manua
 echo "$slope"
 python3 - "$slope" <<'PY'
 import re, sys
-est = {m[0]: (float(m[1]), float(m[2])) for m in re.findall(r"terrain_slope\.(incline_[xy])_rad (\S+) \+- (\S+) rad\n", sys.argv[1] + "\n")}
+est = {m[0]: (float(m[1]), float(m[2]), float(m[3])) for m in
+       re.findall(r"terrain_slope\.(incline_[xy])_rad (\S+) \+- (\S+) rad, used at the end (\S+) rad\n", sys.argv[1] + "\n")}
 assert set(est) == {"incline_x", "incline_y"}, sys.argv[1]
 for name, truth in (("incline_x", 0.0499), ("incline_y", 0.0)):
-    v, sd = est[name]
+    v, sd, used = est[name]
     assert abs(v - truth) < 3 * sd and sd < 0.01, "%s %g +- %g rad, truth %g" % (name, v, sd, truth)
+    # What the controller's model holds (applied: within 2 SD of the estimate when last applied).
+    assert abs(used - truth) < 4 * sd, "%s used %g rad, truth %g" % (name, used, truth)
 print("sim_batch: the slope marked online: %s" % est)
 PY

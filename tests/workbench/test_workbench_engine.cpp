@@ -465,3 +465,42 @@ TEST_CASE("discovered terms' regression: the model's own parameters refit in eve
   const Selection none = select_terms(noise, S, 1, {-1, -1}, 900, 4, 0.04, min_bic);
   CHECK(none.columns.empty());
 }
+
+TEST_CASE("model file: online marks follow their effect through a refit; a dropped effect drops them") {
+  // The model as a marked file gives it (ModelChoice::online): a slope with incline_x online, a drag.
+  auto effect = [](const char* id, const char* name, double value) {
+    EffectConfig c;
+    c.id = id;
+    c.params.emplace_back();
+    c.params.back().name = name;
+    c.params.back().value = value;
+    return EffectRegistry::builtin().create(c);
+  };
+  const Model m = make_model(RobotParams{}, kSand, {effect("terrain_slope", "incline_x_rad", 0.0),
+                                                    effect("quadratic_drag", "c_x_nspm2", 5.0)});
+  SynthOptions o;
+  o.seconds = 10;
+  const Dataset d = synth(m, o);
+  const std::vector<std::vector<std::string>> marks{{"incline_x_rad"}, {}};
+  std::vector<search::Part> parts = search::parts_of(m, d, marks);
+  REQUIRE(parts.size() == 2);
+  CHECK(parts[0].online == marks[0]);
+  const Model base = search::without_effects(m);
+  auto written = [&](const std::vector<search::Part>& ps) {
+    const ModelFile f = fitted_model_file(search::build(base, ps), d, {}, search::online_marks({}, 0, ps));
+    std::string out;
+    for (const EffectConfig& c : parse_model_file(write_model_file(f), "back.toml").effects)  // keys sorted
+      for (const EffectParamValue& p : c.params) out += c.id + "." + p.name + (p.online ? "=online " : " ");
+    return out;
+  };
+  CHECK(written(parts) == "terrain_slope.incline_x_rad=online terrain_slope.incline_y_rad "
+                          "quadratic_drag.c_psi_nmspr2 quadratic_drag.c_x_nspm2 quadratic_drag.c_y_nspm2 ");
+  // The drag first, then the slope: the marks move with the slope.
+  std::swap(parts[0], parts[1]);
+  CHECK(written(parts) == "quadratic_drag.c_psi_nmspr2 quadratic_drag.c_x_nspm2 quadratic_drag.c_y_nspm2 "
+                          "terrain_slope.incline_x_rad=online terrain_slope.incline_y_rad ");
+  parts.erase(parts.begin() + 1);  // the slope dropped (as explain's parsimony may)
+  CHECK(written(parts) == "quadratic_drag.c_psi_nmspr2 quadratic_drag.c_x_nspm2 quadratic_drag.c_y_nspm2 ");
+  // A base model's own effects keep theirs (fit adds parts after them).
+  CHECK(search::online_marks(marks, 2, parts) == std::vector<std::vector<std::string>>{{"incline_x_rad"}, {}, {}});
+}

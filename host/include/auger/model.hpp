@@ -72,6 +72,17 @@ Mat34 forward_kinematics_matrix(const Mat43& K_i);
 // B of eq. (10) from the table: x row s h, y row s, yaw row -l_x sin(alpha) (empirical lump).
 Mat34 allocation_matrix(const RobotParams& robot, const std::array<ScrewMount, 4>& screws);
 
+// An effect's parameter the model uses in place of the effect's own value: augerd's online
+// estimate with `[online] apply` (online_estimator.hpp set_effect_parameters). The effects are
+// immutable and shared; the estimate lives in the model that uses it, in fixed room (the 100 Hz
+// loop allocates nothing). Unused entries have effect == nullptr.
+struct EffectOverride {
+  const Effect* effect = nullptr;
+  std::size_t index = 0;  // into the effect's params()
+  double value = 0;
+};
+constexpr int kMaxEffectOverrides = 3;
+
 struct Model {
   RobotParams robot;
   TerrainParams terrain;
@@ -89,7 +100,16 @@ struct Model {
   std::vector<std::shared_ptr<const Effect>> effects;  // in the order of the model file
   std::vector<std::size_t> effect_state_offset;          // into a workspace's effect state
   std::size_t effect_state_size = 0;
+  std::array<EffectOverride, kMaxEffectOverrides> effect_overrides{};  // none: the effects' own values
 };
+
+// The value of an effect's parameter `index` in this model: an override's, else `own` (the
+// effect's). Effects whose parameters may be online read them through this in body_force.
+inline double effect_param(const Model& model, const Effect* effect, std::size_t index, double own) {
+  for (const EffectOverride& o : model.effect_overrides)
+    if (o.effect == effect && o.index == index) return o.value;
+  return own;
+}
 
 // S, S B, (S B)^+ and D (eqs. (6), (7), (22)) from model.terrain; no heap allocation (the online
 // estimator's parameters reach the controller through it, online_estimator.hpp).

@@ -41,8 +41,10 @@
 // pair keeps its own rule); a DOF updates when any of its columns is informative, the others
 // masked. Estimates are clamped to the parameter's physical range (ParamSpec::physical);
 // unlike the terrain's, an effect parameter at its bound does not count as divergence (a drag
-// coefficient's bound 0 may be the truth). The controller keeps the model file's effect
-// values: applying them would rebuild an effect (an allocation) in the loop.
+// coefficient's bound 0 may be the truth). With augerd's `apply` the controller's model takes
+// them as it takes the terrain's (control_effect_parameters, set_effect_parameters): written
+// into the model's fixed EffectOverride slots, which the effects read, so no effect is rebuilt
+// (no allocation in the loop); the file's values again in fallback.
 //
 // No allocation after construction: fixed-size Eigen types only (a test counts allocations).
 #pragma once
@@ -62,6 +64,7 @@ using Vec5 = Eigen::Matrix<double, 5, 1>;
 using Mat5 = Eigen::Matrix<double, 5, 5>;
 // The effects' online parameters: at most this many (a fixed-size regression, no allocation).
 constexpr int kMaxOnlineEffects = 3;
+static_assert(kMaxOnlineEffects <= kMaxEffectOverrides, "the controller's model holds every online parameter");
 using VecE = Eigen::Matrix<double, kMaxOnlineEffects, 1>;
 constexpr int kOnlineParams = 5 + kMaxOnlineEffects;
 using VecN = Eigen::Matrix<double, kOnlineParams, 1>;
@@ -192,7 +195,12 @@ class OnlineEstimator {
   // What the controller should use: the configured terrain in fallback; else each parameter's
   // estimate once its SD is below apply_rel_sd of its value, else the value last applied.
   const Vec5& control_parameters() const { return applied_; }
-  // True when control_parameters() changed in the last step.
+  // The same for the effects' online parameters (effects() order, entries past their count
+  // unused): the file's value in fallback; else each estimate once informed with its SD below
+  // apply_rel_sd of its prior SD (a parameter may be 0: its value is no scale), else the value
+  // last applied. Always inside the physical range (the estimate is clamped to it).
+  const VecE& control_effect_parameters() const { return applied_eff_; }
+  // True when control_parameters() or control_effect_parameters() changed in the last step.
   bool applied_changed() const { return applied_changed_; }
   const Vec5& configured() const { return ref_; }
 
@@ -247,6 +255,7 @@ class OnlineEstimator {
   Vec3 e_prev_ = Vec3::Constant(NAN), e_var_ = Vec3::Zero(), e_cov1_ = Vec3::Zero();
   OnlineEstimate est_;
   Vec5 applied_;
+  VecE applied_eff_ = VecE::Zero(), configured_eff_ = VecE::Zero();
   bool applied_changed_ = false;
   Vec3 zeta_start_ = Vec3::Zero();  // the window's start velocity, and its sums
   Vec3 zeta_prev_ = Vec3::Zero();
@@ -281,5 +290,10 @@ const char* believed_basis(const OnlineEstimate& estimate);
 // Sets a model's terrain parameters in place (S, S B, (S B)^+, D of eqs. (6), (7), (22)) without
 // allocating; the effects and the mass stay. Throws std::invalid_argument on non-physical values.
 void set_terrain_parameters(Model& model, const Vec5& params);
+// Sets the effects' online parameters of a model to `values` (effects' order) in its
+// EffectOverride slots, without allocating: the effects' body forces (eq. (6)) use them from
+// then on. The model must be the one `effects` were made for (online_effect_params: the same
+// file's effects in its order); throws std::invalid_argument on a non-finite value.
+void set_effect_parameters(Model& model, const std::vector<OnlineEffectParam>& effects, const VecE& values);
 
 }  // namespace auger

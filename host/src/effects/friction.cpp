@@ -81,9 +81,11 @@ class QuadraticDrag final : public Effect {
   std::vector<std::pair<std::string, double>> params() const override {
     return {{"c_x_nspm2", c_.x()}, {"c_y_nspm2", c_.y()}, {"c_psi_nmspr2", c_.z()}};
   }
-  void body_force(const Model&, const EffectContext& ctx, Vec3& force_n, double*) const override {
+  void body_force(const Model& model, const EffectContext& ctx, Vec3& force_n, double*) const override {
     for (int k = 0; k < 3; ++k) {
-      const double vf = ctx.zeta_free[k], a = ctx.gain[k] * c_[k];
+      // The coefficient as the model holds it (augerd's applied online estimate, else the file's).
+      const double c = effect_param(model, this, static_cast<std::size_t>(k), c_[k]);
+      const double vf = ctx.zeta_free[k], a = ctx.gain[k] * c;
       if (a <= 0 || vf == 0) {
         force_n[k] = 0;
         continue;

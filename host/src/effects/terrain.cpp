@@ -25,7 +25,9 @@ class TerrainSlope final : public Effect {
     return {{"incline_x_rad", ix_}, {"incline_y_rad", iy_}};
   }
   void body_force(const Model& model, const EffectContext& ctx, Vec3& force_n, double*) const override {
-    const double fx = -model.robot.m_kg * kG * std::sin(ix_), fy = -model.robot.m_kg * kG * std::sin(iy_);
+    // The inclines as the model holds them (augerd's applied online estimate, else the file's).
+    const double ix = effect_param(model, this, 0, ix_), iy = effect_param(model, this, 1, iy_);
+    const double fx = -model.robot.m_kg * kG * std::sin(ix), fy = -model.robot.m_kg * kG * std::sin(iy);
     const double c = std::cos(ctx.eta.z()), s = std::sin(ctx.eta.z());
     force_n << c * fx + s * fy, -s * fx + c * fy, 0.0;  // J(psi)^T f_world
   }
