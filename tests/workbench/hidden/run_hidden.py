@@ -16,11 +16,12 @@ issue's criteria:
 
 Same for gantry logs (one module on the rail; the channel is the rail's position).
 Each case is one log; the trajectory alternates with the seed (single-DOF moves like the paper's
-Table 4 runs, and manual-style driving), so 2 seeds give both kinds. Logs carry only the format
+Table 4 runs, and manual-style driving), so 2 seeds give both kinds (with --alternate it
+alternates from effect to effect, so that one seed drives both). Logs carry only the format
 and terrain metadata (gantry: axis, mass_kg, which the format requires).
 
 Usage: run_hidden.py --auger PATH --sim-log PATH [--seeds 3] [--min-pass N] [--jobs 2]
-                     [--only ID,ID] [--keep DIR] [--seconds 150]
+                     [--alternate] [--only ID,ID] [--keep DIR] [--seconds 150]
 --min-pass N: per effect, at least N of the seeds must pass (default: all). Exit 0 iff every
 effect meets it. Python 3 standard library only.
 """
@@ -165,12 +166,14 @@ TRAJECTORIES = ["single-dof", "manual"]
 
 
 class Case:
-    def __init__(self, kind, effect, seed, axis=None):
+    def __init__(self, kind, effect, seed, axis=None, variant=None):
         self.kind = kind      # "library", "none", "outside"
         self.effect = effect  # library id ("none", "soft_patch")
         self.seed = seed
         self.axis = axis      # None (robot) or "longitudinal" / "lateral"
-        self.traj = "manual" if kind == "outside" and not axis else TRAJECTORIES[seed % 2]
+        # The kind of trajectory alternates with the seed (with --alternate, with the case).
+        variant = seed if variant is None else variant
+        self.traj = "manual" if kind == "outside" and not axis else TRAJECTORIES[variant % 2]
         self.failures = []
         self.info = {}
 
@@ -360,6 +363,8 @@ def main():
     ap.add_argument("--timeout", type=float, default=300.0)
     ap.add_argument("--only", default="", help="comma-separated case names (e.g. force_lag,gantry/none)")
     ap.add_argument("--no-gantry", action="store_true")
+    ap.add_argument("--alternate", action="store_true", help="the trajectory and the gantry's axis "
+                    "alternate from case to case, not from seed to seed: one seed drives both kinds")
     ap.add_argument("--keep", default="", help="keep the logs in this directory")
     args = ap.parse_args()
     del here
@@ -367,12 +372,15 @@ def main():
 
     cases = []
     for seed in range(args.seeds):
-        cases += [Case("library", e, seed) for e in ROBOT_EFFECTS]
-        cases += [Case("none", "none", seed), Case("outside", "soft_patch", seed)]
+        var = (lambda i: seed + i) if args.alternate else (lambda i: seed)
+        robot = list(ROBOT_EFFECTS) + ["none", "soft_patch"]
+        cases += [Case({"none": "none", "soft_patch": "outside"}.get(e, "library"), e, seed, None, var(i))
+                  for i, e in enumerate(robot)]
         if not args.no_gantry:
-            axis = ["longitudinal", "lateral"][seed % 2]
-            cases += [Case("library", e, seed, axis) for e in GANTRY_EFFECTS]
-            cases += [Case("none", "none", seed, axis), Case("outside", "soft_patch", seed, axis)]
+            gantry = list(GANTRY_EFFECTS) + ["none", "soft_patch"]
+            for i, e in enumerate(gantry):
+                axis = ["longitudinal", "lateral"][var(i) % 2]
+                cases.append(Case({"none": "none", "soft_patch": "outside"}.get(e, "library"), e, seed, axis, var(i)))
     if args.only:
         wanted = set(args.only.split(","))
         cases = [c for c in cases if c.name in wanted or c.effect in wanted]
