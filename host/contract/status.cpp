@@ -105,6 +105,17 @@ const std::vector<Field<Status>>& online_fields() {
   return f;
 }
 
+// An online effect parameter's two fields (Status::on_effects), each key its word and the
+// parameter's name: on_eff_<name>=value on_sd_eff_<name>=SD (the prefix carries the key).
+const std::vector<Field<Status::OnlineEffect>>& effect_value_field() {
+  static const std::vector<Field<Status::OnlineEffect>> f = {{"", "%.4g", &Status::OnlineEffect::value}};
+  return f;
+}
+const std::vector<Field<Status::OnlineEffect>>& effect_sd_field() {
+  static const std::vector<Field<Status::OnlineEffect>> f = {{"", "%.2g", &Status::OnlineEffect::sd}};
+  return f;
+}
+
 template <class S>
 void write(const S& s, const std::vector<Field<S>>& fields, const std::string& prefix, std::string& out) {
   char buf[256];
@@ -184,12 +195,9 @@ std::string format_status(const Status& s) {
   write(s, sensor_fields(), "", out);
   if (s.ros2) write(s, ros2_fields(), "", out);
   if (s.online) write(s, online_fields(), "", out);
-  char buf[64];
   for (const Status::OnlineEffect& e : s.on_effects) {
-    std::snprintf(buf, sizeof buf, "%.4g", e.value);
-    out += " on_eff_" + e.name + "=" + buf;
-    std::snprintf(buf, sizeof buf, "%.2g", e.sd);
-    out += " on_sd_eff_" + e.name + "=" + buf;
+    write(e, effect_value_field(), "on_eff_" + e.name, out);
+    write(e, effect_sd_field(), "on_sd_eff_" + e.name, out);
   }
   return out;
 }
@@ -207,19 +215,13 @@ std::string parse_status(const std::string& line, Status& out) {
   if (s.ros2 && err.empty()) err = read(kv, ros2_fields(), "", s);
   s.online = s.all && kv.count("online_terrain") > 0;
   if (s.online && err.empty()) err = read(kv, online_fields(), "", s);
-  for (const auto& [key, text] : kv) {
+  for (const auto& field : kv) {
+    const std::string& key = field.first;
     if (!err.empty() || key.rfind("on_eff_", 0) != 0) continue;
     Status::OnlineEffect e;
     e.name = key.substr(7);
-    const auto sd = kv.find("on_sd_eff_" + e.name);
-    char* end = nullptr;
-    e.value = std::strtod(text.c_str(), &end);
-    if (text.empty() || *end != '\0') err = "'" + key + "=" + text + "' is not a number";
-    else if (sd == kv.end()) err = "no 'on_sd_eff_" + e.name + "' in the status line";
-    else {
-      e.sd = std::strtod(sd->second.c_str(), &end);
-      if (sd->second.empty() || *end != '\0') err = "'" + sd->first + "=" + sd->second + "' is not a number";
-    }
+    err = read(kv, effect_value_field(), key, e);
+    if (err.empty()) err = read(kv, effect_sd_field(), "on_sd_eff_" + e.name, e);
     s.on_effects.push_back(e);
   }
   if (!err.empty()) return err;

@@ -124,21 +124,19 @@ Part make_term_part(const std::string& dof, const std::string& form, double typi
 std::vector<Part> parts_of(const Model& model, const Dataset& d, const std::vector<std::vector<std::string>>& online) {
   std::vector<Part> out;
   for (const auto& e : model.effects) {
-    const std::size_t i = out.size();
     const auto texts = e->text_params();
+    Part p;
     if (!texts.empty()) {
       // A discovered term: its coefficient's typical size from its value.
       const double c = e->params().front().second;
-      Part p = make_term_part(texts.at(0).second, texts.at(1).second, std::fabs(c) > 0 ? std::fabs(c) : 1.0);
+      p = make_term_part(texts.at(0).second, texts.at(1).second, std::fabs(c) > 0 ? std::fabs(c) : 1.0);
       p.values = {c};
-      if (i < online.size()) p.online = online[i];
-      out.push_back(std::move(p));
-      continue;
+    } else {
+      p = make_part(e->id(), model, d);
+      const auto values = e->params();
+      for (std::size_t k = 0; k < p.values.size() && k < values.size(); ++k) p.values[k] = values[k].second;
     }
-    Part p = make_part(e->id(), model, d);
-    const auto values = e->params();
-    for (std::size_t k = 0; k < p.values.size() && k < values.size(); ++k) p.values[k] = values[k].second;
-    if (i < online.size()) p.online = online[i];
+    if (out.size() < online.size()) p.online = online[out.size()];
     out.push_back(std::move(p));
   }
   return out;
