@@ -36,15 +36,7 @@ Part term_part(const DictionaryTerm& d, double coefficient) {
 }
 
 bool is_term(const Part& p) { return !p.texts.empty(); }
-bool paper_refitted(const Part& p) { return !p.entry && !p.free.empty(); }
 bool is_library_effect(const Part& p) { return p.entry && p.texts.empty(); }
-
-double largest(const ChannelValues& v) {
-  double m = 0;
-  for (double x : v)
-    if (std::isfinite(x)) m = std::max(m, x);
-  return m;
-}
 
 }  // namespace
 
@@ -141,19 +133,11 @@ FitOutcome Explainer::drop_not_paying(FitOutcome with, bool terms, std::vector<R
       // The paper's parameters re-identified are checked as a library effect is: they too can
       // stand in for the missing term (a lower sigma for a traction that sags over the log), and
       // their removal is to hold them at the paper's values.
-      const bool paper = !terms && paper_refitted(p);
+      const bool paper = !terms && paper_free(p);
       if (terms ? !is_term(p) : !(is_library_effect(p) || paper)) continue;
       // A term that changes the prediction by less than an effect must goes without asking.
       const bool weak = terms && largest(contribution(with.parts, i)) < kMinContribution;
-      std::vector<Part> without = with.parts;
-      if (paper) {
-        Part& held = without[i];
-        for (std::size_t k = 0; k < held.values.size(); ++k) held.values[k] = held.specs[k].default_value;
-        held.free.clear();
-      } else {
-        without.erase(without.begin() + static_cast<std::ptrdiff_t>(i));
-      }
-      FitOutcome w = refit(all_, without, 12, 1);
+      FitOutcome w = refit(all_, without_part(with.parts, i), 12, 1);
       ++structures_;
       if (!std::isfinite(w.cost) || (!weak && compare_error(w.parts) > err * (1.0 + kAddHeldout))) continue;
       if (stand_ins)

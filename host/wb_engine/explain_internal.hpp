@@ -122,6 +122,15 @@ struct State {
   FitOutcome fit;
 };
 
+// The structure with part i taken out: an effect removed, the paper's parameters held at the
+// paper's values (their alternative is the paper's model, not none). explain_parsimony.cpp.
+std::vector<Part> without_part(std::vector<Part> parts, std::size_t i);
+// The paper's parameters re-identified (free): checked as an effect is (parsimony, and as a
+// stand-in for a discovered term), their removal being to hold them at the paper's values.
+inline bool paper_free(const Part& p) { return !p.entry && !p.free.empty(); }
+// The largest finite value over the channels (0 when none): a contribution's size.
+double largest(const ChannelValues& v);
+
 // An effect part's label: terrain_change of one of several logs carries the log's number.
 std::string label(const Part& p, std::size_t n_logs);
 std::vector<std::string> effect_labels(const std::vector<Part>& parts, std::size_t n_logs);

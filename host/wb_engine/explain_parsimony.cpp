@@ -41,9 +41,9 @@ bool simpler_form(const Part& p, const Dataset& d, Part& out) {
   return false;
 }
 
-// The structure with part i taken out: an effect removed, the paper's parameters held at the
-// paper's values (their alternative is the paper's model, not none).
-std::vector<Part> without(std::vector<Part> parts, std::size_t i) {
+}  // namespace
+
+std::vector<Part> without_part(std::vector<Part> parts, std::size_t i) {
   Part& p = parts[i];
   if (p.entry) {
     parts.erase(parts.begin() + static_cast<std::ptrdiff_t>(i));
@@ -54,10 +54,6 @@ std::vector<Part> without(std::vector<Part> parts, std::size_t i) {
   return parts;
 }
 
-// The paper's parameters re-identified (free): checked as an effect is, their removal being to
-// hold them at the paper's values.
-bool paper_free(const Part& p) { return !p.entry && !p.free.empty(); }
-
 double largest(const ChannelValues& v) {
   double m = 0;
   for (double x : v)
@@ -65,13 +61,11 @@ double largest(const ChannelValues& v) {
   return m;
 }
 
-}  // namespace
-
 ChannelValues Explainer::contribution(const std::vector<Part>& parts, std::size_t i) const {
   ChannelValues out{kNaN, kNaN, kNaN, kNaN};
   Eigen::VectorXd a, b;
   Workspace w;
-  if (!residuals(all_, parts, a, w) || !residuals(all_, without(parts, i), b, w)) return out;
+  if (!residuals(all_, parts, a, w) || !residuals(all_, without_part(parts, i), b, w)) return out;
   std::array<double, kChannels> sum{}, n{};
   Eigen::Index at = 0;
   for (const LogTerm& t : all_.terms) {
@@ -137,7 +131,7 @@ void Explainer::parsimony(FitOutcome& o, std::vector<RemovedEffect>& removed) {
       rest = o.parts;
       rest[i] = *replacement;
     } else {
-      rest = alternative ? *alternative : without(o.parts, i);
+      rest = alternative ? *alternative : without_part(o.parts, i);
     }
     FitOutcome again = refit(all_, rest, 12, 1);
     ++structures_;
@@ -227,7 +221,7 @@ void Explainer::parsimony(FitOutcome& o, std::vector<RemovedEffect>& removed) {
     std::vector<Part> worst_alt;
     bool worst_constant = false;
     for (std::size_t i : effects) {
-      std::vector<std::vector<Part>> alts{without(o.parts, i)};
+      std::vector<std::vector<Part>> alts{without_part(o.parts, i)};
       std::vector<Part> constant;
       if (constant_terrain(o.parts, i, constant)) alts.push_back(constant);
       for (std::size_t a = 0; a < alts.size(); ++a) {
