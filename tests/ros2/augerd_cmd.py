@@ -3,6 +3,7 @@
 import glob
 import os
 import subprocess
+import time
 
 ENV = os.environ
 
@@ -19,6 +20,18 @@ def command(*cmds):
                    text=True, timeout=5, check=True)
 
 
-def events():
-    """augerd's event log (AUGERD_LOG_DIR) as one text."""
-    return "".join(open(p).read() for p in glob.glob(os.path.join(ENV["AUGERD_LOG_DIR"], "*-events.log")))
+def events(expect=None, timeout_s=2.0):
+    """augerd's event log (AUGERD_LOG_DIR) as one text. augerd writes it from its log thread, so
+    the control loop never waits for the disk: the event of a command just answered may reach the
+    file some milliseconds later. With expect, waits up to timeout_s until the text holds it."""
+    end = time.time() + timeout_s
+    while True:
+        text = "".join(open(p).read() for p in glob.glob(os.path.join(ENV["AUGERD_LOG_DIR"], "*-events.log")))
+        if expect is None or expect in text or time.time() > end:
+            return text
+        time.sleep(0.02)
+
+
+def logged(text, timeout_s=2.0):
+    """Whether augerd's event log holds text within timeout_s."""
+    return text in events(text, timeout_s)

@@ -18,7 +18,7 @@ from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
 import ros2_msgs as m
-from augerd_cmd import command, events, status
+from augerd_cmd import command, events, logged, status
 from ros2_names import dds_topic_name, dds_type_name, is_valid_fully_qualified
 
 ENV = os.environ
@@ -408,7 +408,7 @@ def test_local_commands_before_network_cmd_vel(dds):
     send(w["Twist"], turn, 20, 0.5)
     st = status()
     assert st["mode"] == "goto" and int(st["ros2_refused"]) >= before + 5, st
-    ev = events()
+    ev = events("event=network-refused")
     assert ev.count("event=network-refused") == 1, ev
     assert 'event=network-refused action="cmd_vel (ROS 2) not obeyed: a goto is running (local goto by pid' in ev
     # A local stop: nothing moves until a local enable; then the network may drive (the enable
@@ -419,16 +419,16 @@ def test_local_commands_before_network_cmd_vel(dds):
     command("enable")
     send(w["Twist"], turn, 20, 0.3)
     assert status()["mode"] == "vel"
-    assert 'event=source action="motion commands from network cmd_vel (ROS 2) (was local stop by pid' in events()
+    assert logged('event=source action="motion commands from network cmd_vel (ROS 2) (was local stop by pid')
     # A local vel takes over at once; the network waits for its 0.5 s dead-man plus priority_s.
     t_local = time.time()
     command("vel 0 0 -0.1")
-    assert 'event=source action="motion commands from local vel by pid' in events()
+    assert logged('event=source action="motion commands from local vel by pid')
     before = int(status()["ros2_refused"])
     send(w["Twist"], turn, 20, 0.5 + priority_s - 0.3)
     st = status()
     assert st["mode"] == "idle" and int(st["ros2_refused"]) >= before + 10, st  # expired, not taken over
-    assert "a vel is running (local vel by pid" in events()  # the run of refusals' event
+    assert logged("a vel is running (local vel by pid")  # the run of refusals' event
     assert "ended" in last_refusal(col) and "network cmd_vel may drive 1.00 s after it" in last_refusal(col)
     time.sleep(max(0.0, t_local + 0.5 + priority_s + 0.2 - time.time()))
     send(w["Twist"], turn, 20, 0.3)
