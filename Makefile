@@ -126,15 +126,19 @@ fuzz-smoke: $(FUZZ_BUILD)/fuzz_parser $(FUZZ_BUILD)/corpus
 # against augerd on the wall clock, mostly waiting: 1-2 s of CPU in 15 s) run one at a time beside
 # the others; those marked RUN_SERIAL (the load test's stop latency, the board's binaries under
 # qemu, the workbench suites that run two jobs themselves) run alone.
-# The venv's install (pip, mostly waiting on the network) runs beside the host's build.
+# The venv's install (pip, mostly waiting on the network) runs beside the host's build; the
+# sanitizer, fuzzer and board builds run two at a time, so that one's configure and final links
+# overlap the other's compiles.
 test: deps check-protocol
 	$(MAKE) -j 2 host venv
-	$(MAKE) asan fuzz-smoke board
+	$(MAKE) board-deps
+	$(MAKE) -j 2 asan fuzz-smoke board BOARD_TARGETS="$(BOARD_RUNTIME_TARGETS)"
 	cd $(ASAN_BUILD) && ctest --output-on-failure -L unit -LE sanitize_full -j $(JOBS)
-	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) ctest --output-on-failure -LE long -j $(JOBS)
+	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) AUGER_BOARD_CLI=host \
+	  ctest --output-on-failure -LE long -j $(JOBS)
 
 # Longer suites (docs/benchmarks.md has their times): the unit tests labelled sanitize_full
-# under ASan+UBSan, the tests labelled `long` (flash-all into
+# under ASan+UBSan, board_qemu again with the board's own `auger`, the tests labelled `long` (flash-all into
 # four simulated modules; auger report --explain in headless Chromium with a screenshot; augerd's
 # online estimate against the offline fit of its own log), the
 # parser fuzzer for 5 million inputs, the sand diagonal with the firmware in the loop across the
@@ -145,6 +149,8 @@ test: deps check-protocol
 # and its suite, 5 seeds per class (docs/workbench-suite.md).
 test-full: test asan-full
 	cd $(ASAN_BUILD) && ctest --output-on-failure -L sanitize_full -j $(JOBS)
+	$(MAKE) board
+	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) ctest --output-on-failure -R '^board_qemu$$'
 	cd $(BUILD) && AUGER_BOARD_BUILD=$(abspath $(BOARD_BUILD)) ctest --output-on-failure -L long
 	$(MAKE) fuzz FUZZ_RUNS=5000000
 	$(BUILD)/tests/robot/test_robot_fil "[.full]"
@@ -202,6 +208,11 @@ clean:
 # ---- The robot's board: A64-OLinuXino, Cortex-A53, aarch64 Debian 12 (issue 7, docs/board.md) ----
 BOARD_BUILD ?= build-aarch64
 BOARD_TARGETS := augerd auger auger-module
+# make test builds for the board what runs the robot (augerd, auger-module) and runs board_qemu
+# with the workstation's `auger` for `auger cmd` (AUGER_BOARD_CLI=host): the board's `auger`
+# carries the workbench, whose aarch64 build was 150 s of CPU of make test (docs/benchmarks.md
+# "Test-suite time"). make test-full builds all three and runs board_qemu with the board's.
+BOARD_RUNTIME_TARGETS := augerd auger-module
 # The same flags as cmake/toolchain-aarch64.cmake (which says why -ffp-contract=off).
 BOARD_FLAGS := -mcpu=cortex-a53 -ffp-contract=off
 ifeq ($(shell uname -m),aarch64)

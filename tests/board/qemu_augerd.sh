@@ -8,8 +8,13 @@
 # sends a goto, and the robot must arrive, judged on the simulator's true pose, with augerd's
 # estimate agreeing. Also: the installed augerd accepts the installed configuration.
 # Usage: qemu_augerd.sh BUILD_DIR SOURCE_DIR BOARD_BUILD_DIR (AUGER_BOARD_BUILD, if set, overrides it)
+# AUGER_BOARD_CLI=host (make test): `auger` is the workstation's, as make test builds only augerd
+# and auger-module for the board; otherwise (make test-full, or by hand after `make board`) the
+# board's.
 set -euo pipefail
 build=$1 src=$2 board=${AUGER_BOARD_BUILD:-$3}
+cli=${AUGER_BOARD_CLI:-board}
+[[ $cli == host || $cli == board ]] || { echo "qemu_augerd: AUGER_BOARD_CLI=$cli: expected host or board" >&2; exit 2; }
 work=$(mktemp -d /tmp/auger-board-XXXXXX)
 pids=()
 cleanup() {
@@ -20,7 +25,9 @@ cleanup() {
 trap cleanup EXIT
 fail() { echo "qemu_augerd: $*" >&2; for f in "$work"/*.out; do echo "--- $f" >&2; tail -8 "$f" >&2; done; exit 1; }
 
-for b in host/augerd/augerd host/auger/auger host/tools/auger-module; do
+board_bins=(host/augerd/augerd host/tools/auger-module)
+[[ $cli == host ]] || board_bins+=(host/auger/auger)
+for b in "${board_bins[@]}"; do
   [[ -x $board/$b ]] || fail "$board/$b missing: build it with \`make board\` (BOARD_BUILD=$board)"
   readelf -h "$board/$b" | grep -q 'Machine:.*AArch64' || fail "$board/$b is not an aarch64 program"
 done
@@ -42,23 +49,32 @@ else
   run=(qemu-aarch64 -L /usr/aarch64-linux-gnu -E "LD_PRELOAD=$work/qemu_termios2.so"
        -E "LD_LIBRARY_PATH=/usr/aarch64-linux-gnu/lib")
 fi
-for t in host/augerd/augerd host/tools/auger-module host/auger/auger; do
+for t in "${board_bins[@]}"; do
   # exec: the pid sim-robot.sh records is the program's (qemu passes signals to it).
   printf '#!/bin/sh\nexec %s %q "$@"\n' "${run[*]}" "$board/$t" > "$work/bin/$t"
   chmod +x "$work/bin/$t"
 done
+[[ $cli == board ]] || ln -s "$build/host/auger/auger" "$work/bin/host/auger/auger"
 auger=$work/bin/host/auger/auger
 
-# Runs under qemu at all: usage errors exit 2 from the aarch64 programs themselves.
+# Runs at all (the board's under qemu): a usage error exits 2 from the program itself.
 rc=0; "$auger" cmd > "$work/usage.out" 2>&1 || rc=$?
-((rc == 2)) || fail "aarch64 auger with bad usage: exit $rc, expected 2"
+((rc == 2)) || fail "$cli's auger with bad usage: exit $rc, expected 2"
 
 # The installed configuration is valid for the installed augerd: make install's layout with
 # these binaries into a scratch PREFIX/SYSCONFDIR (no DESTDIR, so the paths written into the
 # configuration are the scratch ones), then augerd --check. This machine is not the robot: the
 # check then lists what start-up would miss here (the module ports, /run/augerd, /var/log/auger,
 # the group auger-sensors) and exits non-zero, but the file and the model must be valid.
-PREFIX=$work/prefix SYSCONFDIR=$work/etc FROM=$board bash "$src/packaging/install.sh" install > "$work/install.out" ||
+from=$board
+if [[ $cli == host ]]; then  # the layout make install expects, auger from the workstation
+  from=$work/from
+  mkdir -p "$from/host/augerd" "$from/host/tools" "$from/host/auger"
+  ln -s "$board/host/augerd/augerd" "$from/host/augerd/augerd"
+  ln -s "$board/host/tools/auger-module" "$from/host/tools/auger-module"
+  ln -s "$build/host/auger/auger" "$from/host/auger/auger"
+fi
+PREFIX=$work/prefix SYSCONFDIR=$work/etc FROM=$from bash "$src/packaging/install.sh" install > "$work/install.out" ||
   fail "install of the board binaries failed"
 "${run[@]}" "$work/prefix/bin/augerd" --config "$work/etc/auger/augerd.toml" --check > "$work/check.out" 2>&1 || true
 grep -q "augerd.toml: the configuration and the model are valid" "$work/check.out" ||
