@@ -1,7 +1,8 @@
 // The feedforward of the model's effect forces (ControllerConfig::effect_feedforward, eq. (6)):
 // the allocation is asked for the PID's force minus the effects' (off: the PID's alone, bit for
 // bit), an applied online estimate reaches it, a non-finite force latches a fault, a huge one is
-// clamped to the drive's reach, and on a slope it cuts the tracking error of the closed loop.
+// clamped to the drive's reach, a drag is taken at the reference's velocity and dry friction not
+// at all, and on a slope it cuts the tracking error of the closed loop.
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -210,4 +211,23 @@ TEST_CASE("effect feedforward: on a slope it cuts the closed loop's tracking err
   INFO("tracking RMS 1-4 s: feedforward off " << off << " m, on " << on << " m");
   CHECK(off > 0.03);
   CHECK(on < off / 4);
+}
+
+TEST_CASE("effect feedforward: a drag at the reference's velocity, dry friction not at all") {
+  const auto& reg = EffectRegistry::builtin().entries();
+  const Model m = make_model(RobotParams{}, kSand,
+                             {reg.at("quadratic_drag").make({400, 300, 2}), reg.at("coulomb_friction").make({20, 10, 0.5})});
+  Controller c(m, config(true));
+  c.set_waypoints({{0.0, Vec3(0.3, -0.2, 0.5)}});
+  c.set_enabled(true);
+  std::array<ScrewTelemetry, 4> tel{};
+  SensorInput s;
+  s.has_pose = true;
+  s.pose = Vec3(0, 0, 0.3);
+  for (int k = 0; k < 30; ++k) c.step(0.01 * k, tel, s);  // the robot held still: its estimate stays near rest
+  const Vec3 v = rotation_J(c.eta_estimate().z()).transpose() * c.reference().eta_d_dot;
+  REQUIRE(v.cwiseAbs().minCoeff() > 1e-4);  // the reference moves in every DOF
+  const Vec3 drag(-400 * v.x() * std::fabs(v.x()), -300 * v.y() * std::fabs(v.y()), -2 * v.z() * std::fabs(v.z()));
+  INFO("feedforward " << c.effect_feedforward_n().transpose() << " N, drag at the reference " << drag.transpose());
+  CHECK((c.effect_feedforward_n() - drag).norm() < 1e-12);
 }
