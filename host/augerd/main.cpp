@@ -64,6 +64,17 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "augerd: note: %s\n", notes.substr(0, nl).c_str());
         notes.erase(0, nl + 1);
       }
+    if (cfg.controller.effect_feedforward) {
+      // Which effects' forces the controller feeds forward: whether is fixed per effect, not per state.
+      std::string fed;
+      auger::Vec3 f;
+      for (const auto& e : model->effects)
+        if (e->feedforward_force(*model, auger::Vec3::Zero(), auger::Vec3::Zero(), f)) fed += (fed.empty() ? "" : ", ") + e->id();
+      std::fprintf(stderr, "augerd: note: [control] effect_feedforward: %s\n",
+                   fed.empty() ? ("no effect of " + cfg.model_file + " has a force to feed forward (docs/daemon.md "
+                                  "\"Effect feedforward\"): the PID's force alone").c_str()
+                               : ("the controller feeds forward the force of " + fed + " (" + cfg.model_file + ")").c_str());
+    }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "augerd: configuration error: %s\n", e.what());
     return kExitConfig;

@@ -312,6 +312,11 @@ void read_control(const Reader& r, const toml::table& t, DaemonConfig& c, Pendin
              else r.fail(v, "estimator must be ekf, dead_reckoning or dead_reckoning_imu, not \"" + e + "\"");
              later([&c, k] { c.controller.estimator = k; });
            }},
+          {"effect_feedforward",
+           [&](const toml::node& v) {
+             const bool on = r.boolean(v, "effect_feedforward");
+             later([&c, on] { c.controller.effect_feedforward = on; });
+           }},
           {"omega_max_rpm", rpm(&auger::AllocatorConfig::omega_max_rpm, "omega_max_rpm", 0.1, &c.line_omega_max)},
           {"omega_min_rpm", rpm(&auger::AllocatorConfig::omega_min_rpm, "omega_min_rpm", 0, &c.line_omega_min)},
           {"engage_rpm", rpm(&auger::AllocatorConfig::engage_rpm, "engage_rpm", 0, nullptr)},

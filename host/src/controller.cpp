@@ -1,4 +1,5 @@
-// Controller step: estimation, reference eq. (18), PID eqs. (19)-(21), allocation eq. (22).
+// Controller step: estimation, reference eq. (18), PID eqs. (19)-(21), the effects' feedforward
+// (eq. (6), when configured), allocation eq. (22).
 #include "auger/controller.hpp"
 
 #include "auger/input_limits.hpp"
@@ -102,6 +103,30 @@ void Controller::pose_update(double t_s, const SensorInput& sensors) {
   restart_estimator(ekf_.x.head<3>());
 }
 
+// eq. (6): the screws must give tau_PID - tau_effects for the PID's force to act. The effects'
+// force is taken at the estimated pose (a slope's pull turns with the heading) and at the
+// velocity the reference asks for, not the estimated one: a drag fed forward at the estimated
+// velocity is a positive velocity feedback (negative damping 2 c |v|, more than D_x at the
+// physical range's top) that also carries the estimate's noise. Each DOF is clamped to what the
+// four screws can push at omega_max_rpm (more is not deliverable and would only crowd out the
+// PID's share in the allocator's scaling); a non-finite force latches a fault.
+bool Controller::feed_forward() {
+  const Vec3 zeta_ref = rotation_J(eta_.z()).transpose() * ref_.eta_d_dot;
+  const Effect* bad = effect_feedforward_force(model_, eta_, zeta_ref, feedforward_n_);
+  if (bad || !feedforward_n_.allFinite()) {
+    latch_fault("non-finite effect force for the feedforward (eq. (6))" +
+                (bad ? ": effect " + bad->id() : std::string()));
+    feedforward_n_.setZero();
+    return false;
+  }
+  for (int k = 0; k < 3; ++k) {
+    const double reach_n = config_.allocator.omega_max_rpm * model_.SB.row(k).cwiseAbs().sum();
+    feedforward_n_[k] = std::clamp(feedforward_n_[k], -reach_n, reach_n);
+  }
+  tau_command_n_ -= feedforward_n_;
+  return true;
+}
+
 const std::array<double, 4>& Controller::step(double t_s, const std::array<ScrewTelemetry, 4>& tel,
                                               const SensorInput& sensors) {
   double dt = started_ ? t_s - t_prev_s_ : 0.0;
@@ -158,6 +183,7 @@ const std::array<double, 4>& Controller::step(double t_s, const std::array<Screw
     reference_reset(ref_, eta_);
     setpoints_rpm_.fill(0.0);
     alloc_ = AllocationResult{};
+    feedforward_n_.setZero();
     return setpoints_rpm_;
   }
 
@@ -172,7 +198,13 @@ const std::array<double, 4>& Controller::step(double t_s, const std::array<Screw
   reference_step(config_.gamma_per_s, ref_, eta_p, dt);
 
   tracking_pid(config_.gains, pid_, eta_, zeta_, ref_, pid_terms_);  // eqs. (19)-(21)
-  allocate(model_, config_.allocator, pid_terms_.tau_n, alloc_);       // eq. (22)
+  tau_command_n_ = pid_terms_.tau_n;
+  if (config_.effect_feedforward && !feed_forward()) {
+    setpoints_rpm_.fill(0.0);
+    alloc_ = AllocationResult{};
+    return setpoints_rpm_;
+  }
+  allocate(model_, config_.allocator, tau_command_n_, alloc_);  // eq. (22)
   if (!alloc_.omega_rpm.allFinite()) {
     latch_fault("non-finite screw speeds from the allocation (eq. (22))");
     setpoints_rpm_.fill(0.0);

@@ -68,6 +68,17 @@ void effect_body_force(const Model& model, DynamicsData& data, double t_s, const
   }
 }
 
+const Effect* effect_feedforward_force(const Model& model, const Vec3& eta, const Vec3& zeta, Vec3& force_n) {
+  force_n.setZero();
+  Vec3 f;
+  for (const auto& e : model.effects) {
+    if (!e->feedforward_force(model, eta, zeta, f)) continue;
+    if (!f.allFinite()) return e.get();
+    force_n += f;
+  }
+  return nullptr;
+}
+
 void dynamics_step(const Model& model, DynamicsData& data, Vec3& eta, Vec3& zeta,
                    const Vec4& omega_rpm, double dt_s, int n_sub) {
   if (!(dt_s > 0)) return;

@@ -50,6 +50,8 @@ const auger::CommandLine kCli{
      {"--online-apply", "", "the controller takes the online estimate, as augerd's [online] apply = true with\n"
                             "the settings of scripts/online-fil.sh (kinematic velocity, drag held, slow_screw_rpm 2)"},
      {"--online-slow-screw-rpm", "X", "with --online-apply: [online] slow_screw_rpm (default 2)"},
+     {"--effect-feedforward", "", "the controller feeds the model's effect forces forward, as augerd's\n"
+                                  "[control] effect_feedforward = true (e.g. a slope in --model, or estimated with --online-apply)"},
      {"--incline-pitch-rad", "P", "the ground tilted by P about world y (descending towards +x for P > 0; truth's incline)"},
      {"--incline-roll-rad", "R", "the ground tilted by R about world x (descending towards -y for R > 0)"}},
     "Exit 2: bad usage.\n"};
@@ -138,7 +140,7 @@ int main(int argc, char** argv) {
   std::string model_path = AUGER_DEFAULT_MODEL, elf = AUGER_DEFAULT_ELF;
   double seconds = 240, blocking_rpm = -1, course_m = 0.5;
   std::uint64_t seed = 1;
-  bool online_apply = false;
+  bool online_apply = false, effect_feedforward = false;
   double online_slow_rpm = 2.0;
   double incline_pitch_rad = 0, incline_roll_rad = 0;
   int threads = 1;  // one thread is faster here: the modules and the robot exchange every 1 ms
@@ -169,6 +171,7 @@ int main(int argc, char** argv) {
     else if (a == "--camera-corr-s") camera.noise_corr_s = number("--camera-corr-s", val());
     else if (a == "--camera-latency-s") camera.latency_s = number("--camera-latency-s", val());
     else if (a == "--online-apply") online_apply = true;
+    else if (a == "--effect-feedforward") effect_feedforward = true;
     else if (a == "--online-slow-screw-rpm") online_slow_rpm = number("--online-slow-screw-rpm", val());
     else if (a == "--incline-pitch-rad") incline_pitch_rad = number("--incline-pitch-rad", val());
     else if (a == "--incline-roll-rad") incline_roll_rad = number("--incline-roll-rad", val());
@@ -209,6 +212,7 @@ int main(int argc, char** argv) {
     cc.allocator.omega_min_rpm = 3.0;
     cc.allocator.engage_rpm = 1.5;
     cc.gamma_per_s = Vec3::Constant(0.2);
+    cc.effect_feedforward = effect_feedforward;
     Controller controller(m, cc);
     sim::TruthParams tp;  // the physical robot: Coriolis terms, the real lever arms
     if (blocking_rpm < 0) blocking_rpm = terrain == "sand" ? 1.5 : 0.0;

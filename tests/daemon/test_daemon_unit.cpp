@@ -264,6 +264,10 @@ const std::string kGood =
     "[control]\nallocator = \"pinv\"\nomega_max_rpm = 20\nkp = [1, 2, 3]\n"
     "[sockets]\ncommands = \"c.sock\"\nsensors = \"/run/s.sock\"\n"
     "[log]\ndir = \"/tmp\"\n";
+// text with its first `from` replaced by `to`
+std::string replace(std::string text, const std::string& from, const std::string& to) {
+  return text.replace(text.find(from), from.size(), to);
+}
 }  // namespace
 
 TEST_CASE("configuration errors never quote megabytes of the file", "[daemon][unit]") {
@@ -299,7 +303,13 @@ TEST_CASE("configuration file", "[daemon][unit]") {
   CHECK(c.commands_socket == "/tmp/c.sock");  // relative to the file
   CHECK(c.sensors_socket == "/run/s.sock");
   CHECK_FALSE(c.log_mcap);
+  CHECK_FALSE(c.controller.effect_feedforward);  // off unless asked for: today's controller
   unlink(p.c_str());
+  {
+    const std::string ff = write_tmp(replace(kGood, "kp = [1, 2, 3]\n", "kp = [1, 2, 3]\neffect_feedforward = true\n"));
+    CHECK(load_daemon_config(ff).controller.effect_feedforward);
+    unlink(ff.c_str());
+  }
   {
     const std::string with_mcap = write_tmp(kGood + "mcap = true\n");  // the last table is [log]
     CHECK(load_daemon_config(with_mcap).log_mcap);
@@ -308,9 +318,6 @@ TEST_CASE("configuration file", "[daemon][unit]") {
 
   struct Bad {
     std::string text, where;
-  };
-  auto replace = [](std::string s, const std::string& from, const std::string& to) {
-    return s.replace(s.find(from), from.size(), to);
   };
   for (const Bad& b : {Bad{kGood + "extra = 1\n", ":16:"},
                        Bad{replace(kGood, "terrain = \"frozen_grass\"", "terrain = \"mud\""), "terrain 'mud'"},
@@ -322,6 +329,7 @@ TEST_CASE("configuration file", "[daemon][unit]") {
                        Bad{replace(kGood, "schema = 1", "schema = 2"), ":1:"},
                        Bad{replace(kGood, "[serial]", "[serial]\nbaud = \"fast\""), ":3:"},
                        Bad{kGood + "mcap = 1\n", ":16:8: 'mcap' must be true or false"},
+                       Bad{replace(kGood, "kp = [1, 2, 3]", "effect_feedforward = \"on\""), ":10:22: 'effect_feedforward' must be true or false"},
                        Bad{replace(kGood, "models/robot.toml", "models/none.toml"), "none.toml"}}) {
     expect_config_error(b.text, b.where);
   }
@@ -388,9 +396,6 @@ TEST_CASE("module words for augerd's messages and event log", "[daemon][unit]") 
 }
 
 TEST_CASE("configuration: related values are ordered, socket modes and groups explicit", "[daemon][unit]") {
-  auto replace = [](std::string s, const std::string& from, const std::string& to) {
-    return s.replace(s.find(from), from.size(), to);
-  };
   struct Bad {
     std::string text, where;
   };

@@ -26,6 +26,12 @@ struct ControllerConfig {
   EkfConfig ekf;
   int dynamics_substeps = 4;
   double max_dt_s = 0.1;  // a longer gap (a stalled loop) is integrated as this much
+  // Feedforward of the model's effect forces: eq. (6) is M zeta_dot + D zeta = S B omega +
+  // tau_effects, so for the PID's force (eq. (21)) to act the screws are asked for tau_PID minus
+  // the force the model's effects make (Effect::feedforward_force: slope, quadratic drag, the
+  // rigid body's coupling; not dry friction), at the estimated pose and the reference's body
+  // velocity, each DOF within the drive's reach, before eq. (22). Off: the PID's force alone.
+  bool effect_feedforward = false;
 };
 
 // One module's telemetry for this cycle.
@@ -69,6 +75,9 @@ class Controller {
   const Mat6* estimate_covariance() const { return config_.estimator == EstimatorKind::ekf ? &ekf_.P : nullptr; }
   const ReferenceState& reference() const { return ref_; }
   const AllocationResult& allocation() const { return alloc_; }
+  // This step's PID terms (eqs. (19)-(21)) and the effects' force fed forward (zero when off).
+  const PidTerms& pid_terms() const { return pid_terms_; }
+  const Vec3& effect_feedforward_n() const { return feedforward_n_; }
   const ControllerConfig& config() const { return config_; }
   // Timestamped poses the EKF could not use: captured before the kept history (2.56 s) or
   // after the step they arrived in.
@@ -93,6 +102,7 @@ class Controller {
   void restart_estimator(const Vec3& eta);
   void latch_fault(const std::string& what);
   void pose_update(double t_s, const SensorInput& sensors);
+  bool feed_forward();  // tau_command_n_ -= the effects' force; false: a fault latched
 
   const Model& model_;
   ControllerConfig config_;
@@ -112,6 +122,8 @@ class Controller {
   ReferenceState ref_;
   PidState pid_;
   PidTerms pid_terms_{};
+  Vec3 feedforward_n_ = Vec3::Zero();
+  Vec3 tau_command_n_ = Vec3::Zero();  // what the allocation is asked for
   AllocationResult alloc_;
   std::vector<Waypoint> waypoints_;
   int waypoint_ = -1;

@@ -39,6 +39,12 @@ void drive_force(const Model& model, DynamicsData& data, const Vec4& omega_rpm, 
 void effect_body_force(const Model& model, DynamicsData& data, double t_s, const Vec3& eta, const Vec3& zeta,
                        const Vec4& omega_rpm, double dt_s);
 
+// The part of eq. (6)'s added forces the controller feeds forward (Effect::feedforward_force):
+// the sum over the model's effects at pose eta and body velocity zeta, in force_n. Returns the
+// first effect whose force is not finite (force_n then undefined), nullptr when all are. No
+// heap allocation.
+const Effect* effect_feedforward_force(const Model& model, const Vec3& eta, const Vec3& zeta, Vec3& force_n);
+
 // One step of eqs. (5)-(7) over dt_s with omega_rpm held, in n_sub equal sub-steps (effects
 // re-evaluated per sub-step). eta (world) and zeta (body) are updated in place.
 void dynamics_step(const Model& model, DynamicsData& data, Vec3& eta, Vec3& zeta,

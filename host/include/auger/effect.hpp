@@ -90,6 +90,17 @@ class Effect {
   // Text parameters (name, value) for the model file, e.g. a discovered term's form.
   virtual std::vector<std::pair<std::string, std::string>> text_params() const { return {}; }
 
+  // The force of eq. (6) the controller may feed forward (ControllerConfig::effect_feedforward):
+  // the body force at the pose eta and the body velocity zeta, written to force_n; false (the
+  // default, force_n untouched) for an effect whose force is not safe to anticipate: dry friction
+  // (its sign at rest chatters, and at rest it is whatever holds the body), a force that depends
+  // on the screw speeds the allocation is about to choose (blocking), a drive or sensor effect.
+  // Parameters read through effect_param (an applied online estimate counts). Must not allocate.
+  virtual bool feedforward_force(const Model& /*model*/, const Vec3& /*eta*/, const Vec3& /*zeta*/,
+                                 Vec3& /*force_n*/) const {
+    return false;
+  }
+
   // Online identification (auger/online_estimator.hpp) of a parameter whose ParamSpec has
   // `online`: the part of eq. (6)'s body force that params()[index] makes is
   // online_shape(value) * online_basis(state), the basis independent of the value (a slope's

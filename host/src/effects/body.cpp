@@ -27,8 +27,13 @@ class RigidBodyCoupling final : public Effect {
   }
   std::vector<std::pair<std::string, double>> params() const override { return {{"coupling", coupling_}}; }
   void body_force(const Model& model, const EffectContext& ctx, Vec3& force_n, double*) const override {
-    const double m = coupling_ * model.robot.m_kg, u = ctx.zeta.x(), v = ctx.zeta.y(), r = ctx.zeta.z();
+    feedforward_force(model, ctx.eta, ctx.zeta, force_n);
+  }
+  // Smooth in the velocity and does no work (perpendicular to (u, v)): safe to anticipate.
+  bool feedforward_force(const Model& model, const Vec3&, const Vec3& zeta, Vec3& force_n) const override {
+    const double m = coupling_ * model.robot.m_kg, u = zeta.x(), v = zeta.y(), r = zeta.z();
     force_n << m * r * v, -m * r * u, 0.0;
+    return true;
   }
 
  private:

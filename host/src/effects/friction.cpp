@@ -102,6 +102,13 @@ class QuadraticDrag final : public Effect {
     b[static_cast<int>(index)] = -zeta[static_cast<int>(index)] * std::fabs(zeta[static_cast<int>(index)]);
     return b;
   }
+  // The same explicit form, with the coefficients the model holds: smooth through zero (no sign
+  // switch), so it can be anticipated.
+  bool feedforward_force(const Model& model, const Vec3&, const Vec3& zeta, Vec3& force_n) const override {
+    for (int k = 0; k < 3; ++k)
+      force_n[k] = -effect_param(model, this, static_cast<std::size_t>(k), c_[k]) * zeta[k] * std::fabs(zeta[k]);
+    return true;
+  }
 
  private:
   Vec3 c_;

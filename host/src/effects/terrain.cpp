@@ -25,11 +25,16 @@ class TerrainSlope final : public Effect {
     return {{"incline_x_rad", ix_}, {"incline_y_rad", iy_}};
   }
   void body_force(const Model& model, const EffectContext& ctx, Vec3& force_n, double*) const override {
+    feedforward_force(model, ctx.eta, ctx.zeta, force_n);
+  }
+  // Gravity depends on the heading alone: the safest force to feed forward (no velocity in it).
+  bool feedforward_force(const Model& model, const Vec3& eta, const Vec3&, Vec3& force_n) const override {
     // The inclines as the model holds them (augerd's applied online estimate, else the file's).
     const double ix = effect_param(model, this, 0, ix_), iy = effect_param(model, this, 1, iy_);
     const double fx = -model.robot.m_kg * kG * std::sin(ix), fy = -model.robot.m_kg * kG * std::sin(iy);
-    const double c = std::cos(ctx.eta.z()), s = std::sin(ctx.eta.z());
+    const double c = std::cos(eta.z()), s = std::sin(eta.z());
     force_n << c * fx + s * fy, -s * fx + c * fy, 0.0;  // J(psi)^T f_world
+    return true;
   }
   // Online: the force is sin(incline) times the full weight along the world axis, turned into the
   // body frame; the shape sin is exact at every incline (no small-angle approximation).
