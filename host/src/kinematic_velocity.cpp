@@ -21,8 +21,60 @@ void KinematicVelocity::reset(const Vec3& eta) {
   Py_ = Px_;
   sp_ << eta.z(), 0;
   Pp_ = Eigen::Matrix2d::Identity() * kUnknown;
+  si_.setZero();
+  Pi_.setZero();
+  ins_on_ = false;
+  acc_age_s_ = 0;
+  last_acc_.setZero();
   have_pose_ = false;
   zeta_ = Vec3::Constant(NAN);
+}
+
+void KinematicVelocity::start_inertial() {
+  si_ << sx_(0), sx_(1), sy_(0), sy_(1), 0, 0;
+  Pi_.setZero();
+  Pi_.block<2, 2>(0, 0) = Px_.block<2, 2>(0, 0);
+  Pi_.block<2, 2>(2, 2) = Py_.block<2, 2>(0, 0);
+  Pi_(4, 4) = Pi_(5, 5) = cfg_.acc_bias_sd_mps2 * cfg_.acc_bias_sd_mps2;
+  ins_on_ = true;
+}
+
+void KinematicVelocity::step_inertial(const SensorInput& sensors, bool pose_ok, double dt) {
+  // The world acceleration R(psi) (f - b) (eq. (1)'s rotation), held over the cycle.
+  const double c = std::cos(sp_(0)), sn = std::sin(sp_(0));
+  const double fx = last_acc_.x() - si_(4), fy = last_acc_.y() - si_(5);
+  const double ax = c * fx - sn * fy, ay = sn * fx + c * fy, h2 = 0.5 * dt * dt;
+  si_(0) += si_(1) * dt + h2 * ax;
+  si_(1) += ax * dt;
+  si_(2) += si_(3) * dt + h2 * ay;
+  si_(3) += ay * dt;
+  Mat6k F = Mat6k::Identity();
+  F(0, 1) = F(2, 3) = dt;
+  // d(R (f - b)) / db = -R
+  F(0, 4) = -h2 * c, F(0, 5) = h2 * sn, F(1, 4) = -dt * c, F(1, 5) = dt * sn;
+  F(2, 4) = -h2 * sn, F(2, 5) = -h2 * c, F(3, 4) = -dt * sn, F(3, 5) = -dt * c;
+  // The accelerometer's white noise integrated exactly into velocity and position per axis
+  // (isotropic, so the rotation leaves it), and the bias's random walk.
+  const double qa = cfg_.acc_noise_mps2_per_sqrt_hz * cfg_.acc_noise_mps2_per_sqrt_hz;
+  const double qb = cfg_.acc_bias_walk_mps2_per_sqrt_s * cfg_.acc_bias_walk_mps2_per_sqrt_s;
+  Mat6k Q = Mat6k::Zero();
+  for (int i : {0, 2}) {
+    Q(i, i) = qa * dt * dt * dt / 3;
+    Q(i, i + 1) = Q(i + 1, i) = qa * h2;
+    Q(i + 1, i + 1) = qa * dt;
+  }
+  Q(4, 4) = Q(5, 5) = qb * dt;
+  Pi_ = F * Pi_ * F.transpose() + Q;
+  if (!pose_ok) return;
+  // Scalar position updates, H = e_0 (x) and e_2 (y).
+  auto update = [this](int i, double z, double r) {
+    const double S = Pi_(i, i) + r;
+    const Vec6k K = Pi_.col(i) / S;
+    si_ += K * (z - si_(i));
+    Pi_ -= K * Pi_.row(i);
+  };
+  update(0, sensors.pose.x(), sensors.pose_cov(0, 0));
+  update(2, sensors.pose.y(), sensors.pose_cov(1, 1));
 }
 
 void KinematicVelocity::predict_axis(Vec3k& s, Mat3k& P, double dt) const {
@@ -46,7 +98,8 @@ const Vec3& KinematicVelocity::step(const SensorInput& sensors, double dt_s) {
   Q << dt_s * dt_s * dt_s / 3, dt_s * dt_s / 2, dt_s * dt_s / 2, dt_s;
   sp_ = F * sp_;
   Pp_ = F * Pp_ * F.transpose() + qa * Q;
-  if (sensors.has_pose && std::isfinite(sensors.pose.x()) && std::isfinite(sensors.pose.y())) {
+  const bool pose_ok = sensors.has_pose && std::isfinite(sensors.pose.x()) && std::isfinite(sensors.pose.y());
+  if (pose_ok) {
     // Scalar position updates: H = [1 0 0].
     auto update = [](Vec3k& s, Mat3k& P, double z, double r) {
       const double S = P(0, 0) + r;
@@ -76,9 +129,23 @@ const Vec3& KinematicVelocity::step(const SensorInput& sensors, double dt_s) {
     sp_ += K * (sensors.imu_r_radps - sp_(1));
     Pp_ -= K * Pp_.row(1);
   }
-  if (have_pose_ && pose_age_s_ <= cfg_.max_pose_age_s + 1e-9) {
-    // eq. (1) turned back: body = R(psi)^T world.
-    const double c = std::cos(sp_(0)), s = std::sin(sp_(0));
+  // The accelerometer's filter runs beside the constant-acceleration one (which it starts from and
+  // falls back to); a sample missing for up to kAccHoldS is bridged with the last one.
+  constexpr double kAccHoldS = 0.05;
+  const bool acc = cfg_.use_accelerometer && sensors.has_imu_acc && std::isfinite(sensors.imu_ax_mps2) &&
+                   std::isfinite(sensors.imu_ay_mps2);
+  if (acc) last_acc_ = Eigen::Vector2d(sensors.imu_ax_mps2, sensors.imu_ay_mps2);
+  acc_age_s_ = acc ? 0 : acc_age_s_ + dt_s;
+  if (ins_on_ && acc_age_s_ > kAccHoldS + 1e-9) ins_on_ = false;
+  if (ins_on_)
+    step_inertial(sensors, pose_ok, dt_s);
+  else if (acc && have_pose_)
+    start_inertial();
+  // eq. (1) turned back: body = R(psi)^T world.
+  const double c = std::cos(sp_(0)), s = std::sin(sp_(0));
+  if (ins_on_ && have_pose_ && pose_age_s_ <= cfg_.max_pose_age_acc_s + 1e-9) {
+    zeta_ << c * si_(1) + s * si_(3), -s * si_(1) + c * si_(3), sp_(1);
+  } else if (have_pose_ && pose_age_s_ <= cfg_.max_pose_age_s + 1e-9) {
     zeta_ << c * sx_(1) + s * sy_(1), -s * sx_(1) + c * sy_(1), sp_(1);
   } else {
     zeta_.setConstant(NAN);
@@ -87,7 +154,7 @@ const Vec3& KinematicVelocity::step(const SensorInput& sensors, double dt_s) {
 }
 
 Vec3 KinematicVelocity::body_velocity_sd() const {
-  const double v = std::sqrt(std::max(Px_(1, 1), Py_(1, 1)));
+  const double v = ins_on_ ? std::sqrt(std::max(Pi_(1, 1), Pi_(3, 3))) : std::sqrt(std::max(Px_(1, 1), Py_(1, 1)));
   return Vec3(v, v, std::sqrt(Pp_(1, 1)));
 }
 
