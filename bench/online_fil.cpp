@@ -341,6 +341,7 @@ int main(int argc, char** argv) {
        {"--no-acc", "", "leave the logged accelerometer out (KinematicVelocityConfig::use_accelerometer off)"},
        {"--acc-noise", "D", "KinematicVelocityConfig::acc_noise_mps2_per_sqrt_hz (default 1.5e-3)"},
        {"--acc-bias-walk", "W", "KinematicVelocityConfig::acc_bias_walk_mps2_per_sqrt_s (default 5e-4)"},
+       {"--camera-corr-s", "S", "KinematicVelocityConfig::pose_noise_corr_s (default 0: white)"},
        {"--no-whiten", "", "the detector on the innovation as it is (OnlineConfig::whiten off)"},
        {"--thresholds", "A,B,...", "the detector's thresholds for curve"},
        {"--trace", "LOG", "instead: every window of LOG (CSV: innovation, sigma_long, CUSUM)"}},
@@ -365,6 +366,7 @@ int main(int argc, char** argv) {
       !args.number("online_fil", "--window-s", 0.1, o.cfg.window_s) ||
       !args.number("online_fil", "--slow-screw-rpm", 2.0, o.cfg.slow_screw_rpm) ||
       !args.number("online_fil", "--max-pose-age", o.kin.max_pose_age_s, o.kin.max_pose_age_s) ||
+      !args.number("online_fil", "--camera-corr-s", 0.0, o.kin.pose_noise_corr_s) ||
       !args.number("online_fil", "--acc-noise", o.kin.acc_noise_mps2_per_sqrt_hz, o.kin.acc_noise_mps2_per_sqrt_hz) ||
       !args.number("online_fil", "--acc-bias-walk", o.kin.acc_bias_walk_mps2_per_sqrt_s,
                    o.kin.acc_bias_walk_mps2_per_sqrt_s))

@@ -218,6 +218,8 @@ void read_online(const Reader& r, const toml::table& t, DaemonConfig& c) {
            [&](const toml::node& v) {
              c.online_kin.acc_bias_walk_mps2_per_sqrt_s = r.number(v, "acc_bias_walk_mps2_per_sqrt_s", 1e-7, 1);
            }},
+          {"camera_noise_corr_s",
+           [&](const toml::node& v) { c.online_kin.pose_noise_corr_s = r.number(v, "camera_noise_corr_s", 0, 60); }},
           {"acc_bias_sd_mps2",
            [&](const toml::node& v) { c.online_kin.acc_bias_sd_mps2 = r.number(v, "acc_bias_sd_mps2", 1e-4, 10); }},
           {"velocity", [&](const toml::node& v) {

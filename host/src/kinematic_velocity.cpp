@@ -26,16 +26,18 @@ void KinematicVelocity::reset(const Vec3& eta) {
   ins_on_ = false;
   acc_age_s_ = 0;
   last_acc_.setZero();
+  pose_var_.setZero();
   have_pose_ = false;
   zeta_ = Vec3::Constant(NAN);
 }
 
 void KinematicVelocity::start_inertial() {
-  si_ << sx_(0), sx_(1), sy_(0), sy_(1), 0, 0;
+  si_ << sx_(0), sx_(1), sy_(0), sy_(1), 0, 0, 0, 0;
   Pi_.setZero();
   Pi_.block<2, 2>(0, 0) = Px_.block<2, 2>(0, 0);
   Pi_.block<2, 2>(2, 2) = Py_.block<2, 2>(0, 0);
   Pi_(4, 4) = Pi_(5, 5) = cfg_.acc_bias_sd_mps2 * cfg_.acc_bias_sd_mps2;
+  if (coloured()) Pi_(6, 6) = pose_var_.x(), Pi_(7, 7) = pose_var_.y();  // stationary
   ins_on_ = true;
 }
 
@@ -48,7 +50,7 @@ void KinematicVelocity::step_inertial(const SensorInput& sensors, bool pose_ok, 
   si_(1) += ax * dt;
   si_(2) += si_(3) * dt + h2 * ay;
   si_(3) += ay * dt;
-  Mat6k F = Mat6k::Identity();
+  Mat8k F = Mat8k::Identity();
   F(0, 1) = F(2, 3) = dt;
   // d(R (f - b)) / db = -R
   F(0, 4) = -h2 * c, F(0, 5) = h2 * sn, F(1, 4) = -dt * c, F(1, 5) = dt * sn;
@@ -57,24 +59,35 @@ void KinematicVelocity::step_inertial(const SensorInput& sensors, bool pose_ok, 
   // (isotropic, so the rotation leaves it), and the bias's random walk.
   const double qa = cfg_.acc_noise_mps2_per_sqrt_hz * cfg_.acc_noise_mps2_per_sqrt_hz;
   const double qb = cfg_.acc_bias_walk_mps2_per_sqrt_s * cfg_.acc_bias_walk_mps2_per_sqrt_s;
-  Mat6k Q = Mat6k::Zero();
+  Mat8k Q = Mat8k::Zero();
   for (int i : {0, 2}) {
     Q(i, i) = qa * dt * dt * dt / 3;
     Q(i, i + 1) = Q(i + 1, i) = qa * h2;
     Q(i + 1, i + 1) = qa * dt;
   }
   Q(4, 4) = Q(5, 5) = qb * dt;
+  if (coloured()) {
+    // The camera's error decays as exp(-dt / tau) and is renewed to keep its variance (its
+    // exact discretisation, as sim/robot/sensors.cpp draws it).
+    const double a = std::exp(-dt / cfg_.pose_noise_corr_s);
+    F(6, 6) = F(7, 7) = a;
+    si_.tail<2>() *= a;
+    Q(6, 6) = (1 - a * a) * pose_var_.x();
+    Q(7, 7) = (1 - a * a) * pose_var_.y();
+  }
   Pi_ = F * Pi_ * F.transpose() + Q;
   if (!pose_ok) return;
-  // Scalar position updates, H = e_0 (x) and e_2 (y).
-  auto update = [this](int i, double z, double r) {
-    const double S = Pi_(i, i) + r;
-    const Vec6k K = Pi_.col(i) / S;
-    si_ += K * (z - si_(i));
-    Pi_ -= K * Pi_.row(i);
+  // Scalar position updates z = p + c + w, H = e_0 + e_6 (x) and e_2 + e_7 (y): with coloured
+  // noise w is a hundredth of the variance (keeps S away from 0), else all of it and c stays 0.
+  auto update = [this](int i, int j, double z, double var) {
+    const double r = coloured() ? 0.01 * var : var;
+    const double S = Pi_(i, i) + 2 * Pi_(i, j) + Pi_(j, j) + r;
+    const Vec8k K = (Pi_.col(i) + Pi_.col(j)) / S;
+    si_ += K * (z - si_(i) - si_(j));
+    Pi_ -= K * (Pi_.row(i) + Pi_.row(j));
   };
-  update(0, sensors.pose.x(), sensors.pose_cov(0, 0));
-  update(2, sensors.pose.y(), sensors.pose_cov(1, 1));
+  update(0, 6, sensors.pose.x(), sensors.pose_cov(0, 0));
+  update(2, 7, sensors.pose.y(), sensors.pose_cov(1, 1));
 }
 
 void KinematicVelocity::predict_axis(Vec3k& s, Mat3k& P, double dt) const {
@@ -100,6 +113,7 @@ const Vec3& KinematicVelocity::step(const SensorInput& sensors, double dt_s) {
   Pp_ = F * Pp_ * F.transpose() + qa * Q;
   const bool pose_ok = sensors.has_pose && std::isfinite(sensors.pose.x()) && std::isfinite(sensors.pose.y());
   if (pose_ok) {
+    pose_var_ = Eigen::Vector2d(sensors.pose_cov(0, 0), sensors.pose_cov(1, 1));
     // Scalar position updates: H = [1 0 0].
     auto update = [](Vec3k& s, Mat3k& P, double z, double r) {
       const double S = P(0, 0) + r;

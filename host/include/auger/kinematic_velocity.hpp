@@ -52,6 +52,11 @@ struct KinematicVelocityConfig {
   // With the accelerometer the velocity stays known this long without a camera pose (its error
   // grows as the bias's error times the time, not as an extrapolated acceleration's).
   double max_pose_age_acc_s = 0.5;
+  // The camera's noise as first-order Gauss-Markov with this correlation time (0: white, as
+  // before), of the variance each pose reports: the accelerometer's filter then takes a run of
+  // frames that err alike as one error, not as many independent fixes (0.3 s for the simulated
+  // camera, docs/robot-sim.md "Sensors").
+  double pose_noise_corr_s = 0;
 };
 
 class KinematicVelocity {
@@ -68,28 +73,31 @@ class KinematicVelocity {
   // Whether the last step's velocity came from the accelerometer's filter.
   bool inertial() const { return ins_on_; }
   // The accelerometer's estimated bias in the body frame (m/s^2; x, y).
-  Eigen::Vector2d accelerometer_bias() const { return si_.tail<2>(); }
+  Eigen::Vector2d accelerometer_bias() const { return si_.segment<2>(4); }
   // SD of the body velocity (from the filter's covariance; u and v share the larger world SD).
   Vec3 body_velocity_sd() const;
 
  private:
   using Vec3k = Eigen::Matrix<double, 3, 1>;
   using Mat3k = Eigen::Matrix<double, 3, 3>;
-  using Vec6k = Eigen::Matrix<double, 6, 1>;
-  using Mat6k = Eigen::Matrix<double, 6, 6>;
+  using Vec8k = Eigen::Matrix<double, 8, 1>;
+  using Mat8k = Eigen::Matrix<double, 8, 8>;
   void predict_axis(Vec3k& s, Mat3k& P, double dt_s) const;
   // The accelerometer's filter: start from the constant-acceleration filters' state, one cycle.
   void start_inertial();
   void step_inertial(const SensorInput& sensors, bool pose_ok, double dt_s);
+  bool coloured() const { return cfg_.pose_noise_corr_s > 0; }
   KinematicVelocityConfig cfg_;
   Vec3k sx_, sy_;            // position, velocity, acceleration along world x and y
   Mat3k Px_, Py_;
   Eigen::Vector2d sp_;       // heading, rate
   Eigen::Matrix2d Pp_;
   // The accelerometer's filter: world position x, velocity x, position y, velocity y, the
-  // body-frame bias x, y.
-  Vec6k si_ = Vec6k::Zero();
-  Mat6k Pi_ = Mat6k::Zero();
+  // body-frame bias x, y, the camera's coloured error x, y (zero and unused while
+  // pose_noise_corr_s is 0).
+  Vec8k si_ = Vec8k::Zero();
+  Mat8k Pi_ = Mat8k::Zero();
+  Eigen::Vector2d pose_var_ = Eigen::Vector2d::Zero();  // the last pose's variances x, y (m^2)
   bool ins_on_ = false;
   double acc_age_s_ = 0;
   Eigen::Vector2d last_acc_ = Eigen::Vector2d::Zero();  // the last specific force measured (body)
