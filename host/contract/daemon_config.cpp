@@ -218,6 +218,10 @@ void read_online(const Reader& r, const toml::table& t, DaemonConfig& c) {
            [&](const toml::node& v) {
              c.online_kin.acc_bias_walk_mps2_per_sqrt_s = r.number(v, "acc_bias_walk_mps2_per_sqrt_s", 1e-7, 1);
            }},
+          {"acc_gravity_walk_mps2_per_sqrt_s",
+           [&](const toml::node& v) {
+             c.online_kin.acc_gravity_walk_mps2_per_sqrt_s = r.number(v, "acc_gravity_walk_mps2_per_sqrt_s", 0, 1);
+           }},
           {"camera_noise_corr_s",
            [&](const toml::node& v) { c.online_kin.pose_noise_corr_s = r.number(v, "camera_noise_corr_s", 0, 60); }},
           {"acc_bias_sd_mps2",

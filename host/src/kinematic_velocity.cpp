@@ -32,26 +32,31 @@ void KinematicVelocity::reset(const Vec3& eta) {
 }
 
 void KinematicVelocity::start_inertial() {
-  si_ << sx_(0), sx_(1), sy_(0), sy_(1), 0, 0, 0, 0;
+  si_ << sx_(0), sx_(1), sy_(0), sy_(1), 0, 0, 0, 0, 0, 0;
   Pi_.setZero();
   Pi_.block<2, 2>(0, 0) = Px_.block<2, 2>(0, 0);
   Pi_.block<2, 2>(2, 2) = Py_.block<2, 2>(0, 0);
   Pi_(4, 4) = Pi_(5, 5) = cfg_.acc_bias_sd_mps2 * cfg_.acc_bias_sd_mps2;
   if (coloured()) Pi_(6, 6) = pose_var_.x(), Pi_(7, 7) = pose_var_.y();  // stationary
+  Pi_(8, 8) = Pi_(9, 9) = cfg_.acc_gravity_sd_mps2 * cfg_.acc_gravity_sd_mps2;
   ins_on_ = true;
 }
 
 void KinematicVelocity::step_inertial(const SensorInput& sensors, bool pose_ok, double dt) {
-  // The world acceleration R(psi) (f - b) (eq. (1)'s rotation), held over the cycle.
+  // The world acceleration R(psi) (f - b) + g (eq. (1)'s rotation), held over the cycle: the
+  // accelerometer reads the acceleration less gravity's part along the ground, g, which on a
+  // plane is constant in the world frame, while the bias b is constant in the body's: a turn
+  // tells them apart (a slope read as bias would follow a turn only at the bias's walk).
   const double c = std::cos(sp_(0)), sn = std::sin(sp_(0));
   const double fx = last_acc_.x() - si_(4), fy = last_acc_.y() - si_(5);
-  const double ax = c * fx - sn * fy, ay = sn * fx + c * fy, h2 = 0.5 * dt * dt;
+  const double ax = c * fx - sn * fy + si_(8), ay = sn * fx + c * fy + si_(9), h2 = 0.5 * dt * dt;
   si_(0) += si_(1) * dt + h2 * ax;
   si_(1) += ax * dt;
   si_(2) += si_(3) * dt + h2 * ay;
   si_(3) += ay * dt;
-  Mat8k F = Mat8k::Identity();
+  MatNk F = MatNk::Identity();
   F(0, 1) = F(2, 3) = dt;
+  F(0, 8) = F(2, 9) = h2, F(1, 8) = F(3, 9) = dt;
   // d(R (f - b)) / db = -R
   F(0, 4) = -h2 * c, F(0, 5) = h2 * sn, F(1, 4) = -dt * c, F(1, 5) = dt * sn;
   F(2, 4) = -h2 * sn, F(2, 5) = -h2 * c, F(3, 4) = -dt * sn, F(3, 5) = -dt * c;
@@ -59,19 +64,20 @@ void KinematicVelocity::step_inertial(const SensorInput& sensors, bool pose_ok, 
   // (isotropic, so the rotation leaves it), and the bias's random walk.
   const double qa = cfg_.acc_noise_mps2_per_sqrt_hz * cfg_.acc_noise_mps2_per_sqrt_hz;
   const double qb = cfg_.acc_bias_walk_mps2_per_sqrt_s * cfg_.acc_bias_walk_mps2_per_sqrt_s;
-  Mat8k Q = Mat8k::Zero();
+  MatNk Q = MatNk::Zero();
   for (int i : {0, 2}) {
     Q(i, i) = qa * dt * dt * dt / 3;
     Q(i, i + 1) = Q(i + 1, i) = qa * h2;
     Q(i + 1, i + 1) = qa * dt;
   }
   Q(4, 4) = Q(5, 5) = qb * dt;
+  Q(8, 8) = Q(9, 9) = cfg_.acc_gravity_walk_mps2_per_sqrt_s * cfg_.acc_gravity_walk_mps2_per_sqrt_s * dt;
   if (coloured()) {
     // The camera's error decays as exp(-dt / tau) and is renewed to keep its variance (its
     // exact discretisation, as sim/robot/sensors.cpp draws it).
     const double a = std::exp(-dt / cfg_.pose_noise_corr_s);
     F(6, 6) = F(7, 7) = a;
-    si_.tail<2>() *= a;
+    si_.segment<2>(6) *= a;
     Q(6, 6) = (1 - a * a) * pose_var_.x();
     Q(7, 7) = (1 - a * a) * pose_var_.y();
   }
@@ -82,7 +88,7 @@ void KinematicVelocity::step_inertial(const SensorInput& sensors, bool pose_ok, 
   auto update = [this](int i, int j, double z, double var) {
     const double r = coloured() ? 0.01 * var : var;
     const double S = Pi_(i, i) + 2 * Pi_(i, j) + Pi_(j, j) + r;
-    const Vec8k K = (Pi_.col(i) + Pi_.col(j)) / S;
+    const VecNk K = (Pi_.col(i) + Pi_.col(j)) / S;
     si_ += K * (z - si_(i) - si_(j));
     Pi_ -= K * (Pi_.row(i) + Pi_.row(j));
   };

@@ -398,7 +398,7 @@ TEST_CASE("configuration: [online] is off by default; its keys and errors", "[da
   CHECK(k.online_kin.acc_noise_mps2_per_sqrt_hz == 1.5e-3);
   const std::string acc = write_tmp(kGood + "[online]\naccelerometer = false\nacc_noise_mps2_per_sqrt_hz = 0.003\n"
                                             "acc_bias_walk_mps2_per_sqrt_s = 0.001\nacc_bias_sd_mps2 = 0.2\n"
-                                            "camera_noise_corr_s = 0.3\n");
+                                            "camera_noise_corr_s = 0.3\nacc_gravity_walk_mps2_per_sqrt_s = 0.002\n");
   const DaemonConfig a = load_daemon_config(acc);
   unlink(acc.c_str());
   CHECK_FALSE(a.online_kin.use_accelerometer);
@@ -406,6 +406,7 @@ TEST_CASE("configuration: [online] is off by default; its keys and errors", "[da
   CHECK(a.online_kin.acc_bias_walk_mps2_per_sqrt_s == 0.001);
   CHECK(a.online_kin.acc_bias_sd_mps2 == 0.2);
   CHECK(a.online_kin.pose_noise_corr_s == 0.3);
+  CHECK(a.online_kin.acc_gravity_walk_mps2_per_sqrt_s == 0.002);
   expect_config_error(kGood + "[online]\nacc_noise_mps2_per_sqrt_hz = 0\n", ":17:");
   expect_config_error(kGood + "[online]\naccelerometer = \"yes\"\n", ":17:");
   expect_config_error(kGood + "[online]\nvelocity = \"camera\"\n", ":17:12: velocity must be \"ekf\" or \"kinematic\"");
