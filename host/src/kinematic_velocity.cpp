@@ -94,6 +94,8 @@ void KinematicVelocity::step_inertial(const SensorInput& sensors, bool pose_ok, 
   };
   update(0, 6, sensors.pose.x(), sensors.pose_cov(0, 0));
   update(2, 7, sensors.pose.y(), sensors.pose_cov(1, 1));
+  // Hours at 100 Hz: keep the covariance symmetric against rounding (fixed size: no allocation).
+  Pi_ = (0.5 * (Pi_ + Pi_.transpose())).eval();
 }
 
 void KinematicVelocity::predict_axis(Vec3k& s, Mat3k& P, double dt) const {

@@ -11,18 +11,17 @@
 // cycle the measured specific force, less an estimated body-frame bias and turned into the world
 // frame by the heading, is integrated into the world velocity and position (the accelerometer as
 // the process model's input, as an inertial navigator does), and the camera's positions correct
-// the position, the velocity and the two biases. Chosen over the accelerometer as a measurement
+// the position, the velocity, the two biases and gravity's pull (below). Chosen over the accelerometer as a measurement
 // of the constant-acceleration filter's acceleration: that keeps the white-jerk model, whose
 // bandwidth must be wide for the acceleration to follow the screws' steps and then lets the
 // camera's coloured noise through again; as the input, the velocity between camera fixes is the
 // integral of the measured acceleration, whose error grows only as the accelerometer's noise
 // (1.5e-3 m/s^2 per sqrt(Hz): 0.5 mm/s over 0.1 s) and its bias, which the camera pins down
-// over seconds. The camera carries below about 0.05 Hz, the accelerometer above. Gravity's pull
-// along a sloping ground is a state of its own, constant in the world frame (the bias is the
-// body's). Without an accelerometer sample for more than 0.05 s the
-// constant-acceleration filter's velocity is returned, and the inertial filter restarts from it
-// when samples come again; a filter never fed an accelerometer returns bit for bit what it did
-// before it had one.
+// over seconds: the camera carries the slow drift, the accelerometer the 0.05-1 s band. Gravity's
+// pull along a sloping ground is a state of its own, constant in the world frame (the bias is
+// the body's). Without an accelerometer sample for more than 0.05 s the constant-acceleration
+// filter's velocity is returned, and the inertial filter restarts from it when samples come
+// again; a filter never fed an accelerometer returns bit for bit what it did before it had one.
 //
 // Fixed-size Eigen types only: no allocation after construction.
 #pragma once
