@@ -95,6 +95,8 @@ Replay load(const std::string& dir, const Entry& e, const Options& o) {
     return c;
   };
   const int cx = col("x_m"), cy = col("y_m"), cp = col("psi_rad"), cip = col("imu_psi_rad"), cir = col("imu_r_radps");
+  // The accelerometer's columns, absent from logs written before the simulated IMU had one.
+  const int cax = r.column_index("imu_ax_mps2"), cay = r.column_index("imu_ay_mps2");
   int co[4];
   for (int i = 0; i < 4; ++i) co[i] = col("omega_rpm_" + std::to_string(i));
   const std::vector<Vec3> vt = true_velocity(dir + "/" + e.truth);
@@ -113,6 +115,11 @@ Replay load(const std::string& dir, const Entry& e, const Options& o) {
       s.has_imu_psi = s.has_imu_r = true;
       s.imu_psi_rad = r.value(cip);
       s.imu_r_radps = r.value(cir);
+    }
+    if (cax >= 0 && cay >= 0 && !std::isnan(r.value(cax)) && !std::isnan(r.value(cay))) {
+      s.has_imu_acc = true;
+      s.imu_ax_mps2 = r.value(cax);
+      s.imu_ay_mps2 = r.value(cay);
     }
     Vec4 om;
     for (int i = 0; i < 4; ++i) om[i] = r.value(co[i]);
@@ -153,6 +160,8 @@ int stats(const std::string& dir, const std::vector<Entry>& logs, const Options&
   double hours = 0;
   std::vector<std::vector<double>> series[3];  // per log, per window (NaN: not informative)
   std::map<std::string, std::vector<double>> sigma;  // terrain and drive: sigma_long each window from 10 s
+  Vec3 verr2 = Vec3::Zero(), dverr2 = Vec3::Zero();  // the velocity's error against the truth, squared
+  double verr_n = 0, dverr_n = 0;
   for (const Entry& e : logs) {
     if (e.kind != "uniform") continue;
     std::vector<double>& sig = sigma[e.terrain + ", " + e.drive];
@@ -175,7 +184,25 @@ int stats(const std::string& dir, const std::vector<Entry>& logs, const Options&
       }
     }
     hours += rp.t.size() * kDt / 3600;
+    for (std::size_t k = 0; k < rp.t.size(); ++k) {
+      if (rp.t[k] < 5) continue;
+      const Vec3 d = rp.zeta[k] - rp.zeta_true[k];
+      if (!d.allFinite()) continue;
+      verr2 += d.cwiseProduct(d), ++verr_n;
+      // The velocity's change over a regression window (0.1 s) against the truth's: what eq. (6)'s
+      // left side sees.
+      const std::size_t w = std::size_t(std::lround(o.cfg.window_s / kDt));
+      if (k >= w) {
+        const Vec3 dd = d - (rp.zeta[k - w] - rp.zeta_true[k - w]);
+        if (dd.allFinite()) dverr2 += dd.cwiseProduct(dd), ++dverr_n;
+      }
+    }
   }
+  const Vec3 vrms = (verr2 / verr_n).cwiseSqrt(), dvrms = (dverr2 / dverr_n).cwiseSqrt();
+  std::printf("velocity fed against the truth from 5 s on (%s): RMS u %.2f mm/s, v %.2f mm/s, r %.2f mrad/s; "
+              "its change over %.2f s: RMS u %.2f mm/s, v %.2f mm/s\n\n",
+              o.truth ? "the truth itself" : o.kin.use_accelerometer ? "kinematic, accelerometer where logged" : "kinematic, no accelerometer",
+              1e3 * vrms[0], 1e3 * vrms[1], 1e3 * vrms[2], o.cfg.window_s, 1e3 * dvrms[0], 1e3 * dvrms[1]);
   const char* dof[3] = {"surge (x)", "sway (y)", "yaw"};
   const char* unit[3] = {"N", "N", "N m"};
   std::printf("innovation on the uniform logs (%.2f h, %s velocity), per 0.1 s window:\n\n", hours,
@@ -311,6 +338,10 @@ int main(int argc, char** argv) {
        {"--slow-screw-rpm", "X", "OnlineConfig::slow_screw_rpm (default 2; 0: every window)"},
        {"--max-pose-age", "S", "KinematicVelocityConfig::max_pose_age_s (default 0.12; 1e9: never unknown)"},
        {"--omega-delay", "N", "the screw speeds fed N cycles late (the velocity's lag)"},
+       {"--no-acc", "", "leave the logged accelerometer out (KinematicVelocityConfig::use_accelerometer off)"},
+       {"--acc-noise", "D", "KinematicVelocityConfig::acc_noise_mps2_per_sqrt_hz (default 1.5e-3)"},
+       {"--acc-bias-walk", "W", "KinematicVelocityConfig::acc_bias_walk_mps2_per_sqrt_s (default 5e-4)"},
+       {"--camera-corr-s", "S", "KinematicVelocityConfig::pose_noise_corr_s (default 0: white)"},
        {"--no-whiten", "", "the detector on the innovation as it is (OnlineConfig::whiten off)"},
        {"--thresholds", "A,B,...", "the detector's thresholds for curve"},
        {"--trace", "LOG", "instead: every window of LOG (CSV: innovation, sigma_long, CUSUM)"}},
@@ -334,8 +365,13 @@ int main(int argc, char** argv) {
       !args.number("online_fil", "--detect-s", 3.0, o.detect_s) ||
       !args.number("online_fil", "--window-s", 0.1, o.cfg.window_s) ||
       !args.number("online_fil", "--slow-screw-rpm", 2.0, o.cfg.slow_screw_rpm) ||
-      !args.number("online_fil", "--max-pose-age", o.kin.max_pose_age_s, o.kin.max_pose_age_s))
+      !args.number("online_fil", "--max-pose-age", o.kin.max_pose_age_s, o.kin.max_pose_age_s) ||
+      !args.number("online_fil", "--camera-corr-s", 0.0, o.kin.pose_noise_corr_s) ||
+      !args.number("online_fil", "--acc-noise", o.kin.acc_noise_mps2_per_sqrt_hz, o.kin.acc_noise_mps2_per_sqrt_hz) ||
+      !args.number("online_fil", "--acc-bias-walk", o.kin.acc_bias_walk_mps2_per_sqrt_s,
+                   o.kin.acc_bias_walk_mps2_per_sqrt_s))
     return 2;
+  o.kin.use_accelerometer = !args.has("--no-acc");
   std::vector<double> sd{o.cfg.velocity_sd[0], o.cfg.velocity_sd[1], o.cfg.velocity_sd[2]};
   if (!args.numbers("online_fil", "--velocity-sd", 3, sd) ||
       !args.number("online_fil", "--drag-prior", 0.01, o.cfg.drag_prior_rel_sd) ||

@@ -178,6 +178,8 @@ std::string Daemon::sensor(const SensorMessage& m, const std::string& line) {
     last_imu_t_s_ = t_loop_s;
     last_imu_psi_rad_ = m.imu_psi_rad;
     last_imu_r_radps_ = m.imu_r_radps;
+    last_imu_ax_mps2_ = m.has_acc ? m.ax_mps2 : NAN;
+    last_imu_ay_mps2_ = m.has_acc ? m.ay_mps2 : NAN;
   }
   return "";
 }
@@ -249,6 +251,8 @@ auger::daemon::Status Daemon::status(bool all) const {
   s.imu_age_s = t_s_ - last_imu_t_s_;
   s.imu_psi_rad = last_imu_psi_rad_;
   s.imu_r_radps = last_imu_r_radps_;
+  s.imu_ax_mps2 = last_imu_ax_mps2_;
+  s.imu_ay_mps2 = last_imu_ay_mps2_;
   s.pose_age_s = t_s_ - last_pose_t_s_;
   s.cam_x_m = last_pose_[0], s.cam_y_m = last_pose_[1], s.cam_psi_rad = last_pose_[2];
   s.poses_dropped = poses_dropped_;

@@ -46,6 +46,7 @@ Daemon::Daemon(const DaemonConfig& cfg, auger::Model model)
              event(m, what, action);
            }) {
   controller_ = std::make_unique<auger::Controller>(model_, ctrl_cfg_);
+  online_kin_ = auger::KinematicVelocity(cfg.online_kin);
   if (cfg.online.enabled) {
     const auger::ModelFile mf = auger::load_model_file(cfg.model_file);
     online_ = std::make_unique<auger::OnlineEstimator>(model_, cfg.online,
@@ -197,6 +198,7 @@ void Daemon::write_log(const std::array<double, 4>& cmd_rpm) {
   }
   if (sensors_in_.has_imu_psi) s.imu_psi_rad = sensors_in_.imu_psi_rad;
   if (sensors_in_.has_imu_r) s.imu_r_radps = sensors_in_.imu_r_radps;
+  if (sensors_in_.has_imu_acc) s.imu_ax_mps2 = sensors_in_.imu_ax_mps2, s.imu_ay_mps2 = sensors_in_.imu_ay_mps2;
   if (controller_->enabled()) auger::io::log_reference(controller_->reference().eta_d, s);
   s.loop_dt_s = loop_dt_s_;
   // The replay columns (auger_contract's LogRow names them).

@@ -184,6 +184,7 @@ class Daemon {
   void take_queued_pose();  // the oldest into sensors_in_, before the controller's step
   // Latest sensor values whenever they came (status all: calib and teleop checks).
   double last_imu_t_s_ = NAN, last_imu_r_radps_ = NAN, last_imu_psi_rad_ = NAN;
+  double last_imu_ax_mps2_ = NAN, last_imu_ay_mps2_ = NAN;
   double last_pose_t_s_ = NAN;
   auger::Vec3 last_pose_ = auger::Vec3::Constant(NAN);
 

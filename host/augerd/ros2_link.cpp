@@ -62,12 +62,7 @@ void Daemon::ros2_inputs() {
   }
   auto sense = [&](const SensorMessage& m, const char* what) {
     if (const std::string bad = auger::daemon::check_sensor(m); !bad.empty()) return apply("error: " + bad, what);
-    if (m.kind == SensorKind::pose)
-      std::snprintf(line, sizeof line, "pose %.17g %.17g %.17g %.17g %.17g %.17g %.17g", m.t_unix_s, m.x_m, m.y_m,
-                    m.psi_rad, m.sx_m, m.sy_m, m.spsi_rad);
-    else
-      std::snprintf(line, sizeof line, "imu %.17g %.17g %.17g", m.t_unix_s, m.imu_psi_rad, m.imu_r_radps);
-    apply(sensor(m, line), what);
+    apply(sensor(m, auger::daemon::sensor_line(m)), what);
   };
   for (int i = 0; i < in.n_poses; ++i) sense(in.poses[std::size_t(i)], "pose");
   if (in.has_imu) sense(in.imu, "imu");

@@ -209,6 +209,23 @@ void read_online(const Reader& r, const toml::table& t, DaemonConfig& c) {
           {"drag_prior_rel_sd",
            [&](const toml::node& v) { o.drag_prior_rel_sd = r.number(v, "drag_prior_rel_sd", 1e-4, 10); }},
           {"slow_screw_rpm", [&](const toml::node& v) { o.slow_screw_rpm = r.number(v, "slow_screw_rpm", 0, 50); }},
+          {"accelerometer", [&](const toml::node& v) { c.online_kin.use_accelerometer = r.boolean(v, "accelerometer"); }},
+          {"acc_noise_mps2_per_sqrt_hz",
+           [&](const toml::node& v) {
+             c.online_kin.acc_noise_mps2_per_sqrt_hz = r.number(v, "acc_noise_mps2_per_sqrt_hz", 1e-6, 1);
+           }},
+          {"acc_bias_walk_mps2_per_sqrt_s",
+           [&](const toml::node& v) {
+             c.online_kin.acc_bias_walk_mps2_per_sqrt_s = r.number(v, "acc_bias_walk_mps2_per_sqrt_s", 1e-7, 1);
+           }},
+          {"acc_gravity_walk_mps2_per_sqrt_s",
+           [&](const toml::node& v) {
+             c.online_kin.acc_gravity_walk_mps2_per_sqrt_s = r.number(v, "acc_gravity_walk_mps2_per_sqrt_s", 0, 1);
+           }},
+          {"camera_noise_corr_s",
+           [&](const toml::node& v) { c.online_kin.pose_noise_corr_s = r.number(v, "camera_noise_corr_s", 0, 60); }},
+          {"acc_bias_sd_mps2",
+           [&](const toml::node& v) { c.online_kin.acc_bias_sd_mps2 = r.number(v, "acc_bias_sd_mps2", 1e-4, 10); }},
           {"velocity", [&](const toml::node& v) {
              const std::string s = r.text(v, "velocity");
              if (s != "ekf" && s != "kinematic") r.fail(v, "velocity must be \"ekf\" or \"kinematic\", not \"" + s + "\"");

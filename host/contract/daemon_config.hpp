@@ -9,6 +9,7 @@
 
 #include "auger/controller.hpp"
 #include "auger/model.hpp"
+#include "auger/kinematic_velocity.hpp"
 #include "auger/online_estimator.hpp"
 #include "ros2_settings.hpp"
 
@@ -66,6 +67,8 @@ struct DaemonConfig {
   // velocity = "kinematic": the estimator is fed auger::KinematicVelocity's body velocity (the
   // camera and IMU alone, no terrain model) instead of the EKF's.
   bool online_kinematic = false;
+  // That filter's settings: the accelerometer's use and noise (accelerometer, acc_noise, ...).
+  auger::KinematicVelocityConfig online_kin;
 };
 
 // Reads and checks the file, including the model file (so that a bad model is a start-up error

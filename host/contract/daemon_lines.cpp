@@ -15,6 +15,7 @@ namespace {
 
 using auger::check_goal;
 using auger::check_imu;
+using auger::check_imu_acceleration;
 using auger::check_pose;
 using auger::check_screw_speed;
 using auger::check_velocity;
@@ -83,7 +84,9 @@ std::string check_sensor(const SensorMessage& m) {
   if (m.kind == SensorKind::imu) {
     if (!(err = finite({{"t_unix_s", m.t_unix_s}, {"psi_rad", m.imu_psi_rad}, {"r_radps", m.imu_r_radps}})).empty())
       return err;
-    return check_imu(m.imu_psi_rad, m.imu_r_radps);
+    if (m.has_acc && !(err = finite({{"ax_mps2", m.ax_mps2}, {"ay_mps2", m.ay_mps2}})).empty()) return err;
+    if (!(err = check_imu(m.imu_psi_rad, m.imu_r_radps)).empty() || !m.has_acc) return err;
+    return check_imu_acceleration(m.ax_mps2, m.ay_mps2);
   }
   if (!(err = finite({{"t_unix_s", m.t_unix_s}, {"x_m", m.x_m}, {"y_m", m.y_m}, {"psi_rad", m.psi_rad},
                       {"sx_m", m.sx_m}, {"sy_m", m.sy_m}, {"spsi_rad", m.spsi_rad}})).empty())
@@ -106,7 +109,23 @@ void to_sensor_input(const SensorMessage& m, double t_loop_s, SensorInput& in) {
     in.has_imu_psi = in.has_imu_r = true;
     in.imu_psi_rad = m.imu_psi_rad;
     in.imu_r_radps = m.imu_r_radps;
+    in.has_imu_acc = m.has_acc;  // the cycle's last imu message says whether it has one
+    in.imu_ax_mps2 = m.ax_mps2;
+    in.imu_ay_mps2 = m.ay_mps2;
   }
+}
+
+std::string sensor_line(const SensorMessage& m) {
+  char b[320];
+  if (m.kind == SensorKind::pose)
+    std::snprintf(b, sizeof b, "pose %.17g %.17g %.17g %.17g %.17g %.17g %.17g", m.t_unix_s, m.x_m, m.y_m, m.psi_rad,
+                  m.sx_m, m.sy_m, m.spsi_rad);
+  else if (m.has_acc)
+    std::snprintf(b, sizeof b, "imu %.17g %.17g %.17g %.17g %.17g", m.t_unix_s, m.imu_psi_rad, m.imu_r_radps,
+                  m.ax_mps2, m.ay_mps2);
+  else
+    std::snprintf(b, sizeof b, "imu %.17g %.17g %.17g", m.t_unix_s, m.imu_psi_rad, m.imu_r_radps);
+  return b;
 }
 
 std::string quote_line(const std::string& s) { return auger::quote_input(s, 200); }
@@ -191,11 +210,14 @@ std::string parse_sensor(const std::string& line, SensorMessage& out) {
       return err;
     if (!(err = check_sensor(m)).empty()) return err;
   } else if (f[0] == "imu") {
-    if (f.size() != 4) return "imu takes 3 fields: imu <t_unix_s> <psi_rad> <r_radps>, got " + quote(line);
+    if (f.size() != 4 && f.size() != 6)
+      return "imu takes 3 or 5 fields: imu <t_unix_s> <psi_rad> <r_radps> [<ax_mps2> <ay_mps2>], got " + quote(line);
     m.kind = SensorKind::imu;
     if (!number(f[1], "t_unix_s", m.t_unix_s, err) || !number(f[2], "psi_rad", m.imu_psi_rad, err) ||
         !number(f[3], "r_radps", m.imu_r_radps, err))
       return err;
+    m.has_acc = f.size() == 6;
+    if (m.has_acc && (!number(f[4], "ax_mps2", m.ax_mps2, err) || !number(f[5], "ay_mps2", m.ay_mps2, err))) return err;
     if (!(err = check_sensor(m)).empty()) return err;
   } else {
     return "unknown sensor message " + quote(f[0]) + " (pose, imu)";

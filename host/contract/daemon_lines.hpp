@@ -31,6 +31,10 @@ struct SensorMessage {
   // the squares of the standard deviations above (a `pose` line, PoseStamped's pose_std).
   double var_x_m2 = NAN, var_y_m2 = NAN, var_psi_rad2 = NAN;
   double imu_psi_rad = 0, imu_r_radps = 0;                                  // imu
+  // Optional on an imu line: the body-frame specific force (x forward, y left; m/s^2), what an
+  // accelerometer reads (gravity's part along the ground included). Without it: none.
+  bool has_acc = false;
+  double ax_mps2 = 0, ay_mps2 = 0;
 };
 
 // The pose's covariance for the estimator (diagonal): the variances given, else the squares of
@@ -46,6 +50,10 @@ void to_sensor_input(const SensorMessage& m, double t_loop_s, SensorInput& in);
 // auger/input_limits.hpp is refused.
 std::string parse_command(const std::string& line, Command& out);
 std::string parse_sensor(const std::string& line, SensorMessage& out);
+
+// The message as its line, without the newline (%.17g: every double exactly): the one writer of
+// the sensors' line format, for every program that sends or echoes one.
+std::string sensor_line(const SensorMessage& m);
 
 // The bounds alone (what the parsers check after the numbers): "" or the error text.
 std::string check_command(const Command& c);

@@ -77,6 +77,8 @@ const std::vector<Field<Status>>& sensor_fields() {
       {"imu_age_s", "%.3f", &Status::imu_age_s},
       {"imu_psi_rad", "%.4f", &Status::imu_psi_rad},
       {"imu_r_radps", "%.4f", &Status::imu_r_radps},
+      {"imu_ax_mps2", "%.4f", &Status::imu_ax_mps2},
+      {"imu_ay_mps2", "%.4f", &Status::imu_ay_mps2},
       {"pose_age_s", "%.3f", &Status::pose_age_s},
       {"cam_x_m", "%.4f", &Status::cam_x_m},
       {"cam_y_m", "%.4f", &Status::cam_y_m},

@@ -40,6 +40,7 @@ struct Status {
   bool all = false;
   std::array<ModuleStatus, 4> modules;
   double imu_age_s = 0, imu_psi_rad = 0, imu_r_radps = 0;  // NaN: none received
+  double imu_ax_mps2 = 0, imu_ay_mps2 = 0;  // the last imu's acceleration; NaN: it had none
   double pose_age_s = 0, cam_x_m = 0, cam_y_m = 0, cam_psi_rad = 0;
   long poses_dropped = 0;  // camera poses dropped from a full queue (docs/daemon.md "Who may command the robot")
   bool ros2 = false;

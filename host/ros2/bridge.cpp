@@ -360,6 +360,15 @@ void CycloneBridge::take_imu(dds_entity_t r) {
     in_.imu.t_unix_s = stamp_to_unix_s(m.header.stamp.sec, m.header.stamp.nanosec);
     in_.imu.imu_psi_rad = yaw;
     in_.imu.imu_r_radps = m.angular_velocity.z;
+    // The accelerometer's specific force in the body frame (REP 103: x forward, y left), the
+    // imu line's optional fields; absent where its covariance says so (REP 145), and where all
+    // three are exactly 0: a message never filled in (an accelerometer reads gravity, about
+    // 9.81 m/s^2 up), which taken as measured would say the robot never accelerates. Its
+    // variance is not used: the kinematic filter has its own noise setting ([online] acc_noise_...).
+    const auto& a = m.linear_acceleration;
+    in_.imu.has_acc = m.linear_acceleration_covariance[0] != -1 && !(a.x == 0 && a.y == 0 && a.z == 0);
+    in_.imu.ax_mps2 = m.linear_acceleration.x;
+    in_.imu.ay_mps2 = m.linear_acceleration.y;
   });
 }
 

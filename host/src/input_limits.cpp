@@ -81,6 +81,10 @@ std::string check_imu(double psi_rad, double r_radps) {
   return first({check_bound("psi_rad", psi_rad, limits::kHeading), check_bound("r_radps", r_radps, limits::kYawRate)});
 }
 
+std::string check_imu_acceleration(double ax_mps2, double ay_mps2) {
+  return first({check_bound("ax_mps2", ax_mps2, limits::kAcceleration), check_bound("ay_mps2", ay_mps2, limits::kAcceleration)});
+}
+
 std::string check_goal(double x_m, double y_m, double psi_rad) {
   using namespace limits;
   return first({check_bound("x_m", x_m, kPosition), check_bound("y_m", y_m, kPosition),

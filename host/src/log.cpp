@@ -291,7 +291,7 @@ namespace {
 
 // Standard robot-log columns with how each maps onto RobotSample.
 enum class Field { t, omega, cmd, current, voltage, pwm, status, seq_ack, x, y, psi, imu_psi, imu_r,
-                   xd, yd, psid, loop_dt };
+                   xd, yd, psid, loop_dt, imu_ax, imu_ay };
 struct RobotColumn {
   std::string name;
   Field field;
@@ -320,6 +320,10 @@ const std::vector<RobotColumn>& robot_columns() {
       for (int i = 0; i < 4; ++i)
         c.push_back({std::string(per_screw[k].first) + char('0' + i), per_screw[k].second, i});
     c.push_back({"loop_dt_s", Field::loop_dt, 0});
+    // Last, so that a log of before them keeps its column order; optional as every column
+    // but the required ones (a log without them reads as not measured).
+    c.push_back({"imu_ax_mps2", Field::imu_ax, 0});
+    c.push_back({"imu_ay_mps2", Field::imu_ay, 0});
     return c;
   }();
   return cols;
@@ -345,6 +349,8 @@ auto robot_field(S& s, const RobotColumn& c) -> decltype(&s.t_s) {
     case Field::yd: return &s.yd_m;
     case Field::psid: return &s.psid_rad;
     case Field::loop_dt: return &s.loop_dt_s;
+    case Field::imu_ax: return &s.imu_ax_mps2;
+    case Field::imu_ay: return &s.imu_ay_mps2;
     case Field::status:
     case Field::seq_ack: return nullptr;  // integers, handled apart
   }
@@ -380,6 +386,8 @@ const InputBound* robot_bound(Field f) {
     case Field::imu_psi:
     case Field::psid: return &limits::kHeading;
     case Field::imu_r: return &limits::kYawRate;
+    case Field::imu_ax:
+    case Field::imu_ay: return &limits::kAcceleration;
     default: return nullptr;
   }
 }

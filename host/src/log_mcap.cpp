@@ -100,7 +100,10 @@ RobotLogMcapWriter::RobotLogMcapWriter(std::ostream& out,
                 starts(c, "voltage_v_") || starts(c, "pwm_");
        }},
       {"/pose_2d", "auger.Pose2D", [](const std::string& c) { return c == "x_m" || c == "y_m" || c == "psi_rad"; }},
-      {"/imu", "auger.Imu", [](const std::string& c) { return c == "imu_psi_rad" || c == "imu_r_radps"; }},
+      {"/imu", "auger.Imu",
+       [](const std::string& c) {
+         return c == "imu_psi_rad" || c == "imu_r_radps" || c == "imu_ax_mps2" || c == "imu_ay_mps2";
+       }},
       {"/reference", "auger.Reference",
        [](const std::string& c) { return c == "xd_m" || c == "yd_m" || c == "psid_rad"; }},
       {"/status", "auger.Status",

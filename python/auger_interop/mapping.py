@@ -28,7 +28,7 @@ LOG_COLUMNS = (
     + ["pwm_%d" % i for i in range(4)]
     + ["status_%d" % i for i in range(4)]
     + ["seq_ack_%d" % i for i in range(4)]
-    + ["loop_dt_s"]
+    + ["loop_dt_s", "imu_ax_mps2", "imu_ay_mps2"]
 )
 REQUIRED_COLUMNS = ["omega_rpm_%d" % i for i in range(4)] + ["x_m", "y_m", "psi_rad"]
 HEADINGS = {"psi_rad", "imu_psi_rad", "psid_rad"}  # wrapped to (-pi, pi] (docs/model.md)

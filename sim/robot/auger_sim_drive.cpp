@@ -279,15 +279,7 @@ int main(int argc, char** argv) {
       // estimator reads the heading (a slope's force turns with it): the IMU's.
       online = std::make_unique<OnlineEstimator>(m, oc, online_effect_params(file, EffectRegistry::builtin()));
       s.set_sensor_sink([&](double, const sim::ImuReading* imu, const sim::PoseReading* pose) {
-        SensorInput in;
-        in.has_imu_psi = in.has_imu_r = true;
-        in.imu_psi_rad = imu->psi_rad;
-        in.imu_r_radps = imu->r_radps;
-        if (pose) {
-          in.has_pose = true;
-          in.pose = pose->pose;
-          in.pose_cov = pose->std_dev.cwiseProduct(pose->std_dev).asDiagonal();
-        }
+        const SensorInput in = sim::sensor_input(*imu, pose);
         online->step(s.omega_true_rpm(), kin.step(in, sc.control_period_s), sc.control_period_s,
                      Vec3(0, 0, imu->psi_rad));
         if (online->applied_changed()) {

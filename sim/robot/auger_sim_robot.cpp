@@ -20,6 +20,7 @@
 
 #include "auger/args.hpp"
 #include "auger/model_file.hpp"
+#include "daemon_lines.hpp"
 #include "scheduler.hpp"
 #include "simmod.h"
 
@@ -173,17 +174,29 @@ int main(int argc, char** argv) {
       sched.set_log(&log);
     }
     SensorLink link(socket_path);
-    char line[256];
     sched.set_sensor_sink([&](double t_s, const auger::sim::ImuReading* imu, const auger::sim::PoseReading* pose) {
       const double now = t0_unix_s + t_s;
+      // The lines as daemon_lines.hpp writes them; the IMU's with the accelerometer's fields.
+      using auger::daemon::SensorKind;
+      using auger::daemon::SensorMessage;
       if (pose) {
-        std::snprintf(line, sizeof(line), "pose %.6f %.6f %.6f %.6f %.6f %.6f %.6f\n", t0_unix_s + pose->t_capture_s,
-                      pose->pose[0], pose->pose[1], pose->pose[2], pose->std_dev[0], pose->std_dev[1], pose->std_dev[2]);
-        link.send(line, now);
+        SensorMessage m;
+        m.kind = SensorKind::pose;
+        m.t_unix_s = t0_unix_s + pose->t_capture_s;
+        m.x_m = pose->pose[0], m.y_m = pose->pose[1], m.psi_rad = pose->pose[2];
+        m.sx_m = pose->std_dev[0], m.sy_m = pose->std_dev[1], m.spsi_rad = pose->std_dev[2];
+        link.send(auger::daemon::sensor_line(m) + "\n", now);
       }
       if (imu) {
-        std::snprintf(line, sizeof(line), "imu %.6f %.6f %.6f\n", t0_unix_s + imu->t_s, imu->psi_rad, imu->r_radps);
-        link.send(line, now);
+        SensorMessage m;
+        m.kind = SensorKind::imu;
+        m.t_unix_s = t0_unix_s + imu->t_s;
+        m.imu_psi_rad = imu->psi_rad;
+        m.imu_r_radps = imu->r_radps;
+        m.has_acc = true;
+        m.ax_mps2 = imu->ax_mps2;
+        m.ay_mps2 = imu->ay_mps2;
+        link.send(auger::daemon::sensor_line(m) + "\n", now);
       }
     });
 

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -100,6 +101,8 @@ class Scheduler {
  private:
   static void on_byte(void* ctx, int module, std::uint8_t byte, double t_s);
   void advance(double dt_s);
+  // The IMU's specific force over the period ending at t_s (body frame, m/s^2).
+  Eigen::Vector2d period_specific_force(double t_s);
 
   SchedulerConfig cfg_;
   TrueRobot robot_;
@@ -123,6 +126,8 @@ class Scheduler {
   std::vector<TickRecord> history_;
   bool have_pose_ = false;
   PoseReading last_pose_{};
+  Eigen::Vector2d imu_vw_ = Eigen::Vector2d::Zero();  // the world velocity at the last IMU reading
+  double imu_vw_t_s_ = INFINITY;
 };
 
 }  // namespace auger::sim

@@ -5,12 +5,35 @@
 
 namespace auger::sim {
 
-ImuReading Imu::read(double t_s, double psi_true_rad, double r_true_radps) {
+ImuReading Imu::read(double t_s, double psi_true_rad, double r_true_radps, const Eigen::Vector2d& f_true_mps2) {
   ImuReading o;
   o.t_s = t_s;
   o.psi_rad = wrap_angle(psi_true_rad + p_.psi_bias_rad + p_.psi_noise_rad * n01_(rng_));
   o.r_radps = r_true_radps + p_.r_bias_radps + p_.r_noise_radps * n01_(rng_);
+  if (std::isfinite(last_t_s_) && t_s > last_t_s_) {
+    const double walk = p_.acc_bias_walk_mps2_per_sqrt_s * std::sqrt(t_s - last_t_s_);
+    for (int k = 0; k < 2; ++k) bias_acc_[k] += walk * n01_(rng_acc_);
+  }
+  last_t_s_ = t_s;
+  o.ax_mps2 = f_true_mps2.x() + bias_acc_.x() + p_.acc_noise_mps2 * n01_(rng_acc_);
+  o.ay_mps2 = f_true_mps2.y() + bias_acc_.y() + p_.acc_noise_mps2 * n01_(rng_acc_);
   return o;
+}
+
+SensorInput sensor_input(const ImuReading& imu, const PoseReading* pose) {
+  SensorInput in;
+  in.has_imu_psi = in.has_imu_r = in.has_imu_acc = true;
+  in.imu_psi_rad = imu.psi_rad;
+  in.imu_r_radps = imu.r_radps;
+  in.imu_ax_mps2 = imu.ax_mps2;
+  in.imu_ay_mps2 = imu.ay_mps2;
+  if (pose) {
+    in.has_pose = true;
+    in.pose = pose->pose;
+    in.pose_cov = pose->std_dev.cwiseProduct(pose->std_dev).asDiagonal();
+    in.pose_t_s = pose->t_capture_s;  // the camera's latency: compared with the prediction then
+  }
+  return in;
 }
 
 void Camera::observe(double t_s, const Vec3& eta_true) {

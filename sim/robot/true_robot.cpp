@@ -130,12 +130,7 @@ TrueRobot::Deriv TrueRobot::derivative(const TruthState& s, const Vec4& omega_rp
   const double m = m_.robot.m_kg;
 
   // Normal load: the weight's component normal to the (possibly tilted) ground.
-  Eigen::Vector3d n_world(0, 0, 1);
-  if (p_.incline.on) {
-    const double cr = std::cos(p_.incline.roll_rad), sr = std::sin(p_.incline.roll_rad);
-    const double cp = std::cos(p_.incline.pitch_rad), sp = std::sin(p_.incline.pitch_rad);
-    n_world = Eigen::Vector3d(sp * cr, -sr, cp * cr);  // R_y(pitch) R_x(roll) e_z
-  }
+  const Eigen::Vector3d n_world = ground_normal_world();
   const double normal_n = m * kGravity_mps2 * n_world.z();
 
   Deriv d;
@@ -233,12 +228,7 @@ TrueRobot::Deriv TrueRobot::derivative(const TruthState& s, const Vec4& omega_rp
     if (load_nm) (*load_nm)[static_cast<int>(i)] = p_.r_eff_m * drive_[i].dot(f_tr + f_block);
   }
 
-  if (p_.incline.on) {
-    // Weight minus its normal part, in the world frame, then into the body frame (J^T).
-    const Eigen::Vector3d g_world(0, 0, -m * kGravity_mps2);
-    const Eigen::Vector3d g_t = g_world - g_world.dot(n_world) * n_world;
-    f_body += Eigen::Vector2d(cpsi * g_t.x() + spsi * g_t.y(), -spsi * g_t.x() + cpsi * g_t.y());
-  }
+  if (p_.incline.on) f_body += m * gravity_along_ground_body(s.eta[2]);
   if (p_.friction.on) {
     const DryFriction& fr = p_.friction;
     const double load = normal_n / (m * kGravity_mps2);  // friction scales with the normal load
@@ -274,6 +264,23 @@ TrueRobot::Deriv TrueRobot::derivative(const TruthState& s, const Vec4& omega_rp
   return d;
 }
 
+Eigen::Vector3d TrueRobot::ground_normal_world() const {
+  if (!p_.incline.on) return Eigen::Vector3d(0, 0, 1);
+  const double cr = std::cos(p_.incline.roll_rad), sr = std::sin(p_.incline.roll_rad);
+  const double cp = std::cos(p_.incline.pitch_rad), sp = std::sin(p_.incline.pitch_rad);
+  return Eigen::Vector3d(sp * cr, -sr, cp * cr);  // R_y(pitch) R_x(roll) e_z
+}
+
+Eigen::Vector2d TrueRobot::gravity_along_ground_body(double psi_rad) const {
+  if (!p_.incline.on) return Eigen::Vector2d::Zero();
+  const Eigen::Vector3d n_world = ground_normal_world();
+  // Gravity minus its normal part, in the world frame, then into the body frame (J^T).
+  const Eigen::Vector3d g_world(0, 0, -kGravity_mps2);
+  const Eigen::Vector3d g_t = g_world - g_world.dot(n_world) * n_world;
+  const double c = std::cos(psi_rad), s = std::sin(psi_rad);
+  return Eigen::Vector2d(c * g_t.x() + s * g_t.y(), -s * g_t.x() + c * g_t.y());
+}
+
 void TrueRobot::step(const Vec4& omega_rpm, double dt_s) {
   if (!(dt_s > 0)) return;
   const int n = std::max(1, static_cast<int>(std::ceil(dt_s / p_.substep_s - 1e-9)));
@@ -300,6 +307,11 @@ void TrueRobot::step(const Vec4& omega_rpm, double dt_s) {
   }
   const Deriv end = derivative(s_, omega_rpm, t_s_, &load_nm_);
   zeta_dot_ = end.zeta_dot;
+  // The body-frame acceleration of the centre by kinematics, whatever TruthParams::coriolis says
+  // (d/dt of J(psi) zeta = J (zeta' + (-r v, r u)), eq. (5)), minus gravity's pull along the
+  // ground: what an accelerometer there reads in the plane.
+  const double u = s_.zeta[0], v = s_.zeta[1], r = s_.zeta[2];
+  specific_force_mps2_ = Eigen::Vector2d(zeta_dot_[0] - r * v, zeta_dot_[1] + r * u) - gravity_along_ground_body(s_.eta[2]);
 }
 
 }  // namespace auger::sim

@@ -145,6 +145,15 @@ class TrueRobot {
   const Vec4& load_torque_nm() const { return load_nm_; }
   // Body acceleration of the last step's end (for the IMU).
   const Vec3& zeta_dot() const { return zeta_dot_; }
+  // What an accelerometer at the centre reads at the last step's end, in the body frame (x
+  // forward, y left; m/s^2): the acceleration a_x = u' - r v, a_y = v' + r u (eq. (1)) minus
+  // gravity's component along the ground (non-zero on an incline; the normal part is the
+  // ground's reaction).
+  const Eigen::Vector2d& specific_force_mps2() const { return specific_force_mps2_; }
+  // Gravity's acceleration along the (tilted) ground in the body frame at heading psi_rad.
+  Eigen::Vector2d gravity_along_ground_body(double psi_rad) const;
+  // The ground's unit normal in the world frame (e_z on flat ground).
+  Eigen::Vector3d ground_normal_world() const;
 
   // Calibration: per-contact drag coefficients and the residual yaw drag (docs/robot-sim.md).
   double contact_drag_x() const { return cdx_; }
@@ -189,6 +198,7 @@ class TrueRobot {
   std::array<double, 4> s_sign_{}, h_sign_{};
   Vec4 load_nm_ = Vec4::Zero();
   Vec3 zeta_dot_ = Vec3::Zero();
+  Eigen::Vector2d specific_force_mps2_ = Eigen::Vector2d::Zero();
 };
 
 }  // namespace auger::sim

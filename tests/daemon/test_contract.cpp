@@ -51,7 +51,8 @@ TEST_CASE("a status line reads back into the struct it was written from", "[daem
   s.modules[3].status = 0x0203;
   s.modules[3].faults = "F_OVERCURRENT";
   s.modules[3].host_bytes_skipped = 65535;
-  s.imu_age_s = s.imu_psi_rad = s.imu_r_radps = NAN;  // never received
+  s.imu_age_s = s.imu_psi_rad = s.imu_r_radps = s.imu_ax_mps2 = NAN;  // never received
+  s.imu_ay_mps2 = -0.0123;
   s.pose_age_s = 0.05, s.cam_x_m = 1.5;
   s.ros2 = true;
   s.ros2_applied = 17, s.ros2_refused = 2, s.ros2_hook_max_us = 81.5;
@@ -71,6 +72,8 @@ TEST_CASE("a status line reads back into the struct it was written from", "[daem
   CHECK(back.modules[3].host_bytes_skipped == 65535);
   CHECK(back.modules[0].lost);
   CHECK(std::isnan(back.imu_age_s));
+  CHECK(std::isnan(back.imu_ax_mps2));
+  CHECK(back.imu_ay_mps2 == -0.0123);
   CHECK(back.cam_x_m == 1.5);
   CHECK(back.ros2);
   CHECK(back.ros2_applied == 17);

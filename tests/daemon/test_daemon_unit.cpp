@@ -237,6 +237,47 @@ TEST_CASE("sensor lines", "[daemon][unit]") {
   }
 }
 
+// The imu line's optional accelerometer fields: without them the line is what it was (no
+// acceleration), with them they reach the controller's input; a bad one is refused by its name,
+// and sensor_line writes what parse_sensor reads back exactly.
+TEST_CASE("sensor lines: the imu's acceleration", "[daemon][unit]") {
+  SensorMessage m;
+  REQUIRE(parse_sensor("imu 1700000000.5 0.2 -0.1", m).empty());
+  CHECK_FALSE(m.has_acc);
+  auger::SensorInput in;
+  to_sensor_input(m, 0, in);
+  CHECK((in.has_imu_r && !in.has_imu_acc));
+  REQUIRE(parse_sensor("imu 1700000000.5 0.2 -0.1 0.031 -1.5e-2", m).empty());
+  CHECK(m.has_acc);
+  CHECK(m.ax_mps2 == 0.031);
+  CHECK(m.ay_mps2 == -0.015);
+  to_sensor_input(m, 0, in);
+  CHECK((in.has_imu_acc && in.imu_ax_mps2 == 0.031 && in.imu_ay_mps2 == -0.015));
+  SensorMessage back;
+  REQUIRE(parse_sensor(sensor_line(m), back).empty());
+  CHECK((back.has_acc && back.ax_mps2 == m.ax_mps2 && back.ay_mps2 == m.ay_mps2 && back.t_unix_s == m.t_unix_s));
+  m.has_acc = false;
+  CHECK(sensor_line(m).find("0.031") == std::string::npos);
+  const std::pair<const char*, const char*> bad[] = {
+      {"imu 1 0.2 -0.1 x 0", "ax_mps2 must be a finite decimal number, got 'x'"},
+      {"imu 1 0.2 -0.1 0 nan", "ay_mps2 must be a finite decimal number"},
+      {"imu 1 0.2 -0.1 200 0", "ax_mps2 = 200 m/s^2 is outside -157..157"},
+      {"imu 1 0.2 -0.1 0 -1e9", "ay_mps2 = -1e+09 m/s^2 is outside"},
+      {"imu 1 0.2 -0.1 0", "imu takes 3 or 5 fields"},
+      {"imu 1 0.2 -0.1 0 0 0", "imu takes 3 or 5 fields"}};
+  for (const auto& [line, says] : bad) {
+    const std::string err = parse_sensor(line, m);
+    INFO(line << ": " << err);
+    CHECK(err.find(says) != std::string::npos);
+  }
+  // An input that never was a line (ROS 2) meets the same bounds.
+  SensorMessage ros;
+  ros.kind = SensorKind::imu;
+  ros.has_acc = true;
+  ros.ax_mps2 = NAN;
+  CHECK(check_sensor(ros).find("ax_mps2 must be a finite number") != std::string::npos);
+}
+
 namespace {
 std::string write_tmp(const std::string& text) {
   static int n = 0;
@@ -360,6 +401,22 @@ TEST_CASE("configuration: [online] is off by default; its keys and errors", "[da
   CHECK(k.online_kinematic);
   CHECK(k.online.drag_prior_rel_sd == 0.01);
   CHECK(k.online.slow_screw_rpm == 2.0);
+  // The kinematic filter's accelerometer: on with the sample's values unless the keys say otherwise.
+  CHECK(k.online_kin.use_accelerometer);
+  CHECK(k.online_kin.acc_noise_mps2_per_sqrt_hz == 1.5e-3);
+  const std::string acc = write_tmp(kGood + "[online]\naccelerometer = false\nacc_noise_mps2_per_sqrt_hz = 0.003\n"
+                                            "acc_bias_walk_mps2_per_sqrt_s = 0.001\nacc_bias_sd_mps2 = 0.2\n"
+                                            "camera_noise_corr_s = 0.3\nacc_gravity_walk_mps2_per_sqrt_s = 0.002\n");
+  const DaemonConfig a = load_daemon_config(acc);
+  unlink(acc.c_str());
+  CHECK_FALSE(a.online_kin.use_accelerometer);
+  CHECK(a.online_kin.acc_noise_mps2_per_sqrt_hz == 0.003);
+  CHECK(a.online_kin.acc_bias_walk_mps2_per_sqrt_s == 0.001);
+  CHECK(a.online_kin.acc_bias_sd_mps2 == 0.2);
+  CHECK(a.online_kin.pose_noise_corr_s == 0.3);
+  CHECK(a.online_kin.acc_gravity_walk_mps2_per_sqrt_s == 0.002);
+  expect_config_error(kGood + "[online]\nacc_noise_mps2_per_sqrt_hz = 0\n", ":17:");
+  expect_config_error(kGood + "[online]\naccelerometer = \"yes\"\n", ":17:");
   expect_config_error(kGood + "[online]\nvelocity = \"camera\"\n", ":17:12: velocity must be \"ekf\" or \"kinematic\"");
   expect_config_error(kGood + "[online]\ndrag_prior_rel_sd = 0\n", ":17:");
   expect_config_error(kGood + "[online]\nslow_screw_rpm = -1\n", ":17:");

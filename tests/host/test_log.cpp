@@ -40,6 +40,7 @@ TEST_CASE("robot log round trip keeps every value, NaN as not measured, metadata
       if (k % 10 == 0) s.x_m = 0.1 * k, s.y_m = -1e-7 * k, s.psi_rad = -3.14159;
       s.imu_r_radps = k % 4 ? 0.001 * k : kNotMeasured;
       s.loop_dt_s = 0.0100003;
+      if (k % 3) s.imu_ax_mps2 = 0.0123 * k, s.imu_ay_mps2 = -1.0 / (k + 7);
       w.write(s, {k % 5 ? double(k) : kNotMeasured});
       written.push_back(s);
     }
@@ -67,6 +68,8 @@ TEST_CASE("robot log round trip keeps every value, NaN as not measured, metadata
     CHECK(same(s.psi_rad, e.psi_rad));
     CHECK(same(s.imu_r_radps, e.imu_r_radps));
     CHECK(same(s.loop_dt_s, e.loop_dt_s));
+    CHECK(same(s.imu_ax_mps2, e.imu_ax_mps2));
+    CHECK(same(s.imu_ay_mps2, e.imu_ay_mps2));
     CHECK(same(r.csv().value(r.extra_columns()[0]), n % 5 ? double(n) : kNotMeasured));
     ++n;
   }
@@ -250,4 +253,31 @@ TEST_CASE("hostile logs: long fields are cut in messages, a huge header reads in
 
   CHECK_THAT(log_error([&] { CsvLogReader d("/dev/zero"); }).what(), Catch::Contains("not a log file"));
   CHECK_THAT(log_error([&] { CsvLogReader d("/tmp"); }).what(), Catch::Contains("is a directory"));
+}
+
+// A log written before the IMU's acceleration had columns reads as without an accelerometer,
+// and an acceleration beyond an accelerometer's full scale is refused at its field.
+TEST_CASE("robot log: the IMU's acceleration columns are optional and bounded") {
+  std::stringstream old;
+  old << "# format: auger-robot-log v1\nt_s,omega_rpm_0,omega_rpm_1,omega_rpm_2,omega_rpm_3,x_m,y_m,psi_rad,imu_r_radps\n"
+         "0,1,2,3,4,0,0,0,0.1\n";
+  RobotLogReader r(old, "old.csv");
+  RobotSample s;
+  REQUIRE(r.next(s));
+  CHECK(s.imu_r_radps == 0.1);
+  CHECK(std::isnan(s.imu_ax_mps2));
+  CHECK(std::isnan(s.imu_ay_mps2));
+  CHECK(r.extra_columns().empty());
+  std::stringstream bad;
+  bad << "# format: auger-robot-log v1\nt_s,omega_rpm_0,omega_rpm_1,omega_rpm_2,omega_rpm_3,x_m,y_m,psi_rad,imu_ax_mps2\n"
+         "0,1,2,3,4,0,0,0,900\n";
+  RobotLogReader rb(bad, "bad.csv");
+  try {
+    rb.next(s);
+    FAIL("accepted");
+  } catch (const LogError& e) {
+    INFO(e.what());
+    CHECK(std::string(e.what()).find("bad.csv:3:") == 0);
+    CHECK(std::string(e.what()).find("imu_ax_mps2 = 900 m/s^2 is outside -157..157") != std::string::npos);
+  }
 }

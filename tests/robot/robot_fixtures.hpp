@@ -104,7 +104,7 @@ inline DiagonalRun run_diagonal(auger::sim::ScrewMode mode, auger::AllocatorKind
   sc.terrain = "sand";
   if (noiseless_sensors) {
     sc.camera.noise_std.setZero();
-    sc.imu = sim::ImuParams{0.0, 0.0, 0.0, 0.0};
+    sc.imu = sim::ImuParams{0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
   }
   sim::Scheduler s(m, tp, sc);
   std::ostringstream log;

@@ -381,6 +381,18 @@ def test_pose_and_imu_inputs(dds):
     time.sleep(0.15)
     st = status()
     assert abs(float(st["imu_psi_rad"]) - 0.3) < 1e-4 and abs(float(st["imu_r_radps"]) - 0.01) < 1e-4
+    # Its linear_acceleration's x, y reach augerd unless its covariance[0] is -1 (REP 145: absent)
+    # or all three are 0 (never filled in: an accelerometer reads gravity), as in the message above.
+    assert st["imu_ax_mps2"] == "nan"
+    w["Imu"].write(m.Imu(header=stamp_now(), orientation=quat(0.3), angular_velocity=m.Vector3(z=0.01),
+                         linear_acceleration=m.Vector3(x=0.25, y=-0.125, z=9.81)))
+    time.sleep(0.15)
+    st = status()
+    assert abs(float(st["imu_ax_mps2"]) - 0.25) < 1e-4 and abs(float(st["imu_ay_mps2"]) + 0.125) < 1e-4
+    w["Imu"].write(m.Imu(header=stamp_now(), orientation=quat(0.3), angular_velocity=m.Vector3(z=0.01),
+                         linear_acceleration=m.Vector3(x=0.25), linear_acceleration_covariance=[-1.0] + [0.0] * 8))
+    time.sleep(0.15)
+    assert status()["imu_ax_mps2"] == "nan"
     # A yaw rate of 1e100 rad/s (beyond any gyro's full scale) is refused, and the diagnostics say why.
     refused(w["Imu"], m.Imu(header=stamp_now(), orientation=quat(0.3), angular_velocity=m.Vector3(z=1e100)), "imu rate 1e100")
     assert "r_radps = 1e+100 rad/s is outside -35..35 rad/s" in last_refusal(col)

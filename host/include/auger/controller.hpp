@@ -52,6 +52,11 @@ struct SensorInput {
   double imu_psi_rad = 0;
   bool has_imu_r = false;
   double imu_r_radps = 0;
+  // The IMU's specific force in the body frame (x forward, y left; m/s^2): the body's
+  // acceleration minus gravity's, a_x = u' - r v, a_y = v' + r u by eq. (1) (docs/model-notes.md).
+  // Only KinematicVelocity reads it (the controller's EKF does not).
+  bool has_imu_acc = false;
+  double imu_ax_mps2 = 0, imu_ay_mps2 = 0;
 };
 
 class Controller {

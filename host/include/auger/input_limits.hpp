@@ -36,6 +36,9 @@ inline constexpr InputBound kHeadingSd{"heading standard deviation", "rad", 1e-6
                                        "1 urad .. 10 rad: a heading sd above pi says nothing"};
 // Yaw rate: a MEMS gyro's largest full scale, 2000 deg/s.
 inline constexpr InputBound kYawRate{"yaw rate", "rad/s", -35, 35, "a MEMS gyro's 2000 deg/s full scale"};
+// Linear acceleration (an accelerometer's specific force): a MEMS accelerometer's largest full
+// scale, 16 g.
+inline constexpr InputBound kAcceleration{"acceleration", "m/s^2", -157, 157, "a MEMS accelerometer's 16 g full scale"};
 // Commanded body velocity: far above anything the screws reach (about 0.2 m/s); augerd scales
 // the screw speeds down to omega_max_rpm in any case, this only keeps the products finite.
 inline constexpr InputBound kBodySpeed{"body speed", "m/s", -10, 10,
@@ -82,6 +85,8 @@ std::string check_bound(const char* field, double v, const InputBound& b);
 std::string check_pose(double x_m, double y_m, double psi_rad, double sx_m, double sy_m, double spsi_rad);
 // An IMU heading and yaw rate (sensors socket `imu`, a DDS Imu).
 std::string check_imu(double psi_rad, double r_radps);
+// An IMU's body-frame specific force (ax forward, ay left).
+std::string check_imu_acceleration(double ax_mps2, double ay_mps2);
 // A `goto` goal.
 std::string check_goal(double x_m, double y_m, double psi_rad);
 // A `vel` body velocity (a DDS Twist).

@@ -145,6 +145,7 @@ struct RobotSample {
   double imu_psi_rad = kNotMeasured, imu_r_radps = kNotMeasured;
   double xd_m = kNotMeasured, yd_m = kNotMeasured, psid_rad = kNotMeasured;
   double loop_dt_s = kNotMeasured;
+  double imu_ax_mps2 = kNotMeasured, imu_ay_mps2 = kNotMeasured;  // the IMU's body-frame specific force
 };
 
 // All robot-log column names in the order the writer uses.
