@@ -42,6 +42,22 @@ def quaternion_problem(x, y, z, w) -> tuple[str, str] | None:
     return None
 
 
+def absent_by_covariance(parent, name: str) -> tuple[str, str] | None:
+    """(kind, the value) when sensor_msgs/Imu's field `name` of `parent` carries no measurement:
+    its covariance's first element is -1 (REP 145), or it is a linear acceleration of exactly
+    0, 0, 0 (an accelerometer always reads gravity: the field was never filled in, as augerd's
+    ROS 2 input takes it, docs/ros2.md)."""
+    cov = getattr(parent, name + "_covariance")
+    if len(cov) and cov[0] == -1:
+        return ("no %s: %s_covariance[0] = -1, the sensor_msgs/Imu convention for a sensor without one"
+                % (name.replace("_", " "), name), "-1")
+    if name == "linear_acceleration":
+        a = getattr(parent, name)
+        if a.x == 0 and a.y == 0 and a.z == 0:
+            return "no linear acceleration: 0, 0, 0 (an accelerometer always reads gravity)", "0 0 0"
+    return None
+
+
 class Accessor:
     """A field path resolved against a message type once: how to get the value, and its kind."""
 
@@ -81,9 +97,10 @@ class Accessor:
                 node, arg = arg[0]
             elif node in (Nodetype.ARRAY, Nodetype.SEQUENCE):
                 raise LookupError("field '%s': %s is an array; name an element, e.g. %s[0]" % (path, part, part))
-            if n == len(parts) - 1 and index is None and part + "_covariance" in fields:
-                # sensor_msgs/Imu: orientation_covariance[0] = -1 says "no orientation estimate"
-                self.covariance = part + "_covariance"
+            if index is None and part + "_covariance" in fields:
+                # sensor_msgs/Imu (REP 145): orientation_covariance[0] = -1 says "no orientation
+                # estimate", and so for angular_velocity and linear_acceleration and their parts
+                self.covariance = (n, part)
             self.steps.append((part, index))
             if node == Nodetype.NAME:
                 typ, kind = arg, "message"
@@ -98,18 +115,16 @@ class Accessor:
 
     def get(self, msg) -> tuple[float, tuple[str, str] | None]:
         """(value, (kind, the value) when it is no value) of one message."""
-        v, parent = msg, msg
-        for name, index in self.steps:
-            parent = v
+        v = msg
+        for n, (name, index) in enumerate(self.steps):
+            if self.covariance is not None and self.covariance[0] == n:
+                p = absent_by_covariance(v, name)
+                if p:
+                    return math.nan, p
             v = getattr(v, name)
             if index is not None:
                 v = v[index]
         if self.kind == "quaternion":
-            if self.covariance is not None:
-                cov = getattr(parent, self.covariance)
-                if len(cov) and cov[0] == -1:
-                    return math.nan, ("no orientation: %s[0] = -1, the sensor_msgs/Imu convention for a sensor "
-                                      "without one" % self.covariance, "-1")
             p = quaternion_problem(v.x, v.y, v.z, v.w)
             return (math.nan, p) if p else (yaw_of(v.x, v.y, v.z, v.w), None)
         if self.kind == "string":

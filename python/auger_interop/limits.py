@@ -23,6 +23,7 @@ _SCREW_RPM = 327.67               # the setpoint frame's int16 in 0.01 rpm
 _POSITION_M = 1e7                 # UTM northings
 _HEADING_RAD = 1000.0             # an unwrapped yaw after 159 turns
 _YAW_RATE_RADPS = 35.0            # a MEMS gyro's 2000 deg/s
+_ACCELERATION_MPS2 = 157.0        # a MEMS accelerometer's 16 g
 
 
 def value_bound(column: str) -> float | None:
@@ -35,6 +36,8 @@ def value_bound(column: str) -> float | None:
         return _HEADING_RAD
     if column == "imu_r_radps":
         return _YAW_RATE_RADPS
+    if column in ("imu_ax_mps2", "imu_ay_mps2"):
+        return _ACCELERATION_MPS2
     return None
 
 

@@ -49,7 +49,7 @@ POSE_TYPES = ("geometry_msgs/msg/PoseStamped", "geometry_msgs/msg/PoseWithCovari
 
 def log_to_bag(log_path, bag_path, storage="sqlite3", t0_ns=1_767_225_600_123_000_000,
                feedback_every=1, motor_ids=("0", "1", "2", "3"), feedback_phase=0, versions=None, imu_every=1,
-               imu_orientation="fused", pose_type=POSE_TYPES[0], clock=None):
+               imu_orientation="fused", imu_acceleration="measured", pose_type=POSE_TYPES[0], clock=None):
     """Writes the log's rows as messages stamped t0_ns + t_s (receive time and header alike), in
     row order (the recording order).
     feedback_every: the motor feedback only every n-th row (the group's modules: 5 Hz), screw i's
@@ -58,7 +58,9 @@ def log_to_bag(log_path, bag_path, storage="sqlite3", t0_ns=1_767_225_600_123_00
       definition is the one the bag embeds);
     imu_every: the IMU every n-th row; imu_orientation: "fused" (the BNO080's), "none"
       (orientation_covariance[0] = -1, quaternion zero: sensor_msgs/Imu's "no orientation"),
-      "zero" (quaternion 0, 0, 0, 0 without saying so);
+      "zero" (quaternion 0, 0, 0, 0 without saying so); imu_acceleration: "measured" (the log's
+      imu_ax_mps2, imu_ay_mps2, gravity in z), "none" (linear_acceleration_covariance[0] = -1),
+      "zero" (0, 0, 0: a driver that never fills it in);
     pose_type: the type on /robot_pose (None: no pose topic);
     clock: stamp of row time t_ns (ns since t0) -> the recorder's stamp (a clock step)."""
     store = typestore_with_group_types(versions)
@@ -129,11 +131,15 @@ def log_to_bag(log_path, bag_path, storage="sqlite3", t0_ns=1_767_225_600_123_00
                 if imu_orientation != "fused":
                     q = Q(x=0.0, y=0.0, z=0.0, w=0.0)
                     cov[0] = -1.0 if imu_orientation == "none" else 0.0
+                acc, acc_cov = V3(x=val("imu_ax_mps2", k), y=val("imu_ay_mps2", k), z=9.81), np.zeros(9)
+                if imu_acceleration != "measured":
+                    acc = V3(x=0.0, y=0.0, z=0.0)
+                    acc_cov[0] = -1.0 if imu_acceleration == "none" else 0.0
                 m = T["sensor_msgs/msg/Imu"](
                     header=header(ns, "bno_imu_frame"), orientation=q,
                     orientation_covariance=cov, angular_velocity=V3(x=0.0, y=0.0, z=val("imu_r_radps", k)),
-                    angular_velocity_covariance=np.zeros(9), linear_acceleration=V3(x=0.0, y=0.0, z=9.81),
-                    linear_acceleration_covariance=np.zeros(9))
+                    angular_velocity_covariance=np.zeros(9), linear_acceleration=acc,
+                    linear_acceleration_covariance=acc_cov)
                 w.write(imu, ns, store.serialize_cdr(m, m.__msgtype__))
             if k % 10 == 0:
                 m = T["geometry_msgs/msg/Twist"](linear=V3(x=0.05, y=0.0, z=0.0), angular=V3(x=0.0, y=0.0, z=0.0))

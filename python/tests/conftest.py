@@ -42,7 +42,8 @@ def write_log(path, t_s, columns, meta=None):
 
 
 def synthetic_log(path, seconds=6.0, pose_every=5):
-    """Smooth screw speeds, a pose every pose_every rows, an IMU heading that crosses +-pi."""
+    """Smooth screw speeds, a pose every pose_every rows, an IMU heading that crosses +-pi and an
+    accelerometer's body-frame specific force."""
     t = np.round(np.arange(0, seconds + 1e-9, 0.01), 10)
     cols = {}
     for i in range(4):
@@ -56,5 +57,7 @@ def synthetic_log(path, seconds=6.0, pose_every=5):
     cols["psi_rad"] = np.where(pose, np.mod(3.0 + 0.1 * t + np.pi, 2 * np.pi) - np.pi, np.nan)
     cols["imu_psi_rad"] = np.mod(3.0 + 0.1 * t + np.pi, 2 * np.pi) - np.pi
     cols["imu_r_radps"] = np.full(len(t), 0.1)
+    cols["imu_ax_mps2"] = 0.05 * np.sin(1.3 * t)
+    cols["imu_ay_mps2"] = -0.02 + 0.01 * np.cos(2.1 * t)
     write_log(path, t, cols)
     return t, cols

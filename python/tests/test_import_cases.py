@@ -43,6 +43,30 @@ def test_imu_without_orientation_leaves_its_heading_empty(tmp_path, storage, ori
     assert "message 1 at t = 0.000 s" in err
 
 
+@pytest.mark.parametrize("acceleration,why", [
+    ("none", "no linear acceleration: linear_acceleration_covariance[0] = -1"),
+    ("zero", "no linear acceleration: 0, 0, 0 (an accelerometer always reads gravity)")])
+def test_imu_without_acceleration_leaves_it_empty(tmp_path, acceleration, why):
+    """REP 145's "absent", and the all-zero vector of a driver that never fills the field in (as
+    augerd's ROS 2 input reads them): the accelerometer's columns empty and why said; the heading
+    and rate of the same messages kept. A measured one is kept (float64 on the wire: exactly)."""
+    t, cols = synthetic_log(tmp_path / "in.csv", seconds=4)
+    bag = bag_of(tmp_path, "sqlite3", imu_acceleration="measured", name="measured")
+    assert run_import(bag, "--out", tmp_path / "measured.csv", "--terrain", "sand")[0] == 0
+    _, got = read_log(tmp_path / "measured.csv")
+    for c in ("imu_ax_mps2", "imu_ay_mps2"):
+        np.testing.assert_array_equal(got[c], cols[c])
+    bag = bag_of(tmp_path, "sqlite3", imu_acceleration=acceleration)
+    code, out, err = run_import(bag, "--out", tmp_path / "out.csv", "--terrain", "sand")
+    assert code == 0, err
+    _, got = read_log(tmp_path / "out.csv")
+    assert np.isnan(got["imu_ax_mps2"]).all() and np.isnan(got["imu_ay_mps2"]).all()
+    np.testing.assert_allclose(got["imu_r_radps"], 0.1)
+    assert not np.isnan(got["imu_psi_rad"]).any()
+    assert ("column imu_ax_mps2 (/bno080_imu field linear_acceleration.x): 401 of 401 samples left empty, "
+            + why) in err
+
+
 @pytest.mark.parametrize("storage,stripped", [("sqlite3", True), ("sqlite3", False), ("mcap", False)])
 @pytest.mark.parametrize("versions", [{FEEDBACK: 1}, {FEEDBACK: 2, COMMAND: 3}, {COMMAND: 1}],
                          ids=["feedback-2021-04", "before-2021-04", "command-int32-2023"])
