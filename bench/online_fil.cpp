@@ -307,16 +307,19 @@ int trace(const std::string& dir, const std::string& log, const Options& o, cons
   const Replay rp = load(dir, e, o);
   OnlineEstimator est(e.terrain == "sand" ? sand : grass, o.cfg);
   std::uint64_t w = est.windows();
-  std::printf("t_s,e_x,e_y,e_psi,sd_x,sd_y,u,v,sigma_long,cusum,change,kin_sd,u_true,v_true\n");
+  std::printf("t_s,e_x,e_y,e_psi,sd_x,sd_y,u,v,sigma_long,cusum,change,kin_sd,u_true,v_true,omega_min_rpm\n");
+  double omega_min = INFINITY;  // the slowest screw over the window (rpm)
   for (std::size_t k = 0; k < rp.t.size(); ++k) {
     const bool ch = est.step(rp.omega[k], rp.zeta[k], kDt);
+    omega_min = std::min(omega_min, rp.omega[k].cwiseAbs().minCoeff());
     if (est.windows() == w) continue;
     w = est.windows();
     const Vec3& iv = est.last_innovation();
-    std::printf("%.2f,%.3g,%.3g,%.3g,%.3g,%.3g,%.4f,%.4f,%.4f,%.2f,%d,%.4f,%.4f,%.4f\n", rp.t[k], iv[0], iv[1], iv[2],
+    std::printf("%.2f,%.3g,%.3g,%.3g,%.3g,%.3g,%.4f,%.4f,%.4f,%.2f,%d,%.4f,%.4f,%.4f,%.2f\n", rp.t[k], iv[0], iv[1], iv[2],
                 std::sqrt(est.configured_noise_var()[0] + est.last_innovation_param_var()[0]),
                 std::sqrt(est.configured_noise_var()[1] + est.last_innovation_param_var()[1]), rp.zeta[k][0], rp.zeta[k][1],
-                est.estimate().value[0], est.cusum(), ch ? 1 : 0, rp.sd[k], rp.zeta_true[k][0], rp.zeta_true[k][1]);
+                est.estimate().value[0], est.cusum(), ch ? 1 : 0, rp.sd[k], rp.zeta_true[k][0], rp.zeta_true[k][1], omega_min);
+    omega_min = INFINITY;
   }
   return 0;
 }
@@ -336,6 +339,7 @@ int main(int argc, char** argv) {
        {"--window-s", "S", "OnlineConfig::window_s, the regression's window (default 0.1)"},
        {"--detect-s", "S", "an alarm later than S after a change is a miss (default 3)"},
        {"--slow-screw-rpm", "X", "OnlineConfig::slow_screw_rpm (default 2; 0: every window)"},
+       {"--slow-screw-guard-s", "S", "OnlineConfig::slow_screw_guard_s (default 0.02; 0: as before it)"},
        {"--max-pose-age", "S", "KinematicVelocityConfig::max_pose_age_s (default 0.12; 1e9: never unknown)"},
        {"--omega-delay", "N", "the screw speeds fed N cycles late (the velocity's lag)"},
        {"--no-acc", "", "leave the logged accelerometer out (KinematicVelocityConfig::use_accelerometer off)"},
@@ -365,6 +369,7 @@ int main(int argc, char** argv) {
       !args.number("online_fil", "--detect-s", 3.0, o.detect_s) ||
       !args.number("online_fil", "--window-s", 0.1, o.cfg.window_s) ||
       !args.number("online_fil", "--slow-screw-rpm", 2.0, o.cfg.slow_screw_rpm) ||
+      !args.number("online_fil", "--slow-screw-guard-s", o.cfg.slow_screw_guard_s, o.cfg.slow_screw_guard_s) ||
       !args.number("online_fil", "--max-pose-age", o.kin.max_pose_age_s, o.kin.max_pose_age_s) ||
       !args.number("online_fil", "--camera-corr-s", 0.0, o.kin.pose_noise_corr_s) ||
       !args.number("online_fil", "--acc-noise", o.kin.acc_noise_mps2_per_sqrt_hz, o.kin.acc_noise_mps2_per_sqrt_hz) ||
