@@ -59,6 +59,7 @@ struct Options {
   bool truth = false;
   std::vector<double> thresholds{8, 16, 24, 32, 40, 60, 80};
   double detect_s = 3.0;  // an alarm later than this after a change is a miss
+  bool list_missed = false;
 };
 
 // One log's inputs to the estimator, cycle by cycle.
@@ -247,6 +248,7 @@ int curve(const std::string& dir, const std::vector<Entry>& logs, const Options&
   std::vector<std::vector<double>> delays(nt);
   std::vector<int> missed(nt, 0), n_changes(nt, 0);
   std::vector<long> alarms_uniform(nt, 0), alarms_field_extra(nt, 0);
+  std::vector<std::string> missed_list(nt);  // "log t_s" of each missed change
   double h_uniform = 0, h_field = 0;
   for (const Entry& e : logs) {
     const Replay rp = load(dir, e, o);
@@ -279,6 +281,9 @@ int curve(const std::string& dir, const std::vector<Entry>& logs, const Options&
             used[a] = true;
           }
         if (std::isnan(d)) {
+          char b[160];
+          std::snprintf(b, sizeof b, "%s%s %.2f s", missed_list[i].empty() ? "" : ", ", e.log.c_str(), ch[c2]);
+          missed_list[i] += b;
           ++missed[i];
           delays[i].push_back(INFINITY);
         } else {
@@ -297,6 +302,8 @@ int curve(const std::string& dir, const std::vector<Entry>& logs, const Options&
     std::printf("| %g | %.2f s | %.2f s | %d of %d | %.2f | %.1f |\n", o.thresholds[i], quantile(delays[i], 0.5),
                 quantile(delays[i], 0.95), missed[i], n_changes[i], double(alarms_uniform[i]) / h_uniform,
                 double(alarms_field_extra[i]) / h_field);
+  if (o.list_missed)
+    for (std::size_t i = 0; i < nt; ++i) std::printf("\nmissed at threshold %g: %s\n", o.thresholds[i], missed_list[i].c_str());
   return 0;
 }
 
@@ -348,6 +355,7 @@ int main(int argc, char** argv) {
        {"--camera-corr-s", "S", "KinematicVelocityConfig::pose_noise_corr_s (default 0: white)"},
        {"--no-whiten", "", "the detector on the innovation as it is (OnlineConfig::whiten off)"},
        {"--thresholds", "A,B,...", "the detector's thresholds for curve"},
+       {"--list-missed", "", "curve: name each missed change (log and time) per threshold"},
        {"--trace", "LOG", "instead: every window of LOG (CSV: innovation, sigma_long, CUSUM)"}},
       "Exit 2: bad usage.\n"};
   Args args;
@@ -361,6 +369,7 @@ int main(int argc, char** argv) {
   o.cfg.velocity_sd = Vec3(0.012, 0.012, 0.01);
   o.cfg.drag_prior_rel_sd = 0.01;
   o.truth = args.has("--truth");
+  o.list_missed = args.has("--list-missed");
   o.cfg.whiten = !args.has("--no-whiten");
   long delay = 0;
   if (!args.whole("online_fil", "--omega-delay", 0, 0, 100, delay)) return 2;
