@@ -69,6 +69,9 @@ struct Replay {
   std::vector<double> t;
   std::vector<double> sd;  // the kinematic filter's SD of u (m/s)
   std::vector<Vec3> zeta_true;
+  // Cycles in which a screw's command (cmd_rpm_i) reversed for that one cycle: -3, +4.8, -3 rpm
+  // passes the screw through zero, where it blocks in sand; -1: the log has no commands.
+  long command_blips = -1;
 };
 
 // The true body velocity at each truth row (central differences of the true pose, eq. (1) turned back).
@@ -98,8 +101,10 @@ Replay load(const std::string& dir, const Entry& e, const Options& o) {
   const int cx = col("x_m"), cy = col("y_m"), cp = col("psi_rad"), cip = col("imu_psi_rad"), cir = col("imu_r_radps");
   // The accelerometer's columns, absent from logs written before the simulated IMU had one.
   const int cax = r.column_index("imu_ax_mps2"), cay = r.column_index("imu_ay_mps2");
-  int co[4];
+  int co[4], cc[4];
   for (int i = 0; i < 4; ++i) co[i] = col("omega_rpm_" + std::to_string(i));
+  for (int i = 0; i < 4; ++i) cc[i] = r.column_index("cmd_rpm_" + std::to_string(i));
+  Vec4 cmd1 = Vec4::Zero(), cmd2 = Vec4::Zero();  // the command one and two cycles back
   const std::vector<Vec3> vt = true_velocity(dir + "/" + e.truth);
   KinematicVelocity kin(o.kin);  // augerd's online_kin_ (default configuration)
   Replay out;
@@ -124,6 +129,15 @@ Replay load(const std::string& dir, const Entry& e, const Options& o) {
     }
     Vec4 om;
     for (int i = 0; i < 4; ++i) om[i] = r.value(co[i]);
+    if (cc[0] >= 0 && cc[1] >= 0 && cc[2] >= 0 && cc[3] >= 0) {
+      if (out.command_blips < 0) out.command_blips = 0;
+      for (int i = 0; i < 4; ++i) {
+        const double c = r.value(cc[i]);
+        if (cmd2[i] * cmd1[i] < 0 && cmd2[i] * c > 0) ++out.command_blips;
+        cmd2[i] = cmd1[i];
+        cmd1[i] = std::isnan(c) ? 0.0 : c;
+      }
+    }
     const Vec3 zk = kin.step(s, kDt);
     out.sd.push_back(kin.body_velocity_sd()[0]);
     const std::size_t k = out.t.size();
@@ -161,6 +175,7 @@ int stats(const std::string& dir, const std::vector<Entry>& logs, const Options&
   double hours = 0;
   std::vector<std::vector<double>> series[3];  // per log, per window (NaN: not informative)
   std::map<std::string, std::vector<double>> sigma;  // terrain and drive: sigma_long each window from 10 s
+  std::map<std::string, std::pair<long, long>> blips;  // terrain and drive: command reversals, cycles
   Vec3 verr2 = Vec3::Zero(), dverr2 = Vec3::Zero();  // the velocity's error against the truth, squared
   double verr_n = 0, dverr_n = 0;
   for (const Entry& e : logs) {
@@ -185,6 +200,11 @@ int stats(const std::string& dir, const std::vector<Entry>& logs, const Options&
       }
     }
     hours += rp.t.size() * kDt / 3600;
+    if (rp.command_blips >= 0) {
+      auto& b = blips[e.terrain + ", " + e.drive];
+      b.first += rp.command_blips;
+      b.second += long(rp.t.size());
+    }
     for (std::size_t k = 0; k < rp.t.size(); ++k) {
       if (rp.t[k] < 5) continue;
       const Vec3 d = rp.zeta[k] - rp.zeta_true[k];
@@ -239,6 +259,11 @@ int stats(const std::string& dir, const std::vector<Entry>& logs, const Options&
               sand.terrain.sigma_long, grass.terrain.sigma_long);
   for (const auto& [k, v] : sigma)
     std::printf("| %s | %.3f N/rpm | %.3f-%.3f N/rpm |\n", k.c_str(), quantile(v, 0.5), quantile(v, 0.05), quantile(v, 0.95));
+  if (!blips.empty()) {
+    std::printf("\nscrew commands reversed for one cycle (cmd_rpm_i: a sign change undone the next cycle), per 100 "
+                "cycles:\n\n| terrain, drive | reversals per 100 cycles |\n|---|---|\n");
+    for (const auto& [k, b] : blips) std::printf("| %s | %.1f |\n", k.c_str(), 100.0 * double(b.first) / double(b.second));
+  }
   return 0;
 }
 
