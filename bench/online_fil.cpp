@@ -59,6 +59,7 @@ struct Options {
   bool truth = false;
   std::vector<double> thresholds{8, 16, 24, 32, 40, 60, 80};
   double detect_s = 3.0;  // an alarm later than this after a change is a miss
+  bool list_missed = false;
 };
 
 // One log's inputs to the estimator, cycle by cycle.
@@ -68,6 +69,9 @@ struct Replay {
   std::vector<double> t;
   std::vector<double> sd;  // the kinematic filter's SD of u (m/s)
   std::vector<Vec3> zeta_true;
+  // Cycles in which a screw's command (cmd_rpm_i) reversed for that one cycle: -3, +4.8, -3 rpm
+  // passes the screw through zero, where it blocks in sand; -1: the log has no commands.
+  long command_blips = -1;
 };
 
 // The true body velocity at each truth row (central differences of the true pose, eq. (1) turned back).
@@ -97,8 +101,10 @@ Replay load(const std::string& dir, const Entry& e, const Options& o) {
   const int cx = col("x_m"), cy = col("y_m"), cp = col("psi_rad"), cip = col("imu_psi_rad"), cir = col("imu_r_radps");
   // The accelerometer's columns, absent from logs written before the simulated IMU had one.
   const int cax = r.column_index("imu_ax_mps2"), cay = r.column_index("imu_ay_mps2");
-  int co[4];
+  int co[4], cc[4];
   for (int i = 0; i < 4; ++i) co[i] = col("omega_rpm_" + std::to_string(i));
+  for (int i = 0; i < 4; ++i) cc[i] = r.column_index("cmd_rpm_" + std::to_string(i));
+  Vec4 cmd1 = Vec4::Zero(), cmd2 = Vec4::Zero();  // the command one and two cycles back
   const std::vector<Vec3> vt = true_velocity(dir + "/" + e.truth);
   KinematicVelocity kin(o.kin);  // augerd's online_kin_ (default configuration)
   Replay out;
@@ -123,6 +129,15 @@ Replay load(const std::string& dir, const Entry& e, const Options& o) {
     }
     Vec4 om;
     for (int i = 0; i < 4; ++i) om[i] = r.value(co[i]);
+    if (cc[0] >= 0 && cc[1] >= 0 && cc[2] >= 0 && cc[3] >= 0) {
+      if (out.command_blips < 0) out.command_blips = 0;
+      for (int i = 0; i < 4; ++i) {
+        const double c = r.value(cc[i]);
+        if (cmd2[i] * cmd1[i] < 0 && cmd2[i] * c > 0) ++out.command_blips;
+        cmd2[i] = cmd1[i];
+        cmd1[i] = std::isnan(c) ? 0.0 : c;
+      }
+    }
     const Vec3 zk = kin.step(s, kDt);
     out.sd.push_back(kin.body_velocity_sd()[0]);
     const std::size_t k = out.t.size();
@@ -160,6 +175,7 @@ int stats(const std::string& dir, const std::vector<Entry>& logs, const Options&
   double hours = 0;
   std::vector<std::vector<double>> series[3];  // per log, per window (NaN: not informative)
   std::map<std::string, std::vector<double>> sigma;  // terrain and drive: sigma_long each window from 10 s
+  std::map<std::string, std::pair<long, long>> blips;  // terrain and drive: command reversals, cycles
   Vec3 verr2 = Vec3::Zero(), dverr2 = Vec3::Zero();  // the velocity's error against the truth, squared
   double verr_n = 0, dverr_n = 0;
   for (const Entry& e : logs) {
@@ -184,6 +200,11 @@ int stats(const std::string& dir, const std::vector<Entry>& logs, const Options&
       }
     }
     hours += rp.t.size() * kDt / 3600;
+    if (rp.command_blips >= 0) {
+      auto& b = blips[e.terrain + ", " + e.drive];
+      b.first += rp.command_blips;
+      b.second += long(rp.t.size());
+    }
     for (std::size_t k = 0; k < rp.t.size(); ++k) {
       if (rp.t[k] < 5) continue;
       const Vec3 d = rp.zeta[k] - rp.zeta_true[k];
@@ -238,6 +259,11 @@ int stats(const std::string& dir, const std::vector<Entry>& logs, const Options&
               sand.terrain.sigma_long, grass.terrain.sigma_long);
   for (const auto& [k, v] : sigma)
     std::printf("| %s | %.3f N/rpm | %.3f-%.3f N/rpm |\n", k.c_str(), quantile(v, 0.5), quantile(v, 0.05), quantile(v, 0.95));
+  if (!blips.empty()) {
+    std::printf("\nscrew commands reversed for one cycle (cmd_rpm_i: a sign change undone the next cycle), per 100 "
+                "cycles:\n\n| terrain, drive | reversals per 100 cycles |\n|---|---|\n");
+    for (const auto& [k, b] : blips) std::printf("| %s | %.1f |\n", k.c_str(), 100.0 * double(b.first) / double(b.second));
+  }
   return 0;
 }
 
@@ -247,6 +273,7 @@ int curve(const std::string& dir, const std::vector<Entry>& logs, const Options&
   std::vector<std::vector<double>> delays(nt);
   std::vector<int> missed(nt, 0), n_changes(nt, 0);
   std::vector<long> alarms_uniform(nt, 0), alarms_field_extra(nt, 0);
+  std::vector<std::string> missed_list(nt);  // "log t_s" of each missed change
   double h_uniform = 0, h_field = 0;
   for (const Entry& e : logs) {
     const Replay rp = load(dir, e, o);
@@ -279,6 +306,9 @@ int curve(const std::string& dir, const std::vector<Entry>& logs, const Options&
             used[a] = true;
           }
         if (std::isnan(d)) {
+          char b[160];
+          std::snprintf(b, sizeof b, "%s%s %.2f s", missed_list[i].empty() ? "" : ", ", e.log.c_str(), ch[c2]);
+          missed_list[i] += b;
           ++missed[i];
           delays[i].push_back(INFINITY);
         } else {
@@ -297,6 +327,8 @@ int curve(const std::string& dir, const std::vector<Entry>& logs, const Options&
     std::printf("| %g | %.2f s | %.2f s | %d of %d | %.2f | %.1f |\n", o.thresholds[i], quantile(delays[i], 0.5),
                 quantile(delays[i], 0.95), missed[i], n_changes[i], double(alarms_uniform[i]) / h_uniform,
                 double(alarms_field_extra[i]) / h_field);
+  if (o.list_missed)
+    for (std::size_t i = 0; i < nt; ++i) std::printf("\nmissed at threshold %g: %s\n", o.thresholds[i], missed_list[i].c_str());
   return 0;
 }
 
@@ -307,16 +339,19 @@ int trace(const std::string& dir, const std::string& log, const Options& o, cons
   const Replay rp = load(dir, e, o);
   OnlineEstimator est(e.terrain == "sand" ? sand : grass, o.cfg);
   std::uint64_t w = est.windows();
-  std::printf("t_s,e_x,e_y,e_psi,sd_x,sd_y,u,v,sigma_long,cusum,change,kin_sd,u_true,v_true\n");
+  std::printf("t_s,e_x,e_y,e_psi,sd_x,sd_y,u,v,sigma_long,cusum,change,kin_sd,u_true,v_true,omega_min_rpm\n");
+  double omega_min = INFINITY;  // the slowest screw over the window (rpm)
   for (std::size_t k = 0; k < rp.t.size(); ++k) {
     const bool ch = est.step(rp.omega[k], rp.zeta[k], kDt);
+    omega_min = std::min(omega_min, rp.omega[k].cwiseAbs().minCoeff());
     if (est.windows() == w) continue;
     w = est.windows();
     const Vec3& iv = est.last_innovation();
-    std::printf("%.2f,%.3g,%.3g,%.3g,%.3g,%.3g,%.4f,%.4f,%.4f,%.2f,%d,%.4f,%.4f,%.4f\n", rp.t[k], iv[0], iv[1], iv[2],
+    std::printf("%.2f,%.3g,%.3g,%.3g,%.3g,%.3g,%.4f,%.4f,%.4f,%.2f,%d,%.4f,%.4f,%.4f,%.2f\n", rp.t[k], iv[0], iv[1], iv[2],
                 std::sqrt(est.configured_noise_var()[0] + est.last_innovation_param_var()[0]),
                 std::sqrt(est.configured_noise_var()[1] + est.last_innovation_param_var()[1]), rp.zeta[k][0], rp.zeta[k][1],
-                est.estimate().value[0], est.cusum(), ch ? 1 : 0, rp.sd[k], rp.zeta_true[k][0], rp.zeta_true[k][1]);
+                est.estimate().value[0], est.cusum(), ch ? 1 : 0, rp.sd[k], rp.zeta_true[k][0], rp.zeta_true[k][1], omega_min);
+    omega_min = INFINITY;
   }
   return 0;
 }
@@ -336,6 +371,7 @@ int main(int argc, char** argv) {
        {"--window-s", "S", "OnlineConfig::window_s, the regression's window (default 0.1)"},
        {"--detect-s", "S", "an alarm later than S after a change is a miss (default 3)"},
        {"--slow-screw-rpm", "X", "OnlineConfig::slow_screw_rpm (default 2; 0: every window)"},
+       {"--slow-screw-guard-s", "S", "OnlineConfig::slow_screw_guard_s (default 0.02; 0: as before it)"},
        {"--max-pose-age", "S", "KinematicVelocityConfig::max_pose_age_s (default 0.12; 1e9: never unknown)"},
        {"--omega-delay", "N", "the screw speeds fed N cycles late (the velocity's lag)"},
        {"--no-acc", "", "leave the logged accelerometer out (KinematicVelocityConfig::use_accelerometer off)"},
@@ -344,6 +380,7 @@ int main(int argc, char** argv) {
        {"--camera-corr-s", "S", "KinematicVelocityConfig::pose_noise_corr_s (default 0: white)"},
        {"--no-whiten", "", "the detector on the innovation as it is (OnlineConfig::whiten off)"},
        {"--thresholds", "A,B,...", "the detector's thresholds for curve"},
+       {"--list-missed", "", "curve: name each missed change (log and time) per threshold"},
        {"--trace", "LOG", "instead: every window of LOG (CSV: innovation, sigma_long, CUSUM)"}},
       "Exit 2: bad usage.\n"};
   Args args;
@@ -357,6 +394,7 @@ int main(int argc, char** argv) {
   o.cfg.velocity_sd = Vec3(0.012, 0.012, 0.01);
   o.cfg.drag_prior_rel_sd = 0.01;
   o.truth = args.has("--truth");
+  o.list_missed = args.has("--list-missed");
   o.cfg.whiten = !args.has("--no-whiten");
   long delay = 0;
   if (!args.whole("online_fil", "--omega-delay", 0, 0, 100, delay)) return 2;
@@ -365,6 +403,7 @@ int main(int argc, char** argv) {
       !args.number("online_fil", "--detect-s", 3.0, o.detect_s) ||
       !args.number("online_fil", "--window-s", 0.1, o.cfg.window_s) ||
       !args.number("online_fil", "--slow-screw-rpm", 2.0, o.cfg.slow_screw_rpm) ||
+      !args.number("online_fil", "--slow-screw-guard-s", o.cfg.slow_screw_guard_s, o.cfg.slow_screw_guard_s) ||
       !args.number("online_fil", "--max-pose-age", o.kin.max_pose_age_s, o.kin.max_pose_age_s) ||
       !args.number("online_fil", "--camera-corr-s", 0.0, o.kin.pose_noise_corr_s) ||
       !args.number("online_fil", "--acc-noise", o.kin.acc_noise_mps2_per_sqrt_hz, o.kin.acc_noise_mps2_per_sqrt_hz) ||

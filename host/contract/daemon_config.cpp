@@ -209,6 +209,8 @@ void read_online(const Reader& r, const toml::table& t, DaemonConfig& c) {
           {"drag_prior_rel_sd",
            [&](const toml::node& v) { o.drag_prior_rel_sd = r.number(v, "drag_prior_rel_sd", 1e-4, 10); }},
           {"slow_screw_rpm", [&](const toml::node& v) { o.slow_screw_rpm = r.number(v, "slow_screw_rpm", 0, 50); }},
+          {"slow_screw_guard_s",
+           [&](const toml::node& v) { o.slow_screw_guard_s = r.number(v, "slow_screw_guard_s", 0, 0.5); }},
           {"accelerometer", [&](const toml::node& v) { c.online_kin.use_accelerometer = r.boolean(v, "accelerometer"); }},
           {"acc_noise_mps2_per_sqrt_hz",
            [&](const toml::node& v) {

@@ -59,9 +59,10 @@ OnlineEstimator::OnlineEstimator(const Model& model, const OnlineConfig& config,
     configured_eff_[k] = std::clamp(e.configured, e.lower, e.upper);
   }
   if (!(cfg_.window_s > 0) || !(cfg_.memory_s > 0) || !(cfg_.prior_rel_sd > 0) || !(cfg_.drag_prior_rel_sd > 0) ||
-      !(cfg_.cusum_ratio > 1) || !(cfg_.cusum_threshold > 0) || !(cfg_.velocity_sd.minCoeff() > 0))
+      !(cfg_.cusum_ratio > 1) || !(cfg_.cusum_threshold > 0) || !(cfg_.velocity_sd.minCoeff() > 0) ||
+      !(cfg_.slow_screw_guard_s >= 0))
     throw std::invalid_argument("online estimation: window_s, prior_rel_sd, drag_prior_rel_sd, velocity_sd > 0, memory_s > 0, "
-                                "cusum_ratio > 1, cusum_threshold > 0");
+                                "cusum_ratio > 1, cusum_threshold > 0, slow_screw_guard_s >= 0");
   fallback_.reserve(64);  // latching a reason later allocates nothing
   P0_.setZero();  // an unused effect column: no prior variance, never moves
   for (int k = 0; k < 5 + n_eff_; ++k) P0_(k, k) = 1.0;  // an effect's prior SD is its unit
@@ -85,6 +86,8 @@ void OnlineEstimator::reset() {
   e_var_.setZero();
   e_cov1_.setZero();
   have_prev_ = false;
+  win_.valid = false;
+  last_slow_t_s_ = -1e300;
   g_ = nis_ = 0;
   rows_ = 0;
   t_s_ = 0;
@@ -199,6 +202,7 @@ bool OnlineEstimator::step(const Vec4& omega_rpm, const Vec3& zeta, double dt_s,
   if (!(dt_s > 0) || dt_s > 5 * cfg_.window_s || !omega_rpm.allFinite() || !zeta.allFinite() ||
       (n_eff_ > 0 && !eta.allFinite())) {
     have_prev_ = false;
+    win_.valid = false;  // its guard cannot be checked: left out as a slow one
     e_prev_.setConstant(NAN);  // the next window's innovation does not follow this one's
     return false;
   }
@@ -208,13 +212,20 @@ bool OnlineEstimator::step(const Vec4& omega_rpm, const Vec3& zeta, double dt_s,
     f_sum_.setZero();
     z_sum_.setZero();
     w_s_ = 0;
-    slow_ = false;
+    slow_ = slow_guarded();
     have_prev_ = true;
     effect_bases(eta, zeta, eff_prev_);
     for (int k = 0; k < n_eff_; ++k) eff_sum_[k].setZero();
     return false;
   }
-  slow_ = slow_ || omega_rpm.cwiseAbs().minCoeff() < cfg_.slow_screw_rpm;
+  const bool slow_now = omega_rpm.cwiseAbs().minCoeff() < cfg_.slow_screw_rpm;
+  if (slow_now) last_slow_t_s_ = t_s_;
+  slow_ = slow_ || slow_now;
+  const std::uint64_t before = changes_;
+  if (win_.valid) {
+    win_.slow = win_.slow || slow_now;
+    if (t_s_ >= win_.due_s - 1e-9) close_window();
+  }
   f_sum_ += (B_ * omega_rpm) * dt_s;            // eq. (7) without S: (B omega) held over the cycle
   z_sum_ += 0.5 * (zeta_prev_ + zeta) * dt_s;  // trapezoid
   zeta_prev_ = zeta;
@@ -227,21 +238,41 @@ bool OnlineEstimator::step(const Vec4& omega_rpm, const Vec3& zeta, double dt_s,
     }
   }
   w_s_ += dt_s;
-  if (w_s_ < cfg_.window_s - 1e-9) return false;
-  const std::uint64_t before = changes_;
-  end_window();
+  if (w_s_ < cfg_.window_s - 1e-9) return changes_ != before;
+  if (win_.valid) close_window();  // a guard longer than a window
+  win_.f_sum = f_sum_;
+  win_.z_sum = z_sum_;
+  win_.zeta_start = zeta_start_;
+  win_.zeta_end = zeta;
+  for (int k = 0; k < n_eff_; ++k) win_.eff_sum[k] = eff_sum_[k];
+  win_.w_s = w_s_;
+  win_.slow = slow_;
+  win_.due_s = t_s_ + (cfg_.slow_screw_rpm > 0 ? cfg_.slow_screw_guard_s : 0.0);
+  win_.valid = true;
+  if (t_s_ >= win_.due_s - 1e-9) close_window();
   zeta_start_ = zeta;
   f_sum_.setZero();
   z_sum_.setZero();
   for (int k = 0; k < n_eff_; ++k) eff_sum_[k].setZero();
   w_s_ = 0;
-  slow_ = false;
+  slow_ = slow_guarded();
   return changes_ != before;
 }
 
+// A window starting now begins within the guard after a slow screw.
+bool OnlineEstimator::slow_guarded() const {
+  return cfg_.slow_screw_guard_s > 0 && t_s_ - last_slow_t_s_ <= cfg_.slow_screw_guard_s + 1e-9;
+}
+
+void OnlineEstimator::close_window() {
+  win_.valid = false;
+  end_window();
+}
+
 void OnlineEstimator::end_window() {
-  const Vec3 fbar = f_sum_ / w_s_, zbar = z_sum_ / w_s_;
-  const Vec3 y = M_.cwiseProduct(zeta_prev_ - zeta_start_) / w_s_;
+  const double w_s = win_.w_s;
+  const Vec3 fbar = win_.f_sum / w_s, zbar = win_.z_sum / w_s;
+  const Vec3 y = M_.cwiseProduct(win_.zeta_end - win_.zeta_start) / w_s;
   const bool detecting = t_s_ >= holdoff_until_s_;
   const bool adapt = detecting && g_ < 0.25 * cfg_.cusum_threshold;
   const double rho = cfg_.cusum_ratio, log_rho = std::log(rho);
@@ -269,7 +300,7 @@ void OnlineEstimator::end_window() {
       const OnlineEffectParam& e = effects_[std::size_t(k)];
       double dg = 0;
       const double g = model_.effects[e.effect]->online_shape(e.index, theta_[5 + k] * scale_[5 + k], &dg);
-      const double basis = eff_sum_[k][j] / w_s_;
+      const double basis = win_.eff_sum[k][j] / w_s;
       phi[5 + k] = dg * basis * scale_[5 + k];
       y_j -= g * basis - phi[5 + k] * theta_[5 + k];
       if (std::fabs(phi[5 + k]) >= level) {  // P0 = 1: one prior SD's force
@@ -277,7 +308,7 @@ void OnlineEstimator::end_window() {
         informative = true;
       }
     }
-    if (slow_ || !informative) {
+    if (win_.slow || !informative) {
       e_prev_[j] = NAN;
       continue;
     }
@@ -290,7 +321,7 @@ void OnlineEstimator::end_window() {
   // Clamp to the physical ranges; a terrain parameter held at a bound is a symptom of divergence.
   for (int k = 0; k < 5 + n_eff_; ++k) {
     const double c = std::clamp(theta_[k], lo_rel_[k], hi_rel_[k]);
-    if (k < 5) at_bound_s_[k] = c != theta_[k] ? at_bound_s_[k] + w_s_ : 0.0;
+    if (k < 5) at_bound_s_[k] = c != theta_[k] ? at_bound_s_[k] + w_s : 0.0;
     theta_[k] = c;
   }
   if (!theta_.allFinite() || !P_.allFinite()) {

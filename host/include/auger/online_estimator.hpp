@@ -117,6 +117,13 @@ struct OnlineConfig {
   // N/rpm with every window in, 0.806-0.809 with 2 rpm (exact, 0.400, on frozen grass, which does
   // not block either way; docs/benchmarks.md). 0: all in (the core's model has no blocking).
   double slow_screw_rpm = 0.0;
+  // ... and every window with such a cycle within this long before its start or after its end.
+  // The logged speed is the encoder's over the last cycle, reported a cycle or two later: a
+  // screw the controller reverses or stops blocks before its speed shows it (and after). On the
+  // firmware-in-the-loop chain with the true velocity every false alarm on uniform sand was such
+  // a window next to a slow one (docs/benchmarks.md "Blocking next to slow windows"). A window
+  // is decided this long after its end (the detector's delay grows by as much); 0: at once.
+  double slow_screw_guard_s = 0.02;
   // A DOF's equation updates only when the generalized force it predicts (either term) is at
   // least this many noise SDs: standing still or one-DOF driving leaves the other DOFs' parameters
   // (and their covariance) untouched.
@@ -229,6 +236,8 @@ class OnlineEstimator {
   void restart_memory();
   void enter_fallback(const char* why);
   void end_window();
+  void close_window();
+  bool slow_guarded() const;
   void publish();
   double update_row(int dof, const VecN& phi, const VecN& phi_update, double y, bool adapt);
   void effect_bases(const Vec3& eta, const Vec3& zeta, Vec3* out) const;
@@ -262,7 +271,15 @@ class OnlineEstimator {
   Vec3 f_sum_ = Vec3::Zero(), z_sum_ = Vec3::Zero();
   double w_s_ = 0;
   bool have_prev_ = false;
-  bool slow_ = false;  // a screw slower than slow_screw_rpm in this window
+  bool slow_ = false;  // a screw slower than slow_screw_rpm in this window (or within the guard before it)
+  double last_slow_t_s_ = -1e300;  // the end of the last cycle with a slow screw
+  // A window ended and waiting slow_screw_guard_s for a slow screw after it (end_window reads it).
+  struct Window {
+    Vec3 f_sum, z_sum, zeta_start, zeta_end;
+    Vec3 eff_sum[kMaxOnlineEffects];
+    double w_s = 0, due_s = 0;
+    bool slow = false, valid = false;
+  } win_;
   double g_ = 0, nis_ = 0;
   int rows_ = 0;
   double t_s_ = 0, holdoff_until_s_ = 0;
