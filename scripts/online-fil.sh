@@ -7,16 +7,18 @@
 # augerd's alarms (scripts/demo-field.py) and the tracking error of each run (auger-track).
 #   scripts/online-fil.sh BUILD_DIR OUT_DIR [ONLINE_KEYS]
 # ONLINE_KEYS: TOML lines for [online] (default: the kinematic velocity, the drag held,
-# velocity_sd = [0.012, 0.012, 0.01], slow_screw_rpm = 2, cusum_threshold = 16, as make demo).
+# the accelerometer fused with the camera's noise taken as coloured over 0.3 s,
+# velocity_sd = [0.002, 0.002, 0.01], slow_screw_rpm = 2, cusum_threshold = 8, as make demo).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 build=$(cd "${1:?usage: scripts/online-fil.sh BUILD_DIR OUT_DIR [ONLINE_KEYS]}" && pwd)
 out=${2:?usage: scripts/online-fil.sh BUILD_DIR OUT_DIR [ONLINE_KEYS]}
 keys=${3:-'velocity = "kinematic"
-velocity_sd = [0.012, 0.012, 0.01]
+velocity_sd = [0.002, 0.002, 0.01]
+camera_noise_corr_s = 0.3
 drag_prior_rel_sd = 0.01
 slow_screw_rpm = 2
-cusum_threshold = 16'}
+cusum_threshold = 8'}
 mkdir -p "$out"
 out=$(cd "$out" && pwd)
 AUGER_BUILD=$build AUGER_SRC=$root
