@@ -183,6 +183,7 @@ void Explainer::finish(const State& s, ExplainResult& res, FitOutcome* pre) {
       noise = t.white && t.independent;
     }
     if (!noise) res.outside_library = discover(f.fit, res);
+    if (!noise) confirm_in_form(f.fit, res);
     f.parts = f.fit.parts;
     f.cost = f.fit.cost;
     f.n_params = f.fit.n_params;
