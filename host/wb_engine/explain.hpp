@@ -49,7 +49,7 @@ struct RemovedEffect {
   double contribution = kNaN;  // what it changed in the prediction, times the noise floor (largest channel)
 };
 // An effect the check of form took out of a model that does not fit the log (docs/workbench.md
-// "Stand-ins"): what it had lowered the error to, and why it is not accepted as a finding.
+// "Parsimony", confirmed in form): the error with and without it, and why it is no finding.
 struct StandIn {
   std::string effect;
   std::string why;             // plain words: what disagrees

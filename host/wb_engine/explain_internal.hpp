@@ -355,7 +355,7 @@ class Explainer {
   // or whose removal does not raise the cross-validated error, leave the model (o refitted).
   void parsimony(FitOutcome& o, std::vector<RemovedEffect>& removed);
 
-  // ---- the check of form (explain_standins.cpp, docs/workbench.md "Stand-ins")
+  // ---- the check of form (explain_standins.cpp, docs/workbench.md "Parsimony", confirmed in form)
   // Where the model leaves structure, each library effect and the paper's parameters re-identified
   // must say the same fitted on each two thirds of the segments (and the paper's parameters must
   // not sit at the end of their range); those that do not leave the model, the largest first,

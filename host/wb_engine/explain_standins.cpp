@@ -1,6 +1,6 @@
-// explain's check of form (explain_internal.hpp, docs/workbench.md "Parsimony", "Stand-ins"):
-// where the library's model leaves structure (more than 1.2 times the noise floor, or residuals
-// that are not noise), something is missing, and the effects kept may have taken up part of it in
+// explain's check of form (explain_internal.hpp; docs/workbench.md "Parsimony", confirmed in
+// form): where the library's model leaves structure (more than 1.2 times the noise floor, or
+// residuals that are not noise), something is missing, and the effects kept may have taken up part of it in
 // their own forms. An effect is then a finding only when its form is confirmed: fitted on each
 // two thirds of the segments (the folds of the cross-validation), it says the same (the same
 // direction, the same size within its uncertainty or half its size); the paper's parameters,
@@ -84,8 +84,9 @@ std::string Explainer::fold_disagreement(const Part& p, const std::array<const P
       std::snprintf(buf, sizeof buf,
                     "%s %.4g %s on every segment, %.4g / %.4g / %.4g fitted on each two thirds of them: %s",
                     s.name.c_str(), v, s.unit.c_str(), fv[0], fv[1], fv[2],
-                    flips ? (p.entry ? "the folds disagree on its direction" : "the folds disagree on the direction of its change from the paper's value")
-                          : "the folds disagree on its size beyond its uncertainty");
+                    !flips  ? "the folds disagree on its size beyond its uncertainty"
+                    : p.entry ? "the folds disagree on its direction"
+                              : "the folds disagree on the direction of its change from the paper's value");
       return buf;
     }
   }
@@ -127,7 +128,8 @@ void Explainer::confirm_in_form(FitOutcome& o, ExplainResult& res) {
         }
         reason = fold_disagreement(p, folds, params, start[i]);
       }
-      detail("explain: form check: %s: %s", label(p, ctx_.size()).c_str(), reason.empty() ? "confirmed" : reason.c_str());
+      detail("explain: form check: %s: %s", label(p, ctx_.size()).c_str(),
+             reason.empty() ? "confirmed" : reason.c_str());
       if (reason.empty()) continue;
       // Of several, the largest goes first: the others may settle once it is out.
       const double c = largest(contribution(o.parts, i));
@@ -149,7 +151,8 @@ void Explainer::confirm_in_form(FitOutcome& o, ExplainResult& res) {
       if (std::isfinite(a.cost)) {
         polish(a);
         const std::string name = label(o.parts[stand_in], ctx_.size());
-        res.removed.push_back({name, "replaced by " + simpler.id + (simpler.id == o.parts[stand_in].id ? " without its dead time" : "") + ": " + why, size});
+        const bool same = simpler.id == o.parts[stand_in].id;  // a force lag without its dead time
+        res.removed.push_back({name, "replaced by " + simpler.id + (same ? " without its dead time" : "") + ": " + why, size});
         progress("explain: form check: %s replaced by its simpler form (%s)", name.c_str(), why.c_str());
         o = std::move(a);
         continue;

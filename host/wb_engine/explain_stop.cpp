@@ -123,7 +123,7 @@ void Explainer::verdict(const State& f, ExplainResult& res) const {
                   "; %s came closest in size (%.2f times the noise floor at most with it, %.2f without) but is not a "
                   "finding, only a possible stand-in for what is missing: %s%s%s",
                   s.effect.c_str(), largest(s.ratio_with), largest(s.ratio_without), s.why.c_str(),
-                  others.empty() ? "" : "; so are ", others.c_str());
+                  others.empty() ? "" : "; also possible stand-ins, out of the model: ", others.c_str());
     res.verdict += more;
   }
   // Which values are flagged, by name.
