@@ -23,6 +23,9 @@ namespace {
 // fit's) or by half the value's distance from its reference, whichever is larger.
 constexpr double kFoldSigmas = 3.0;
 constexpr double kFoldShare = 0.5;
+// A ratio to a reference (the paper's parameters, a change of terrain's factors) within this share
+// of it is no claim: a re-identification moves a few per cent with the noise alone.
+constexpr double kMinShift = 0.05;
 // A change of terrain that the log places is placed within a few steps of the time grid (2.5 % of
 // the log) on any two thirds of it; one that moves by more than this share of the log between
 // folds is not placed by the log.
@@ -67,17 +70,18 @@ std::string Explainer::fold_disagreement(const Part& p, const std::array<const P
     }
     const double ref = reference(p, s);
     const double sigma = at + kk < params.size() ? params[at + kk].sigma : kNaN;
-    // Only what the fit says: a parameter within two standard errors of its reference (zero for a
-    // size) is no claim of the effect's (an IMU drift's small offset), whatever its folds say.
+    // Only what the fit claims: a parameter within the folds' standard errors of its reference
+    // (zero for a size), or within kMinShift of a reference it is a ratio to, says nothing of the
+    // effect (an IMU drift's small offset), whatever its folds say.
     const double size = std::fabs(v - (std::isfinite(ref) ? ref : 0.0));
-    if (std::isfinite(sigma) && size <= 2.0 * sigma) continue;
+    const double fold_sigmas = std::isfinite(sigma) ? kFoldSigmas * std::sqrt(1.5) * sigma : 0.0;
+    if (size <= fold_sigmas || (std::isfinite(ref) && ref != 0 && size <= kMinShift * std::fabs(ref))) continue;
     // The direction: a value away from its reference must stay on its side in every fold.
     bool flips = false;
     for (double x : fv) flips = flips || (std::isfinite(ref) && (x - ref) * (v - ref) <= 0);
     // The size: within kFoldSigmas of the folds' standard error, or kFoldShare of its distance
     // from the reference.
-    const double tol =
-        std::max(std::isfinite(sigma) ? kFoldSigmas * std::sqrt(1.5) * sigma : 0.0, kFoldShare * size);
+    const double tol = std::max(fold_sigmas, kFoldShare * size);
     double off = 0;
     for (double x : fv) off = std::max(off, std::fabs(x - v));
     if (flips || off > tol) {
