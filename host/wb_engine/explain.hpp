@@ -48,6 +48,14 @@ struct RemovedEffect {
   std::string why;             // plain words
   double contribution = kNaN;  // what it changed in the prediction, times the noise floor (largest channel)
 };
+// An effect the check of form took out of a model that does not fit the log (docs/workbench.md
+// "Parsimony", confirmed in form): the error with and without it, and why it is no finding.
+struct StandIn {
+  std::string effect;
+  std::string why;             // plain words: what disagrees
+  double contribution = kNaN;  // as RemovedEffect::contribution
+  ChannelValues ratio_with{kNaN, kNaN, kNaN, kNaN}, ratio_without{kNaN, kNaN, kNaN, kNaN};  // compare's error
+};
 // An effect of the final model that its step took in a near tie: the log cannot tell it from the
 // alternatives, so the choice between them is no finding (docs/workbench.md "Near ties").
 struct NearTie {
@@ -90,6 +98,7 @@ struct ExplainResult {
   std::vector<ModelChoice> final_models;  // per log
   std::string model_toml;
   std::vector<RemovedEffect> removed;       // effects of the search's structure the final checks took out
+  std::vector<StandIn> stand_ins;           // possible stand-ins: not findings, out of the model
   std::vector<NearTie> near_ties;           // effects of the final model taken in a near tie
   // When no library effect fits in form: the library model's own error and the best library
   // candidate's name, and the terms proposed instead (empty: the dictionary has none either).

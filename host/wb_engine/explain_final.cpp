@@ -182,6 +182,10 @@ void Explainer::finish(const State& s, ExplainResult& res, FitOutcome* pre) {
                                              ctx_[i].noise, ctx_[i].whiten);
       noise = t.white && t.independent;
     }
+    // The effects kept are confirmed in form before the terms are sought: a term fitted beside a
+    // stand-in takes the shape the stand-in leaves it (a forward-only thrust term beside the
+    // paper's traction stretched to a third, for a thrust that is weaker backwards).
+    if (!noise) confirm_in_form(f.fit, res);
     if (!noise) res.outside_library = discover(f.fit, res);
     f.parts = f.fit.parts;
     f.cost = f.fit.cost;

@@ -8,8 +8,9 @@
 // Internal to the workbench engine: the Explainer class that explain.cpp (the beam loop),
 // explain_search.cpp (one step: candidates fitted, the significant ones, the backward check, the
 // other splits' second opinion), explain_branches.cpp (a structure's state, the paper's
-// parameters, change times), explain_final.cpp (the final fit and model) and explain_stop.cpp (the
-// stop rule and the verdict) define.
+// parameters, change times), explain_final.cpp (the final fit and model), explain_parsimony.cpp
+// and explain_standins.cpp (the final checks), explain_discover.cpp (discovered terms) and
+// explain_stop.cpp (the stop rule and the verdict) define.
 #pragma once
 
 #include <array>
@@ -128,6 +129,10 @@ std::vector<Part> without_part(std::vector<Part> parts, std::size_t i);
 // The paper's parameters re-identified (free): checked as an effect is (parsimony, and as a
 // stand-in for a discovered term), their removal being to hold them at the paper's values.
 inline bool paper_free(const Part& p) { return !p.entry && !p.free.empty(); }
+// The simpler form effect p reduces to when a parameter of it is not identified or not confirmed:
+// stick-slip friction to Coulomb friction at its sliding level, an IMU drift to a bias, a force
+// lag with a dead time to the plain lag. False: none. explain_parsimony.cpp.
+bool simpler_form(const Part& p, const Dataset& d, Part& out);
 // The largest finite value over the channels (0 when none): a contribution's size.
 double largest(const ChannelValues& v);
 
@@ -340,7 +345,7 @@ class Explainer {
   ChannelValues contribution(const std::vector<Part>& parts, std::size_t i) const;
   // 3-fold cross-validation: per fold, the error of the segments it judges by a fit on the
   // others (every segment judged once, by a fit that did not see it); NaN where a fit failed.
-  FoldValues cross_validated(const std::vector<Part>& parts);
+  FoldValues cross_validated(const std::vector<Part>& parts, std::array<std::vector<Part>, kFolds>* fits = nullptr);
   // The structure with the change of terrain parts[i] replaced by the same terrain from the log's
   // start: the paper's parameters re-identified from the change's factors. False: not a change
   // of terrain, or several logs.
@@ -349,6 +354,17 @@ class Explainer {
   // with a parameter the log does not identify that a simpler form (or nothing) predicts as well,
   // or whose removal does not raise the cross-validated error, leave the model (o refitted).
   void parsimony(FitOutcome& o, std::vector<RemovedEffect>& removed);
+
+  // ---- the check of form (explain_standins.cpp, docs/workbench.md "Parsimony", confirmed in form)
+  // Where the model leaves structure, each library effect and the paper's parameters re-identified
+  // must say the same fitted on each two thirds of the segments (and the paper's parameters must
+  // not sit at the end of their range); those that do not leave the model, the largest first,
+  // and are listed in res.stand_ins.
+  void confirm_in_form(FitOutcome& o, ExplainResult& res);
+  // Why part p's folds (its fits on each two thirds of the segments) disagree with it ("" when
+  // they agree); params: the fit's parameters, p's from index at.
+  std::string fold_disagreement(const Part& p, const std::array<const Part*, kFolds>& folds,
+                                const std::vector<FitParam>& params, std::size_t at) const;
 
   // ---- discovered terms (explain_discover.cpp, docs/workbench.md "Discovered terms")
   // Terms of the dictionary chosen by sparse regression of what the model o leaves; with them,

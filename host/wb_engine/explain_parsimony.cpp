@@ -14,8 +14,6 @@ namespace auger::wb::explain_internal {
 
 using namespace search;
 
-namespace {
-
 // The simpler form an effect reduces to when a parameter of it is not identified: stick-slip
 // friction to Coulomb friction at its sliding level, an IMU drift to a bias, a force lag with a
 // dead time to the plain lag. False: none.
@@ -40,8 +38,6 @@ bool simpler_form(const Part& p, const Dataset& d, Part& out) {
   }
   return false;
 }
-
-}  // namespace
 
 std::vector<Part> without_part(std::vector<Part> parts, std::size_t i) {
   Part& p = parts[i];
@@ -100,7 +96,7 @@ bool Explainer::constant_terrain(const std::vector<Part>& parts, std::size_t i, 
   return false;
 }
 
-FoldValues Explainer::cross_validated(const std::vector<Part>& parts) {
+FoldValues Explainer::cross_validated(const std::vector<Part>& parts, std::array<std::vector<Part>, kFolds>* fits) {
   FoldValues per_fold;
   per_fold.fill(kNaN);
   for (int f = 0; f < kFolds; ++f) {
@@ -110,6 +106,7 @@ FoldValues Explainer::cross_validated(const std::vector<Part>& parts) {
     FitOutcome o = research_change_times(fit_on(f), refit(fit_on(f), parts, 8, 0), 8);
     ++structures_;
     if (!std::isfinite(o.cost)) return per_fold;
+    if (fits) (*fits)[static_cast<std::size_t>(f)] = o.parts;
     ChannelPool pool;
     for (std::size_t i = 0; i < ctx_.size(); ++i) {
       const Model m = build(ctx_[i].base, o.parts, static_cast<int>(i));

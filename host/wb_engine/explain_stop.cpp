@@ -113,6 +113,19 @@ void Explainer::verdict(const State& f, ExplainResult& res) const {
                   tests_words.empty() ? "" : "; ", tests_words.c_str());
   }
   res.verdict = buf;
+  if (!res.stand_ins.empty()) {
+    // The best library candidate in size that the check of form did not accept, and why.
+    const StandIn& s = res.stand_ins.front();
+    std::string others;
+    for (std::size_t i = 1; i < res.stand_ins.size(); ++i) others += (others.empty() ? "" : ", ") + res.stand_ins[i].effect;
+    char more[1200];
+    std::snprintf(more, sizeof more,
+                  "; %s came closest in size (%.2f times the noise floor at most with it, %.2f without) but is not a "
+                  "finding, only a possible stand-in for what is missing: %s%s%s",
+                  s.effect.c_str(), largest(s.ratio_with), largest(s.ratio_without), s.why.c_str(),
+                  others.empty() ? "" : "; also possible stand-ins, out of the model: ", others.c_str());
+    res.verdict += more;
+  }
   // Which values are flagged, by name.
   std::string flagged;
   for (const FittedEffect& fe : res.final_fitted)

@@ -19,6 +19,14 @@ std::string cell(double v) {
   return buf;
 }
 
+// The largest finite channel (NaN when none).
+double worst_channel(const ChannelValues& v) {
+  double m = kNaN;
+  for (double x : v)
+    if (std::isfinite(x) && !(x <= m)) m = x;
+  return m;
+}
+
 }  // namespace
 
 
@@ -79,6 +87,12 @@ void print_explain_json(const ExplainResult& r, const std::vector<Dataset>& logs
   j.begin_array("removed");
   for (const auto& x : r.removed)
     j.begin_object().str("effect", x.effect).str("why", x.why).num("contribution", x.contribution).end_object();
+  j.end_array();
+  j.begin_array("stand_ins");
+  for (const auto& x : r.stand_ins) {
+    j.begin_object().str("effect", x.effect).str("why", x.why).num("contribution", x.contribution);
+    j.channels("ratio_with", x.ratio_with, r.active).channels("ratio_without", x.ratio_without, r.active).end_object();
+  }
   j.end_array();
   j.begin_array("near_ties");
   for (const auto& t : r.near_ties) {
@@ -172,6 +186,10 @@ for (const auto& e : r.final_fitted) {
 }
 for (const auto& x : r.removed)
   std::printf("  left out by the final checks: %s: %s\n", x.effect.c_str(), x.why.c_str());
+for (const auto& x : r.stand_ins)
+  std::printf("  a possible stand-in, not a finding: %s: %s (with it %.2f times the noise floor at most, %.2f "
+              "without)\n",
+              x.effect.c_str(), x.why.c_str(), worst_channel(x.ratio_with), worst_channel(x.ratio_without));
 if (!r.discovered.empty()) {
   std::printf("discovered terms (no library effect has them; docs/workbench.md \"Discovered terms\"):\n");
   for (const auto& g : r.discovered) {

@@ -1,7 +1,7 @@
 // Unit tests of auger explain (host/wb_engine/explain.hpp) on synthetic logs made with the host
 // model (engine_synth.hpp): two effects at once, a clean log, a terrain change inside a held-out
-// segment, several logs, physics outside the library and its discovered term, parsimony and near
-// ties.
+// segment, several logs, physics outside the library and its discovered term, parsimony, near
+// ties and possible stand-ins.
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -288,4 +288,57 @@ TEST_CASE("explain: an effect taken in a near tie is named with its alternatives
     CHECK(r.verdict.find(st.added + " is a near tie with " + st.alternatives.front().fitted.effect) != std::string::npos);
   }
   CHECK(!r.near_ties.empty());
+}
+
+namespace {
+
+// Added mass (docs/workbench-suite.md's rigid_body_coupling in its added-mass form): the soil
+// moved with the screws makes the robot heavier sideways, the inertia of eq. (8) along y times
+// 1 + k. The library's coupling is the Coriolis terms, and left out of the search here.
+class AddedMass final : public Effect {
+ public:
+  explicit AddedMass(double k) : k_(k) {}
+  const std::string& id() const override {
+    static const std::string s = "test_added_mass";
+    return s;
+  }
+  std::vector<std::pair<std::string, double>> params() const override { return {{"k", k_}}; }
+  void inertia(const Model&, Vec3& M_diag) const override { M_diag[1] *= 1.0 + k_; }
+
+ private:
+  double k_;
+};
+
+}  // namespace
+
+TEST_CASE("explain: beside physics the library lacks, what is not confirmed in form is a possible stand-in",
+          "[slow]") {
+  // The robot 3.85 times heavier sideways, the library's coupling left out of the search: the
+  // model cannot fit the log in form, and the paper's parameters re-identified take up part of
+  // it (sigma_long and D_x stretched to the end of their range, three times the paper's: the
+  // same steady speeds, other time constants). They were named as this terrain's before; now
+  // they are held at the paper's values and listed as a possible stand-in, with the reason.
+  SynthOptions o;
+  o.seconds = 120;
+  o.seed = 5;
+  const Model truth = make_model(RobotParams{}, kSand, {std::make_shared<AddedMass>(2.85)});
+  ExplainOptions eo;
+  eo.only = {"terrain_change", "terrain_slope", "pose_time_offset", "quadratic_drag", "coulomb_friction",
+             "imu_heading_drift"};
+  const ExplainResult r = explain({synth(truth, o)}, {nominal()}, eo);
+  INFO(r.verdict);
+  CHECK(r.verdict_kind != "noise");
+  CHECK(r.verdict_kind != "near_noise");
+  REQUIRE(!r.stand_ins.empty());
+  for (const StandIn& s : r.stand_ins) {
+    INFO(s.effect << ": " << s.why);
+    CHECK(!s.why.empty());
+    CHECK(std::find(r.effects.begin(), r.effects.end(), s.effect) == r.effects.end());
+  }
+  CHECK(r.stand_ins.front().effect == "paper_params");
+  CHECK(r.stand_ins.front().why.find("held at the paper's values") == 0);
+  // (A pose time offset whose folds agree on its direction stays: docs/workbench.md "Limits".)
+  for (const FittedEffect& fe : r.final_fitted)
+    if (fe.effect == "paper_params") CHECK(fe.held);
+  CHECK(r.verdict.find("possible stand-in") != std::string::npos);
 }

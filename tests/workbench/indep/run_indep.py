@@ -19,7 +19,7 @@ the commands to reproduce it), totals per class, the explain wall time; exits 1 
 below its threshold, 2 on bad usage.
 
   run_indep.py --auger build/host/auger/auger [--python build/venv/bin/python3] [--seeds 5]
-               [--clean N] [--singles N] [--outside N] [--pairs N] [--pair-outside N]
+               [--seed-offset K] [--clean N] [--singles N] [--outside N] [--pairs N] [--pair-outside N]
                [--only CLASSES] [--sample] [--seconds 240] [--jobs 2] [--keep DIR [--rescore
                [--kept-only]]] [--json FILE] [--min-single 0.95] [--min-pair 0.9]
                [--min-clean 1] [--max-fdr 0.05] [--min-outside 1] [--min-discovered 0.7]
@@ -106,7 +106,8 @@ def plan(args):
     if args.sample:
         return list(SAMPLE)
     def n(opt, default):
-        return range(1, (opt if opt is not None else default) + 1)
+        first = args.seed_offset + 1
+        return range(first, first + (opt if opt is not None else default))
 
     # pairs before the singles: a run cut short (--rescore --kept-only) still has every class
     cases = [("clean", s) for s in n(args.clean, args.seeds)]
@@ -263,6 +264,8 @@ def main():
     ap.add_argument("--auger", required=True, help="the auger binary")
     ap.add_argument("--python", default=sys.executable, help="Python with numpy for the generator")
     ap.add_argument("--seeds", type=int, default=5, help="seeds per class (1..N)")
+    ap.add_argument("--seed-offset", type=int, default=0,
+                    help="start every class's seeds after this one (a second seed set: 10)")
     ap.add_argument("--clean", type=int, help="clean logs (default seeds)")
     ap.add_argument("--singles", type=int, help="seeds per library family (default seeds)")
     ap.add_argument("--outside", type=int, help="seeds per outside mechanism (default seeds)")
@@ -294,8 +297,8 @@ def main():
     args = ap.parse_args()
     if not os.access(args.auger, os.X_OK):
         ap.error("--auger %s: not an executable" % args.auger)
-    if args.jobs < 1 or args.seeds < 1:
-        ap.error("--jobs and --seeds must be at least 1")
+    if args.jobs < 1 or args.seeds < 1 or args.seed_offset < 0:
+        ap.error("--jobs and --seeds must be at least 1, --seed-offset at least 0")
     if args.seconds is None:
         args.seconds = SAMPLE_SECONDS if args.sample else 240.0
     if args.rescore and not args.keep:

@@ -1,0 +1,177 @@
+// explain's check of form (explain_internal.hpp; docs/workbench.md "Parsimony", confirmed in
+// form): where the library's model leaves structure (more than 1.2 times the noise floor, or
+// residuals that are not noise), something is missing, and the effects kept may have taken up part of it in
+// their own forms. An effect is then a finding only when its form is confirmed: fitted on each
+// two thirds of the segments (the folds of the cross-validation), it says the same (the same
+// direction of every parameter it moves materially); the paper's parameters,
+// besides, must not sit at the end of their range (the sign of an effect they took up). An effect
+// that fails is taken out of the model (the paper's parameters held at the paper's values) and
+// listed as a possible stand-in, with the reason and what it had lowered the error by.
+#include <algorithm>
+#include <cstdio>
+
+#include "explain_internal.hpp"
+
+namespace auger::wb::explain_internal {
+
+using namespace search;
+
+namespace {
+
+// A parameter is a claim of its effect when the fit on every segment moves it from its reference
+// by more than this many of a fold's standard errors (a fold has two thirds of the data: its
+// standard error is sqrt(3/2) times the full fit's). Its folds must then agree on the direction;
+// not on the size: where something is missing, a real effect's size moves between folds too
+// (the independent generator's second seed set: a slope, a traction loss, an offset centre and the
+// paper's D_psi of its pairs, 50-200 % between folds, as much as the stand-ins').
+constexpr double kFoldSigmas = 3.0;
+// A ratio to a reference (the paper's parameters, a change of terrain's factors) within this share
+// of it is no claim: a re-identification moves a few per cent with the noise alone.
+constexpr double kMinShift = 0.05;
+// A change of terrain that the log places is placed within a few steps of the time grid (2.5 % of
+// the log) on any two thirds of it; one that moves by more than this share of the log between
+// folds is not placed by the log.
+constexpr double kChangeTimeShare = 0.10;
+
+bool is_library_effect(const Part& p) { return p.entry && p.texts.empty(); }
+
+// The value a parameter's direction is judged from: the paper's value for the paper's parameters,
+// no change (1) for a change of terrain's factors, zero for a signed parameter (a slope, an
+// offset, a bias); NaN for a size that has no direction (a friction level).
+double reference(const Part& p, const ParamSpec& s) {
+  if (!p.entry || p.id == kTerrainChange) return s.default_value;
+  return s.physical_lower < 0 ? 0.0 : kNaN;
+}
+
+}  // namespace
+
+std::string Explainer::fold_disagreement(const Part& p, const std::array<const Part*, kFolds>& folds,
+                                         const std::vector<FitParam>& params, std::size_t at) const {
+  char buf[400];
+  for (int k : p.free) {
+    const auto kk = static_cast<std::size_t>(k);
+    const ParamSpec& s = p.specs[kk];
+    const double v = p.values[kk];
+    std::array<double, kFolds> fv{};
+    for (int f = 0; f < kFolds; ++f) {
+      const Part* q = folds[static_cast<std::size_t>(f)];
+      if (!q || q->values.size() != p.values.size()) return "";  // a fold that failed says nothing
+      fv[static_cast<std::size_t>(f)] = q->values[kk];
+    }
+    if (p.id == kTerrainChange && s.name == "t_change_s") {
+      const double span = ctx_.front().full->duration_s();
+      for (double t : fv)
+        if (std::fabs(t - v) > kChangeTimeShare * span) {
+          std::snprintf(buf, sizeof buf,
+                        "its time is not placed by the log: %.1f s on every segment, %.1f / %.1f / %.1f s fitted on "
+                        "each two thirds of them",
+                        v, fv[0], fv[1], fv[2]);
+          return buf;
+        }
+      continue;
+    }
+    const double ref = reference(p, s);
+    const double sigma = at + kk < params.size() ? params[at + kk].sigma : kNaN;
+    // Only what the fit claims: a parameter within the folds' standard errors of its reference
+    // (zero for a size), or within kMinShift of a reference it is a ratio to, says nothing of the
+    // effect (an IMU drift's small offset), whatever its folds say.
+    const double size = std::fabs(v - (std::isfinite(ref) ? ref : 0.0));
+    const double fold_sigmas = std::isfinite(sigma) ? kFoldSigmas * std::sqrt(1.5) * sigma : 0.0;
+    if (size <= fold_sigmas || (std::isfinite(ref) && ref != 0 && size <= kMinShift * std::fabs(ref))) continue;
+    // The direction: a value away from its reference must stay on its side in every fold.
+    bool flips = false;
+    for (double x : fv) flips = flips || (std::isfinite(ref) && (x - ref) * (v - ref) <= 0);
+    if (flips) {
+      std::snprintf(buf, sizeof buf,
+                    "%s %.4g %s on every segment, %.4g / %.4g / %.4g fitted on each two thirds of them: %s",
+                    s.name.c_str(), v, s.unit.c_str(), fv[0], fv[1], fv[2],
+                    p.entry ? "the folds disagree on its direction"
+                            : "the folds disagree on the direction of its change from the paper's value");
+      return buf;
+    }
+  }
+  return "";
+}
+
+void Explainer::confirm_in_form(FitOutcome& o, ExplainResult& res) {
+  for (int round = 0; round < 8; ++round) {
+    std::vector<std::size_t> effects;
+    for (std::size_t i = 0; i < o.parts.size(); ++i)
+      if (is_library_effect(o.parts[i]) || paper_free(o.parts[i])) effects.push_back(i);
+    if (effects.empty()) return;
+    const double n = static_cast<double>(o.r.size());
+    const std::vector<FitParam> params =
+        fit_params(o, o.r.size() ? o.cost / std::max(1.0, n - o.n_params) * n / n_eff_of(o, all_) : 1.0);
+    std::array<std::vector<Part>, kFolds> fits;
+    cross_validated(o.parts, &fits);
+    std::size_t stand_in = o.parts.size();
+    std::string why;
+    double size = -1;
+    std::vector<std::size_t> start(o.parts.size() + 1, 0);
+    for (std::size_t i = 0; i < o.parts.size(); ++i) start[i + 1] = start[i] + o.parts[i].specs.size();
+    for (std::size_t i : effects) {
+      const Part& p = o.parts[i];
+      std::string reason;
+      // The paper's parameters at the end of their range are the sign of an effect they took up
+      // ("Plausibility").
+      if (!p.entry)
+        for (std::size_t k = 0; k < p.specs.size() && reason.empty(); ++k) {
+          const FitParam& fp = params[start[i] + k];
+          if (fp.flag.find("physical range") != std::string::npos)
+            reason = p.specs[k].name + " " + fp.flag + ": the sign of an effect they took up";
+        }
+      if (reason.empty()) {
+        std::array<const Part*, kFolds> folds{};
+        for (int f = 0; f < kFolds; ++f) {
+          const auto& fp = fits[static_cast<std::size_t>(f)];
+          folds[static_cast<std::size_t>(f)] = fp.size() == o.parts.size() ? &fp[i] : nullptr;
+        }
+        reason = fold_disagreement(p, folds, params, start[i]);
+      }
+      detail("explain: form check: %s: %s", label(p, ctx_.size()).c_str(),
+             reason.empty() ? "confirmed" : reason.c_str());
+      if (reason.empty()) continue;
+      // Of several, the largest goes first: the others may settle once it is out.
+      const double c = largest(contribution(o.parts, i));
+      if (c > size) {
+        size = c;
+        stand_in = i;
+        why = reason;
+      }
+    }
+    if (stand_in == o.parts.size()) return;
+    // An effect whose extra parameter the folds do not confirm first gives way to its simpler form
+    // (an IMU drift whose rate the folds disagree on to a bias), which is checked in turn.
+    Part simpler;
+    if (o.parts[stand_in].entry && simpler_form(o.parts[stand_in], ctx_.front().data, simpler)) {
+      std::vector<Part> alt = o.parts;
+      alt[stand_in] = simpler;
+      FitOutcome a = refit(all_, alt, 12, 1);
+      ++structures_;
+      if (std::isfinite(a.cost)) {
+        polish(a);
+        const std::string name = label(o.parts[stand_in], ctx_.size());
+        const bool same = simpler.id == o.parts[stand_in].id;  // a force lag without its dead time
+        res.removed.push_back({name, "replaced by " + simpler.id + (same ? " without its dead time" : "") + ": " + why, size});
+        progress("explain: form check: %s replaced by its simpler form (%s)", name.c_str(), why.c_str());
+        o = std::move(a);
+        continue;
+      }
+    }
+    StandIn s;
+    s.effect = label(o.parts[stand_in], ctx_.size());
+    s.contribution = size;
+    compare_error(o.parts, &s.ratio_with);
+    FitOutcome again = refit(all_, without_part(o.parts, stand_in), 12, 1);
+    ++structures_;
+    if (!std::isfinite(again.cost)) return;
+    polish(again);
+    compare_error(again.parts, &s.ratio_without);
+    s.why = (o.parts[stand_in].entry ? "removed: " : "held at the paper's values: ") + why;
+    progress("explain: form check: %s is a possible stand-in (%s)", s.effect.c_str(), s.why.c_str());
+    res.stand_ins.push_back(s);
+    o = std::move(again);
+  }
+}
+
+}  // namespace auger::wb::explain_internal
