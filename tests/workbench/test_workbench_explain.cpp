@@ -319,7 +319,7 @@ TEST_CASE("explain: beside physics the library lacks, what is not confirmed in f
   // same steady speeds, other time constants). They were named as this terrain's before; now
   // they are held at the paper's values and listed as a possible stand-in, with the reason.
   SynthOptions o;
-  o.seconds = 120;
+  o.seconds = 90;
   o.seed = 5;
   const Model truth = make_model(RobotParams{}, kSand, {std::make_shared<AddedMass>(2.85)});
   ExplainOptions eo;
