@@ -188,34 +188,31 @@ Eigen::MatrixXd columns_of(const Eigen::MatrixXd& S, const std::vector<int>& col
   return A;
 }
 
+// Every fold's block but skip's, stacked by rows: block(parts[f]) is fold f's part, n_cols wide.
+template <class Out, class Part, class Block>
+Out stack_folds(const std::vector<Part>& parts, int skip, Eigen::Index n_cols, Block block) {
+  Eigen::Index n = 0;
+  for (std::size_t f = 0; f < parts.size(); ++f)
+    if (static_cast<int>(f) != skip) n += parts[f].rows();
+  Out out(n, n_cols);
+  Eigen::Index at = 0;
+  for (std::size_t f = 0; f < parts.size(); ++f) {
+    if (static_cast<int>(f) == skip) continue;
+    out.middleRows(at, parts[f].rows()) = block(parts[f]);
+    at += parts[f].rows();
+  }
+  return out;
+}
+
 // The columns cols of every fold's rows but skip's, stacked.
 Eigen::MatrixXd stack_cols(const std::vector<Eigen::MatrixXd>& S, const std::vector<int>& cols, int skip) {
-  Eigen::Index n = 0;
-  for (std::size_t f = 0; f < S.size(); ++f)
-    if (static_cast<int>(f) != skip) n += S[f].rows();
-  Eigen::MatrixXd A(n, static_cast<Eigen::Index>(cols.size()));
-  Eigen::Index at = 0;
-  for (std::size_t f = 0; f < S.size(); ++f) {
-    if (static_cast<int>(f) == skip) continue;
-    A.middleRows(at, S[f].rows()) = columns_of(S[f], cols);
-    at += S[f].rows();
-  }
-  return A;
+  return stack_folds<Eigen::MatrixXd>(S, skip, static_cast<Eigen::Index>(cols.size()),
+                                      [&cols](const Eigen::MatrixXd& s) { return columns_of(s, cols); });
 }
 
 // The rows of every fold but skip's, stacked.
 Eigen::VectorXd stack_rows(const std::vector<Eigen::VectorXd>& r, int skip) {
-  Eigen::Index n = 0;
-  for (std::size_t f = 0; f < r.size(); ++f)
-    if (static_cast<int>(f) != skip) n += r[f].size();
-  Eigen::VectorXd out(n);
-  Eigen::Index at = 0;
-  for (std::size_t f = 0; f < r.size(); ++f) {
-    if (static_cast<int>(f) == skip) continue;
-    out.segment(at, r[f].size()) = r[f];
-    at += r[f].size();
-  }
-  return out;
+  return stack_folds<Eigen::VectorXd>(r, skip, 1, [](const Eigen::VectorXd& v) -> const Eigen::VectorXd& { return v; });
 }
 
 }  // namespace
