@@ -260,12 +260,17 @@ void Daemon::run(volatile const std::sig_atomic_t* stop) {
   // Period statistics for the exit report.
   long cycles = 0;
   double sum_dt = 0, sum_dt2 = 0, max_dt = 0, min_dt = 1e9, jitter_window_max = 0, window_start = 0;
+  // The cycle's own work, from its wake-up to its end: the wall time includes being preempted,
+  // the loop thread's CPU time does not, so a long period with a short CPU time is the machine's
+  // doing (no SCHED_FIFO, another process), not the loop's.
+  double work_wall_max_s = 0, work_cpu_max_s = 0, work_cpu_sum_s = 0;
   while (!*stop) {
     next.tv_nsec += period_ns;
     while (next.tv_nsec >= 1000000000L) next.tv_nsec -= 1000000000L, ++next.tv_sec;
     while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &next, nullptr) == EINTR && !*stop) {
     }
     const double mono = clock_s(CLOCK_MONOTONIC);
+    const double cpu0_s = clock_s(CLOCK_THREAD_CPUTIME_ID);
     mono_to_unix_s_ = clock_s(CLOCK_REALTIME) - mono;
     t_s_ = mono - t0_mono_s_;
     loop_dt_s_ = t_s_ - prev_s;
@@ -314,6 +319,12 @@ void Daemon::run(volatile const std::sig_atomic_t* stop) {
     sensors_in_ = auger::SensorInput{};
     ctrl_events_ = 0;
     traj_logged_ = -1;
+    if (cycles > 1) {  // the first cycle's one-off set-up is not the loop's work
+      const double cpu_s = clock_s(CLOCK_THREAD_CPUTIME_ID) - cpu0_s;
+      work_wall_max_s = std::max(work_wall_max_s, clock_s(CLOCK_MONOTONIC) - mono);
+      work_cpu_max_s = std::max(work_cpu_max_s, cpu_s);
+      work_cpu_sum_s += cpu_s;
+    }
   }
   // Leave the motors stopped at once rather than after the modules' timeout.
   enabled_ = false;
@@ -326,6 +337,8 @@ void Daemon::run(volatile const std::sig_atomic_t* stop) {
     std::fprintf(stderr,
                  "augerd: %ld cycles; loop period mean %.4f ms, std %.4f ms, min %.4f ms, max %.4f ms\n", cycles,
                  1e3 * mean, 1e3 * std::sqrt(std::max(0.0, sum_dt2 / n - mean * mean)), 1e3 * min_dt, 1e3 * max_dt);
+    std::fprintf(stderr, "augerd: cycle work: longest %.3f ms wall, %.3f ms CPU; mean %.3f ms CPU\n",
+                 1e3 * work_wall_max_s, 1e3 * work_cpu_max_s, 1e3 * work_cpu_sum_s / n);
   }
   const DataLog::Stats ls = log_->stats();
   std::fprintf(stderr,

@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <memory>
 #include <string>
@@ -80,6 +81,33 @@ Period log_period(const std::string& log_dir, double t0, double t1) {
   }
   if (p.n) p.mean_s = sum / p.n, p.std_s = std::sqrt(std::max(0.0, sum2 / p.n - p.mean_s * p.mean_s));
   return p;
+}
+
+// augerd's report at exit of its cycles' own work (docs/daemon.md): the longest in wall time and
+// in the loop thread's CPU time, in ms; -1 when the line is missing.
+struct Work {
+  double wall_ms = -1, cpu_ms = -1;
+};
+Work cycle_work(const std::string& err) {
+  Work w;
+  const auto b = err.rfind("cycle work: longest ");
+  if (b != std::string::npos) std::sscanf(err.c_str() + b, "cycle work: longest %lf ms wall, %lf ms CPU", &w.wall_ms, &w.cpu_ms);
+  return w;
+}
+
+// The loop's checks under load. Without SCHED_FIFO (CI, a shared workstation) the loop can be
+// preempted, by the test's own clients among others, and a period stretched by that says
+// nothing of augerd; its own CPU time per cycle does. So: the CPU work of every cycle fits in its
+// period (taking 512 connections a cycle from four clients reconnecting flat out costs 4-6 ms of
+// it on an x86 workstation), and no period, however preempted, comes near the modules' 100 ms
+// no-telemetry timeout (the line past which something would happen to the robot).
+void check_loop(const Period& per, const Work& work) {
+  CHECK(work.cpu_ms >= 0);
+  CHECK(work.cpu_ms < 10.0);
+  CHECK(per.max_s < 0.08);
+  if (per.max_s >= 0.05)
+    WARN("a period of " << per.max_s * 1e3 << " ms with at most " << work.cpu_ms
+                        << " ms of the loop's own CPU time per cycle: the machine preempted augerd");
 }
 
 // `stop` on a fresh connection, timed from the send to the answer "ok"; 1e9 when no "ok" came
@@ -222,7 +250,7 @@ void abuse(double duration_s) {
   CHECK(d.wait_exit(3.0) == 0);
   // augerd's own report at exit: its loop period and the log's syncs (docs/daemon.md).
   std::string report;
-  for (const char* key : {"augerd: log:", "cycles; loop period"}) {
+  for (const char* key : {"augerd: log:", "cycles; loop period", "cycle work:"}) {
     const std::string all = d.stderr_text();
     auto b = all.rfind(key);
     if (b == std::string::npos) continue;
@@ -246,7 +274,7 @@ void abuse(double duration_s) {
   CHECK(err_text.find("no-telemetry") == std::string::npos);
   CHECK(err_text.find("corrupt-frames") == std::string::npos);
   CHECK(per.n > int(80 * duration_s));
-  CHECK(per.max_s < 0.05);  // no stall near the modules' 100 ms telemetry timeout
+  check_loop(per, cycle_work(d.stderr_text()));
   CHECK(per.std_s < 0.003);
   CHECK(short_answers > 0.9 * short_tries);
   CHECK(follow_errors > 0);
@@ -312,19 +340,21 @@ void stop_behind_queue() {
   kill(d.pid, SIGTERM);
   CHECK(d.wait_exit(3.0) == 0);
   const Period per = log_period(dir + "/log", t0, t1);
+  const Work work = cycle_work(d.stderr_text());
   std::sort(stop_ms.begin(), stop_ms.end());
   WARN("stop behind 32 active clients and a queue (" << reconnects << " reconnections): stop answered in "
                                                       << stop_ms.front() << " / " << stop_ms[stop_ms.size() / 2]
                                                       << " / " << stop_ms.back()
                                                       << " ms (min / median / max of 10); loop period mean "
                                                       << per.mean_s * 1e3 << " ms, longest " << per.max_s * 1e3
-                                                      << " ms (" << per.n << " cycles)");
+                                                      << " ms (" << per.n << " cycles); longest cycle work "
+                                                      << work.cpu_ms << " ms CPU, " << work.wall_ms << " ms wall");
   INFO(st << "\n" << d.stderr_text());
   CHECK(driven);
   CHECK(stopped);
   CHECK(st.find("mode=stopped") != std::string::npos);
   CHECK(stop_ms.back() <= 20.0);
-  CHECK(per.max_s < 0.05);
+  check_loop(per, work);
   CHECK(active_errors == 0);
 }
 
