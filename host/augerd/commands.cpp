@@ -258,6 +258,11 @@ auger::daemon::Status Daemon::status(bool all) const {
   s.poses_dropped = poses_dropped_;
   ros2_status(s);
   online_status(s);
+  if (cfg_.controller.effect_feedforward) {
+    const auger::Vec3& ff_n = controller_->effect_feedforward_n();
+    s.feedforward = true;
+    s.ff_force_x_n = ff_n[0], s.ff_force_y_n = ff_n[1], s.ff_torque_psi_nm = ff_n[2];
+  }
   return s;
 }
 

@@ -100,6 +100,8 @@ void Daemon::open_log() {
   lc.fsync_interval_s = cfg_.log_fsync_interval_s;
   lc.mcap = cfg_.log_mcap;
   if (online_) lc.more_columns = auger::daemon::online_columns();
+  if (cfg_.controller.effect_feedforward)
+    for (const std::string& c : auger::daemon::feedforward_columns()) lc.more_columns.push_back(c);
   log_ = std::make_unique<DataLog>(lc);
   log_->open();
   std::fprintf(stderr, "augerd: logging to %s\n", log_->first_path().c_str());
@@ -235,6 +237,10 @@ void Daemon::write_log(const std::array<double, 4>& cmd_rpm) {
     const std::size_t n = extra.size();
     extra.resize(n + auger::daemon::online_columns().size());
     online_values(extra.data() + n);
+  }
+  if (cfg_.controller.effect_feedforward) {
+    const auger::Vec3& ff_n = controller_->effect_feedforward_n();
+    extra.insert(extra.end(), ff_n.data(), ff_n.data() + 3);
   }
   log_->write(s, extra);
 }

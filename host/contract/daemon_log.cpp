@@ -74,6 +74,11 @@ const std::vector<std::string>& online_columns() {
   return cols;
 }
 
+const std::vector<std::string>& feedforward_columns() {
+  static const std::vector<std::string> cols = {"ff_force_x_n", "ff_force_y_n", "ff_torque_psi_nm"};
+  return cols;
+}
+
 const std::vector<std::string>& replay_columns() {
   static const std::vector<std::string> names = [] {
     std::vector<std::string> n;

@@ -93,6 +93,9 @@ const std::vector<std::string>& replay_columns();
 // 1 in the cycle of a detected change, 1 while the fallback to the configured terrain is latched,
 // and the parameters the controller uses.
 const std::vector<std::string>& online_columns();
+// With [control] effect_feedforward, last: the force the controller fed forward this cycle
+// (docs/daemon.md "Effect feedforward"), body frame, after the clamp; 0 outside goto/follow/hold.
+const std::vector<std::string>& feedforward_columns();
 // The row's values in that order (values resized to the columns).
 void log_row_values(const LogRow& row, std::vector<double>& values);
 

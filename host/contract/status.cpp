@@ -107,6 +107,13 @@ const std::vector<Field<Status>>& online_fields() {
   return f;
 }
 
+const std::vector<Field<Status>>& feedforward_fields() {
+  static const std::vector<Field<Status>> f = {{"ff_force_x_n", "%.4g", &Status::ff_force_x_n},
+                                               {"ff_force_y_n", "%.4g", &Status::ff_force_y_n},
+                                               {"ff_torque_psi_nm", "%.4g", &Status::ff_torque_psi_nm}};
+  return f;
+}
+
 // An online effect parameter's two fields (Status::on_effects), each key its word and the
 // parameter's name: on_eff_<name>=value on_sd_eff_<name>=SD (the prefix carries the key).
 const std::vector<Field<Status::OnlineEffect>>& effect_value_field() {
@@ -197,6 +204,7 @@ std::string format_status(const Status& s) {
   write(s, sensor_fields(), "", out);
   if (s.ros2) write(s, ros2_fields(), "", out);
   if (s.online) write(s, online_fields(), "", out);
+  if (s.feedforward) write(s, feedforward_fields(), "", out);
   for (const Status::OnlineEffect& e : s.on_effects) {
     write(e, effect_value_field(), "on_eff_" + e.name, out);
     write(e, effect_sd_field(), "on_sd_eff_" + e.name, out);
@@ -217,6 +225,8 @@ std::string parse_status(const std::string& line, Status& out) {
   if (s.ros2 && err.empty()) err = read(kv, ros2_fields(), "", s);
   s.online = s.all && kv.count("online_terrain") > 0;
   if (s.online && err.empty()) err = read(kv, online_fields(), "", s);
+  s.feedforward = s.all && kv.count("ff_force_x_n") > 0;
+  if (s.feedforward && err.empty()) err = read(kv, feedforward_fields(), "", s);
   for (const auto& field : kv) {
     const std::string& key = field.first;
     if (!err.empty() || key.rfind("on_eff_", 0) != 0) continue;

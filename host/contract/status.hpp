@@ -66,6 +66,10 @@ struct Status {
     double value = 0, sd = 0;
   };
   std::vector<OnlineEffect> on_effects;
+  // With [control] effect_feedforward: the force fed forward in the last cycle (body frame,
+  // N, N, N m; feedforward_columns() in the log).
+  bool feedforward = false;
+  double ff_force_x_n = 0, ff_force_y_n = 0, ff_torque_psi_nm = 0;
 };
 
 // The answer line, "status t_s=... ..." (without newline).

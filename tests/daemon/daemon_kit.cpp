@@ -77,12 +77,12 @@ bool wait_until(const std::function<bool()>& pred, double timeout_s) {
 }
 
 std::string config_text(const std::string& dir, const std::vector<std::string>& ports, const std::string& extra,
-                        const std::string& model) {
+                        const std::string& model, const std::string& control) {
   std::string p;
   for (const auto& s : ports) p += (p.empty() ? "\"" : ", \"") + s + "\"";
   return "schema = 1\n[serial]\nports = [" + p + "]\nbaud = 250000\n" + extra + "[model]\nfile = \"" +
-         (model.empty() ? std::string(AUGER_SOURCE_DIR "/models/robot.toml") : model) + "\"\nterrain = \"sand\"\n[control]\nallocator = \"nullspace\"\n"
-         "[sockets]\ncommands = \"" + dir + "/cmd.sock\"\nsensors = \"" + dir + "/sensors.sock\"\n"
+         (model.empty() ? std::string(AUGER_SOURCE_DIR "/models/robot.toml") : model) + "\"\nterrain = \"sand\"\n[control]\nallocator = \"nullspace\"\n" +
+         control + "[sockets]\ncommands = \"" + dir + "/cmd.sock\"\nsensors = \"" + dir + "/sensors.sock\"\n"
          "[log]\ndir = \"" + dir + "/log\"\nrotate_bytes = 10000000\n";
 }
 
@@ -126,7 +126,7 @@ Daemon::~Daemon() {
 Run::Run(const std::string& name, const Options& o)
     : dir(make_dir(name)), cleanup{dir}, rig(dir, {0, 1, 2, 3}, {0, 1, 2, 3}, o.telemetry_ms), cfg(dir + "/augerd.toml"),
       cmd(dir + "/cmd.sock"), sens(dir + "/sensors.sock") {
-  std::ofstream(cfg) << config_text(dir, {rig.port(0), rig.port(1), rig.port(2), rig.port(3)}, o.extra, o.model) + o.tail;
+  std::ofstream(cfg) << config_text(dir, {rig.port(0), rig.port(1), rig.port(2), rig.port(3)}, o.extra, o.model, o.control) + o.tail;
   d = std::make_unique<Daemon>(cfg, dir + "/augerd.err", std::vector<std::string>{}, o.prefix);
   const bool up = wait_until([&] { return access(cmd.c_str(), F_OK) == 0; }, 5.0);
   INFO(d->stderr_text());

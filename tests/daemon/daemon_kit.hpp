@@ -35,9 +35,9 @@ bool wait_until(const std::function<bool()>& pred, double timeout_s);
 
 // augerd's configuration with these module ports, sockets and log under dir; `extra` goes
 // into [serial].
-// model: the model file (default the repository's models/robot.toml).
+// model: the model file (default the repository's models/robot.toml); control: more [control] keys.
 std::string config_text(const std::string& dir, const std::vector<std::string>& ports, const std::string& extra = "",
-                        const std::string& model = "");
+                        const std::string& model = "", const std::string& control = "");
 
 // augerd as a child process; killed (SIGKILL) when still running at the end.
 struct Daemon {
@@ -58,7 +58,7 @@ struct Daemon {
 // configuration (a table of its own), `prefix` runs augerd under a command.
 struct Run {
   struct Options {
-    std::string extra, tail;
+    std::string extra, tail, control;  // control: more [control] keys
     std::string model;  // the model file's path ("": models/robot.toml)
     std::vector<std::string> prefix;
     std::array<int, 4> telemetry_ms{10, 10, 10, 10};

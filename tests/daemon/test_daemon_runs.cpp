@@ -11,6 +11,8 @@
 #include <vector>
 
 #include "auger/log.hpp"
+#include "auger/dynamics.hpp"
+#include "auger/model_file.hpp"
 #include "auger/online_estimator.hpp"
 #include "daemon_kit.hpp"
 #include "daemon_log.hpp"
@@ -240,4 +242,61 @@ TEST_CASE("augerd's [online] estimates the effects the model file marks online",
   INFO(err);
   CHECK(err.find(dir + "/bias.toml:" + std::to_string(base + 3) +
                  ":37: effect 'imu_heading_bias': 'bias_rad' cannot be estimated online") != std::string::npos);
+}
+
+// Issue 29: with [control] effect_feedforward the force fed forward is in `status all` and in the
+// log's last columns, as the model's effects make it at the estimate (a slope: no velocity in it).
+TEST_CASE("augerd shows and logs the force it feeds forward", "[daemon]") {
+  const std::string dir = make_dir("feedforward");
+  RemoveDir cleanup{dir};
+  std::ofstream(dir + "/slope.toml") << slurp(AUGER_SOURCE_DIR "/models/robot.toml")
+                                     << "\n[[effect]]\nid = \"terrain_slope\"\nincline_x_rad = 0.05\nincline_y_rad = -0.03\n";
+  const auger::Model model = auger::build_model(auger::load_model_file(dir + "/slope.toml"), "sand");
+  auto expected_n = [&](double x_m, double y_m, double psi_rad) {
+    auger::Vec3 f;
+    REQUIRE(auger::effect_feedforward_force(model, auger::Vec3(x_m, y_m, psi_rad), auger::Vec3::Zero(), f) == nullptr);
+    return f;
+  };
+  Run::Options o;
+  o.model = dir + "/slope.toml";
+  o.control = "effect_feedforward = true\n";
+  Run r("feedforward_run", o);
+  INFO(r.d->stderr_text());
+  REQUIRE(talk(r.cmd, "enable\n", 1) == "ok");
+  REQUIRE(talk(r.cmd, "goto 0.05 0 0.3\n", 1) == "ok");
+  sleep_s(1.0);
+  const std::string all = talk(r.cmd, "status all\n", 1);
+  INFO(all);
+  auger::daemon::Status st;
+  REQUIRE(auger::daemon::parse_status(all, st) == "");
+  REQUIRE(st.feedforward);
+  const auger::Vec3 f_n = expected_n(st.x_m, st.y_m, st.psi_rad);
+  CHECK(f_n.norm() > 1.0);  // a slope the screws feel
+  // The status's fields are the controller's last cycle; the estimate moves a little between.
+  CHECK(st.ff_force_x_n == Approx(f_n[0]).margin(0.02 * f_n.norm()));
+  CHECK(st.ff_force_y_n == Approx(f_n[1]).margin(0.02 * f_n.norm()));
+  CHECK(st.ff_torque_psi_nm == Approx(f_n[2]).margin(0.02 * f_n.norm()));
+  kill(r.d->pid, SIGTERM);
+  CHECK(r.d->wait_exit(2.0) == 0);
+  const auto logs = csv_logs(r.dir + "/log");
+  REQUIRE(!logs.empty());
+  auger::RobotLogReader reader(logs.front());
+  const auto& cols = reader.csv().columns();
+  const auto& ff_cols = auger::daemon::feedforward_columns();
+  REQUIRE(cols.size() > ff_cols.size());
+  CHECK(std::vector<std::string>(cols.end() - 3, cols.end()) == ff_cols);
+  // Each goto row: the force at that row's estimate (the columns after the step), to the clamp.
+  int rows = 0, checked = 0;
+  const auto index = [&](const std::string& c) { return reader.csv().column_index(c); };
+  auger::RobotSample s;
+  while (reader.next(s)) {
+    ++rows;
+    if (reader.csv().value(index("mode")) != double(auger::daemon::mode_code(auger::daemon::Mode::go_to))) continue;
+    const auger::Vec3 e_n = expected_n(reader.csv().value(index("xe_m")), reader.csv().value(index("ye_m")),
+                                       reader.csv().value(index("psie_rad")));
+    for (int k = 0; k < 3; ++k) CHECK(reader.csv().value(index(ff_cols[std::size_t(k)])) == Approx(e_n[k]).margin(1e-6 * e_n.norm() + 1e-9));
+    ++checked;
+  }
+  CHECK(rows > 50);
+  CHECK(checked > 50);
 }
