@@ -6,6 +6,11 @@
 //     two runs of different length, on x86 with callgrind and on aarch64 under qemu); `effects`:
 //     with three effect parameters online as well (a slope's two inclines and a quadratic drag
 //     along x, the truth on a 0.05 rad slope), the most a model file may mark;
+//   online_bench cost [CYCLES] kinematic | kinematic-acc
+//     the same for KinematicVelocity::step, the velocity augerd feeds the estimator with
+//     `[online] velocity = "kinematic"`: a camera pose every third cycle and the IMU's heading and
+//     rate every cycle; kinematic-acc also the IMU's acceleration (eq. (1)'s specific force) and
+//     the camera's noise as coloured (0.3 s), as `make demo` runs it;
 //   online_bench curve [RUNS (40)] [HOURS (1)] [VELOCITY_SD_MPS (0.002)]
 //     batch runs of the core's model (bench/online_drive.hpp), for each detector threshold: the
 //     detection delay of RUNS terrain changes (sand <-> frozen grass at a random time), the false
@@ -22,6 +27,7 @@
 #include <vector>
 
 #include "auger/args.hpp"
+#include "auger/kinematic_velocity.hpp"
 #include "auger/model_file.hpp"
 #include "auger/online_estimator.hpp"
 #include "online_drive.hpp"
@@ -104,6 +110,58 @@ int cost(const Model& sand_plain, const Model& grass_plain, long cycles, bool ef
   auto q = [&](double f) { return each_us[std::min(each_us.size() - 1, std::size_t(f * double(each_us.size())))]; };
   std::printf("online_bench: each call timed: median %.3f us, 90th pct. %.3f us, 99th %.3f us, largest %.3f us\n",
               q(0.5), q(0.9), q(0.99), each_us.back());
+  return 0;
+}
+
+int kinematic_cost(const Model& sand, const Model& grass, long cycles, bool acc) {
+  constexpr int kRecorded = 3000;  // 30 s of driving, replayed as often as needed
+  OnlineDriveOptions o;
+  o.change_at_s = 15;
+  OnlineDrive drive(sand, grass, o);
+  std::mt19937 rng(7);
+  std::normal_distribution<double> n(0, 1);
+  std::vector<SensorInput> in(kRecorded);
+  Vec3 zeta_prev = Vec3::Zero();
+  for (int k = 0; k < kRecorded; ++k) {
+    drive.next();
+    const Vec3& eta = drive.eta_true();
+    const Vec3& z = drive.zeta_true();
+    SensorInput& s = in[std::size_t(k)];
+    if (k % 3 == 0) {  // a 33 Hz camera, 1 mm and 5 mrad
+      s.has_pose = true;
+      s.pose = eta + Vec3(0.001 * n(rng), 0.001 * n(rng), 0.005 * n(rng));
+      s.pose_cov = Vec3(1e-6, 1e-6, 2.5e-5).asDiagonal();
+    }
+    s.has_imu_psi = s.has_imu_r = true;
+    s.imu_psi_rad = eta[2] + 0.005 * n(rng);
+    s.imu_r_radps = z[2] + 0.005 * n(rng);
+    if (acc) {  // eq. (1): a_x = u' - r v, a_y = v' + r u, plus the IMU's noise
+      const Vec3 dz = (z - zeta_prev) / OnlineDrive::kDt;
+      s.has_imu_acc = true;
+      s.imu_ax_mps2 = dz[0] - z[2] * z[1] + 0.015 * n(rng);
+      s.imu_ay_mps2 = dz[1] + z[2] * z[0] + 0.015 * n(rng);
+    }
+    zeta_prev = z;
+  }
+  KinematicVelocityConfig c;
+  c.use_accelerometer = acc;
+  if (acc) c.pose_noise_corr_s = 0.3;
+  KinematicVelocity kin(c);
+  kin.reset(Vec3::Zero());
+  double checksum = 0;
+  long known = 0, inertial = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  for (long k = 0; k < cycles; ++k) {
+    const Vec3& v = kin.step(in[std::size_t(k % kRecorded)], OnlineDrive::kDt);
+    if (std::isfinite(v[0])) checksum += v[0], ++known;
+    inertial += kin.inertial();
+  }
+  const auto t1 = std::chrono::steady_clock::now();
+  std::printf("online_bench: %ld cycles, %.3f us per cycle (KinematicVelocity, %s), velocity known in %.1f %% of "
+              "them, from the accelerometer's filter in %.1f %%%s\n",
+              cycles, 1e6 * std::chrono::duration<double>(t1 - t0).count() / double(cycles),
+              acc ? "camera, IMU heading, rate and acceleration" : "camera, IMU heading and rate",
+              100.0 * double(known) / double(cycles), 100.0 * double(inertial) / double(cycles), std::isfinite(checksum) ? "" : " (non-finite!)");
   return 0;
 }
 
@@ -217,7 +275,7 @@ int track(const Model& sand, const Model& grass, const ModelFile& file, int runs
 }  // namespace
 
 int main(int argc, char** argv) {
-  const CommandLine cli{"online_bench", "cost [CYCLES] [effects] | curve [RUNS] [HOURS] [VELOCITY_SD_MPS] | track [RUNS]",
+  const CommandLine cli{"online_bench", "cost [CYCLES] [effects | kinematic | kinematic-acc] | curve [RUNS] [HOURS] [VELOCITY_SD_MPS] | track [RUNS]",
                         "The online estimator's cost per cycle, and the change detector's delay / false-alarm\n"
                         "curve over its threshold on the core's model (docs/benchmarks.md).\n",
                         {},
@@ -235,10 +293,14 @@ int main(int argc, char** argv) {
   };
   const ModelFile file = load_model_file(AUGER_MODELS_DIR "/robot.toml");
   const Model sand = build_model(file, "sand"), grass = build_model(file, "frozen_grass");
-  if (!pos.empty() && pos[0] == "cost" && pos.size() > 2 && pos[2] != "effects") {
-    std::fprintf(stderr, "online_bench: cost's third word is 'effects' or nothing, not '%s'\n", pos[2].c_str());
+  const std::string what = pos.size() > 2 && !pos.empty() && pos[0] == "cost" ? pos[2] : "";
+  if (!what.empty() && what != "effects" && what != "kinematic" && what != "kinematic-acc") {
+    std::fprintf(stderr, "online_bench: cost's third word is 'effects', 'kinematic', 'kinematic-acc' or nothing, not '%s'\n",
+                 what.c_str());
     return 2;
   }
+  if (what == "kinematic" || what == "kinematic-acc")
+    return kinematic_cost(sand, grass, long(num(1, 20000, "CYCLES")), what == "kinematic-acc");
   if (!pos.empty() && pos[0] == "cost")
     return cost(sand, grass, long(num(1, 20000, "CYCLES")), pos.size() > 2 && pos[2] == "effects");
   if (!pos.empty() && pos[0] == "track") return track(sand, grass, file, int(num(1, 5, "RUNS")));

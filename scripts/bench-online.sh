@@ -3,7 +3,9 @@
 # `make bench-online`):
 # 1. cost per 10 ms cycle of OnlineEstimator::step on this machine: wall time, and x86-64
 #    instructions from callgrind (a 60 000-cycle run minus a 20 000-cycle run, over 40 000), the
-#    terrain alone and with three effect parameters online (online_bench cost N effects);
+#    terrain alone and with three effect parameters online (online_bench cost N effects), and of
+#    the kinematic velocity augerd feeds it, with and without the accelerometer (cost N kinematic,
+#    cost N kinematic-acc);
 # 2. the same instruction count for the board's CPU class: bench/online_bench.cpp built with the
 #    board's compiler and flags (cmake/toolchain-aarch64.cmake) and run under qemu-user, which
 #    logs every translated block (in_asm) and every execution of one (exec, nochain);
@@ -24,6 +26,8 @@ trap 'rm -rf "$tmp"' EXIT
 echo "## Cost per cycle"
 "$bin" cost 200000
 "$bin" cost 200000 effects
+"$bin" cost 200000 kinematic
+"$bin" cost 200000 kinematic-acc
 if command -v valgrind >/dev/null; then
   ir() {
     valgrind --tool=callgrind --callgrind-out-file="$tmp/cg" "$bin" cost "$1" ${2:-} >/dev/null 2>&1
@@ -31,6 +35,8 @@ if command -v valgrind >/dev/null; then
   }
   echo "x86-64 instructions per cycle (callgrind): $(( ($(ir 60000) - $(ir 20000)) / 40000 ))"
   echo "  with three effect parameters online: $(( ($(ir 60000 effects) - $(ir 20000 effects)) / 40000 ))"
+  echo "  KinematicVelocity (velocity = \"kinematic\"): $(( ($(ir 60000 kinematic) - $(ir 20000 kinematic)) / 40000 ))"
+  echo "  KinematicVelocity with the accelerometer: $(( ($(ir 60000 kinematic-acc) - $(ir 20000 kinematic-acc)) / 40000 ))"
 else
   echo "x86-64 instructions: valgrind missing (make deps)"
 fi
@@ -59,6 +65,8 @@ if command -v qemu-aarch64 >/dev/null && command -v aarch64-linux-gnu-g++ >/dev/
   }
   echo "aarch64 instructions per cycle (qemu-user, Cortex-A53 flags): $(( ($(a64 6000) - $(a64 2000)) / 4000 ))"
   echo "  with three effect parameters online: $(( ($(a64 6000 effects) - $(a64 2000 effects)) / 4000 ))"
+  echo "  KinematicVelocity: $(( ($(a64 6000 kinematic) - $(a64 2000 kinematic)) / 4000 ))"
+  echo "  KinematicVelocity with the accelerometer: $(( ($(a64 6000 kinematic-acc) - $(a64 2000 kinematic-acc)) / 4000 ))"
 else
   echo "aarch64 instructions: qemu-aarch64 or aarch64-linux-gnu-g++ missing (make deps)"
 fi
