@@ -12,7 +12,9 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <map>
+#include <random>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -57,6 +59,7 @@ struct Options {
   KinematicVelocityConfig kin;
   int omega_delay = 0;  // cycles the screw speeds are delayed against the velocity
   bool truth = false;
+  double truth_noise_mps = 0, truth_noise_tau_s = 0;  // --truth-noise
   std::vector<double> thresholds{8, 16, 24, 32, 40, 60, 80};
   double detect_s = 3.0;  // an alarm later than this after a change is a miss
   bool list_missed = false;
@@ -110,6 +113,9 @@ Replay load(const std::string& dir, const Entry& e, const Options& o) {
   Replay out;
   std::vector<Vec4> raw;
   const Vec3 cam_sd(0.003, 0.003, 0.005);  // what the simulated camera reports (sim/robot/sensors.hpp)
+  std::mt19937 rng(std::hash<std::string>{}(e.log));
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  Vec3 noise = Vec3::Zero();
   while (r.next()) {
     SensorInput s;
     if (!std::isnan(r.value(cx))) {
@@ -142,7 +148,10 @@ Replay load(const std::string& dir, const Entry& e, const Options& o) {
     out.sd.push_back(kin.body_velocity_sd()[0]);
     const std::size_t k = out.t.size();
     out.zeta_true.push_back(k < vt.size() ? vt[k] : Vec3::Constant(NAN));
-    out.zeta.push_back(use_truth ? (k < vt.size() ? vt[k] : Vec3::Constant(NAN)) : zk);
+    // --truth-noise: the true velocity plus an independent first-order Gauss-Markov error.
+    const double phi = o.truth_noise_tau_s > 0 ? std::exp(-kDt / o.truth_noise_tau_s) : 0.0;
+    noise = phi * noise + std::sqrt(1 - phi * phi) * o.truth_noise_mps * Vec3(gauss(rng), gauss(rng), 0.0);
+    out.zeta.push_back(use_truth ? (k < vt.size() ? Vec3(vt[k] + noise) : Vec3::Constant(NAN)) : zk);
     raw.push_back(om);
     out.omega.push_back(raw.size() > std::size_t(omega_delay) ? raw[raw.size() - 1 - std::size_t(omega_delay)] : Vec4::Zero());
     out.t.push_back(r.t_s());
@@ -379,6 +388,7 @@ int main(int argc, char** argv) {
        {"--acc-bias-walk", "W", "KinematicVelocityConfig::acc_bias_walk_mps2_per_sqrt_s (default 5e-4)"},
        {"--camera-corr-s", "S", "KinematicVelocityConfig::pose_noise_corr_s (default 0: white)"},
        {"--no-whiten", "", "the detector on the innovation as it is (OnlineConfig::whiten off)"},
+       {"--truth-noise", "SD,TAU", "with --truth: add an independent error of SD m/s in u and v, correlated over TAU s"},
        {"--thresholds", "A,B,...", "the detector's thresholds for curve"},
        {"--list-missed", "", "curve: name each missed change (log and time) per threshold"},
        {"--trace", "LOG", "instead: every window of LOG (CSV: innovation, sigma_long, CUSUM)"}},
@@ -417,6 +427,13 @@ int main(int argc, char** argv) {
       !args.numbers("online_fil", "--thresholds", 0, o.thresholds))
     return 2;
   o.cfg.velocity_sd = Vec3(sd[0], sd[1], sd[2]);
+  std::vector<double> tn{0.0, 0.0};
+  if (!args.numbers("online_fil", "--truth-noise", 2, tn)) return 2;
+  if (!(tn[0] >= 0) || !(tn[1] >= 0) || (tn[0] > 0 && !o.truth)) {
+    std::fprintf(stderr, "online_fil: --truth-noise needs --truth and SD, TAU >= 0\n");
+    return 2;
+  }
+  o.truth_noise_mps = tn[0], o.truth_noise_tau_s = tn[1];
   const std::string dir = args.positional[1];
   try {
     std::vector<Entry> logs;

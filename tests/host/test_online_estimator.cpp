@@ -3,8 +3,10 @@
 // silence on uniform ground, excitation awareness, clamping and the fallback, no allocation.
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include "alloc_counter.hpp"
 #include "auger/kinematic_velocity.hpp"
@@ -247,6 +249,45 @@ TEST_CASE("online: coloured velocity noise: the prewhitened detector raises fewe
   INFO("false alarms in 30 min: plain " << alarms[0] << ", prewhitened " << alarms[1]);
   CHECK(alarms[0] >= 10);
   CHECK(alarms[1] <= 1);
+}
+
+// The drag held by its prior (drag_prior_rel_sd 0.01) must stay held however long the estimator
+// runs: its forgetting also discounts the prior, and the velocity in the drag's column carries
+// the camera's coloured error, which pulls a fitted drag, and with it sigma (their ratio is what
+// slow driving identifies), away from the truth. The noise here is independent of everything.
+TEST_CASE("online: coloured velocity noise leaves the held drag and sigma on the truth") {
+  Terrains t;
+  OnlineDriveOptions o;
+  o.seed = 4;
+  o.velocity_sd = Vec3::Constant(1e-9);
+  OnlineDrive drive(t.sand, t.sand, o);
+  OnlineConfig c = on();
+  c.drag_prior_rel_sd = 0.01;
+  c.velocity_sd = Vec3(0.002, 0.002, 0.005);
+  OnlineEstimator est(t.sand, c);
+  std::mt19937 rng(5);
+  std::normal_distribution<double> n(0, 1);
+  // The simulated camera's: 0.3 s correlation; 10 mm/s against the drive's speeds up to 0.08 m/s,
+  // the ratio of the camera's 2 mm/s to the firmware-in-the-loop courses' 0.02 m/s.
+  const double a = std::exp(-OnlineDrive::kDt / 0.3), b = std::sqrt(1 - a * a);
+  Vec3 noise = Vec3::Zero();
+  std::vector<double> sigma, d_x;
+  for (long k = 0; k < 10L * 60 * 100; ++k) {
+    drive.next();
+    for (int j = 0; j < 2; ++j) noise[j] = a * noise[j] + b * 0.01 * n(rng);
+    est.step(drive.omega_rpm, drive.zeta_true() + noise, OnlineDrive::kDt);
+    if (k % 100 == 0 && drive.t_s() > 60) {
+      sigma.push_back(est.estimate().value[kSigmaLong]);
+      d_x.push_back(est.estimate().value[kDx]);
+    }
+  }
+  std::sort(sigma.begin(), sigma.end());
+  std::sort(d_x.begin(), d_x.end());
+  const double sigma_med = sigma[sigma.size() / 2], d_x_med = d_x[d_x.size() / 2];
+  INFO("median sigma_long " << sigma_med << " N/rpm (truth " << t.sand.terrain.sigma_long << "), D_x " << d_x_med
+                            << " N/(m/s) (truth " << t.sand.terrain.D_x << ")");
+  CHECK(std::fabs(d_x_med / t.sand.terrain.D_x - 1) < 0.02);
+  CHECK(std::fabs(sigma_med / t.sand.terrain.sigma_long - 1) < 0.05);
 }
 
 TEST_CASE("online: the estimate stays in the physical range; divergence falls back to the configured terrain") {

@@ -241,6 +241,7 @@ class OnlineEstimator {
   void publish();
   double update_row(int dof, const VecN& phi, const VecN& phi_update, double y, bool adapt);
   void effect_bases(const Vec3& eta, const Vec3& zeta, Vec3* out) const;
+  void keep_prior(const bool* updated);
 
   OnlineConfig cfg_;
   Model model_;                   // the effects' bases read it (a copy: no lifetime to keep)
