@@ -11,6 +11,8 @@
 #include <variant>
 #include <vector>
 
+#include "daemon_log.hpp"
+
 namespace auger::daemon {
 namespace {
 
@@ -107,10 +109,12 @@ const std::vector<Field<Status>>& online_fields() {
   return f;
 }
 
+// Named as the log's columns (one list of names for both).
 const std::vector<Field<Status>>& feedforward_fields() {
-  static const std::vector<Field<Status>> f = {{"ff_force_x_n", "%.4g", &Status::ff_force_x_n},
-                                               {"ff_force_y_n", "%.4g", &Status::ff_force_y_n},
-                                               {"ff_torque_psi_nm", "%.4g", &Status::ff_torque_psi_nm}};
+  const std::vector<std::string>& k = feedforward_columns();
+  static const std::vector<Field<Status>> f = {{k[0].c_str(), "%.4g", &Status::ff_force_x_n},
+                                               {k[1].c_str(), "%.4g", &Status::ff_force_y_n},
+                                               {k[2].c_str(), "%.4g", &Status::ff_torque_psi_nm}};
   return f;
 }
 
@@ -225,7 +229,7 @@ std::string parse_status(const std::string& line, Status& out) {
   if (s.ros2 && err.empty()) err = read(kv, ros2_fields(), "", s);
   s.online = s.all && kv.count("online_terrain") > 0;
   if (s.online && err.empty()) err = read(kv, online_fields(), "", s);
-  s.feedforward = s.all && kv.count("ff_force_x_n") > 0;
+  s.feedforward = s.all && kv.count(feedforward_columns()[0]) > 0;
   if (s.feedforward && err.empty()) err = read(kv, feedforward_fields(), "", s);
   for (const auto& field : kv) {
     const std::string& key = field.first;
