@@ -48,7 +48,7 @@ Daemon::Daemon(const DaemonConfig& cfg, auger::Model model)
   controller_ = std::make_unique<auger::Controller>(model_, ctrl_cfg_);
   online_kin_ = auger::KinematicVelocity(cfg.online_kin);
   if (cfg.online.enabled) {
-    const auger::ModelFile mf = auger::load_model_file(cfg.model_file);
+    const auger::ModelFile& mf = cfg.model;
     online_ = std::make_unique<auger::OnlineEstimator>(model_, cfg.online,
                                                        auger::online_effect_params(mf, auger::EffectRegistry::builtin()));
     for (const auto& t : mf.terrains) terrains_.push_back(t.params);

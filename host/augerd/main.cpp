@@ -51,7 +51,7 @@ int main(int argc, char** argv) {
   std::optional<auger::Model> model;
   try {
     cfg = load_daemon_config(config_path);
-    const auger::ModelFile mf = auger::load_model_file(cfg.model_file);
+    const auger::ModelFile& mf = cfg.model;
     model = auger::build_model(mf, cfg.terrain);
     // The effects' parameters marked online (more than the estimator takes is an error here).
     const std::size_t n_online = auger::online_effect_params(mf, auger::EffectRegistry::builtin()).size();

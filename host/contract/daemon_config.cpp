@@ -413,7 +413,8 @@ void check_tables(const DaemonConfig& c, const Pending& p) {
 
 // The model file (its own errors name that file); then this file's overrides.
 void apply_model(DaemonConfig& c, const Pending& p) {
-  const auger::ModelFile model = auger::load_model_file(c.model_file);
+  c.model = auger::load_model_file(c.model_file);
+  const auger::ModelFile& model = c.model;
   if (!model.find_terrain(c.terrain))
     throw ConfigError(c.path, 1, 1, "terrain '" + c.terrain + "' is not in " + c.model_file);
   c.controller = auger::controller_config(model, c.terrain);

@@ -9,6 +9,7 @@
 
 #include "auger/controller.hpp"
 #include "auger/model.hpp"
+#include "auger/model_file.hpp"
 #include "auger/kinematic_velocity.hpp"
 #include "auger/online_estimator.hpp"
 #include "ros2_settings.hpp"
@@ -26,6 +27,9 @@ struct DaemonConfig {
 
   // [model]
   std::string model_file;  // resolved against the configuration file's directory
+  // Its contents, read once here: augerd builds its model, online parameters and terrain rows
+  // from this, so they cannot come from two versions of a file edited meanwhile.
+  auger::ModelFile model;
   std::string terrain = "sand";
 
   // [control]: applied over the model file's [control] and Table 5 defaults

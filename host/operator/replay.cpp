@@ -109,7 +109,7 @@ int run_replay(int argc, char** argv) {
     if (!config_path.empty()) {
       // Whether this build could run augerd's ROS 2 bridge does not matter to a replay.
       const DaemonConfig dc = read_daemon_config(config_path, /*ros2_available=*/true, /*ros2_security_stated=*/false);
-      model = build_model(load_model_file(dc.model_file), dc.terrain);
+      model = build_model(dc.model, dc.terrain);
       ccfg = dc.controller;
     } else {
       if (terrain.empty()) {

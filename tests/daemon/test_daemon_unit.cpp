@@ -338,6 +338,9 @@ TEST_CASE("configuration file", "[daemon][unit]") {
   CHECK(c.ports[2] == "/dev/c");
   CHECK(c.baud == 250000);
   CHECK(c.terrain == "frozen_grass");
+  // The model file's contents as read for the controller's settings: augerd builds from these.
+  REQUIRE(c.model.find_terrain("frozen_grass") != nullptr);
+  CHECK(c.model.find_terrain("frozen_grass")->params.sigma_long == 0.4);
   CHECK(c.controller.allocator.kind == auger::AllocatorKind::pseudo_inverse);
   CHECK(c.controller.allocator.omega_max_rpm == 20);
   CHECK(c.controller.gains.kp[2] == 3);
