@@ -151,20 +151,29 @@ void CoulombFriction::body_force(const Model&, const EffectContext& ctx, Vec3& f
 }
 
 // ---------------------------------------------------------------- ScrewDeadBand
-ScrewDeadBand::ScrewDeadBand(double omega_dead_rpm, bool shift) : omega_dead_rpm_(omega_dead_rpm), shift_(shift) {}
+ScrewDeadBand::ScrewDeadBand(double omega_dead_rpm, double shift, double asymmetry)
+    : omega_dead_rpm_(omega_dead_rpm), shift_(shift), asymmetry_(asymmetry) {}
 const std::string& ScrewDeadBand::id() const {
   static const std::string s = "screw_dead_band";
   return s;
 }
 std::vector<std::pair<std::string, double>> ScrewDeadBand::params() const {
-  return {{"omega_dead_rpm", omega_dead_rpm_}, {"shift", shift_ ? 1.0 : 0.0}};
+  return {{"omega_dead_rpm", omega_dead_rpm_}, {"shift", shift_}, {"asymmetry", asymmetry_}};
+}
+double ScrewDeadBand::effective_rpm(double omega_rpm) const {
+  const double band_rpm = omega_dead_rpm_ * (omega_rpm > 0 ? 1 + asymmetry_ : 1 - asymmetry_);
+  const double speed_rpm = std::fabs(omega_rpm);
+  if (speed_rpm <= band_rpm) return 0.0;
+  // The ramp (speed - band) / shift meets the nominal line at band / (1 - shift).
+  const double pushed_rpm = shift_ > 0 ? std::min(speed_rpm, (speed_rpm - band_rpm) / shift_) : speed_rpm;
+  return std::copysign(pushed_rpm, omega_rpm);
 }
 void ScrewDeadBand::drive_force(const Model& model, const Vec4& omega_rpm, double sigma_scale, double, Vec3& tau_n,
                                 double*) const {
   for (int i = 0; i < 4; ++i) {
     const double w = omega_rpm[i];
-    if (std::fabs(w) < omega_dead_rpm_) tau_n -= sigma_scale * model.SB.col(i) * w;  // eq. (7) without screw i
-    else if (shift_) tau_n -= sigma_scale * model.SB.col(i) * std::copysign(omega_dead_rpm_, w);
+    const double lost_rpm = w - effective_rpm(w);
+    if (lost_rpm != 0) tau_n -= sigma_scale * model.SB.col(i) * lost_rpm;  // eq. (7), screw i's lost speed
   }
 }
 

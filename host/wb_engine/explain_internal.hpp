@@ -131,8 +131,11 @@ std::vector<Part> without_part(std::vector<Part> parts, std::size_t i);
 inline bool paper_free(const Part& p) { return !p.entry && !p.free.empty(); }
 // The simpler form effect p reduces to when a parameter of it is not identified or not confirmed:
 // stick-slip friction to Coulomb friction at its sliding level, an IMU drift to a bias, a force
-// lag with a dead time to the plain lag. False: none. explain_parsimony.cpp.
+// lag with a dead time to the plain lag, a dead band to the symmetric dead zone. False: none.
+// explain_parsimony.cpp.
 bool simpler_form(const Part& p, const Dataset& d, Part& out);
+// "force_lag without its dead time", "screw_dead_band as a symmetric dead zone", or to's id.
+std::string simpler_form_name(const Part& from, const Part& to);
 // The largest finite value over the channels (0 when none): a contribution's size.
 double largest(const ChannelValues& v);
 

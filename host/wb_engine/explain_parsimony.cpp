@@ -16,7 +16,7 @@ using namespace search;
 
 // The simpler form an effect reduces to when a parameter of it is not identified: stick-slip
 // friction to Coulomb friction at its sliding level, an IMU drift to a bias, a force lag with a
-// dead time to the plain lag. False: none.
+// dead time to the plain lag, a dead band of any form to the symmetric dead zone. False: none.
 bool simpler_form(const Part& p, const Dataset& d, Part& out) {
   if (p.id == "stick_slip_friction") {
     out = make_part("coulomb_friction", Model{}, d);
@@ -36,7 +36,21 @@ bool simpler_form(const Part& p, const Dataset& d, Part& out) {
     out.free.erase(std::remove(out.free.begin(), out.free.end(), 1), out.free.end());
     return true;
   }
+  // The dead band's form parameters (shift, asymmetry) at their defaults: a symmetric dead zone.
+  if (p.id == "screw_dead_band" && p.values.size() > 2 && (p.values[1] != 1 || p.values[2] != 0)) {
+    out = p;
+    out.values[1] = 1;
+    out.values[2] = 0;
+    out.free.erase(std::remove_if(out.free.begin(), out.free.end(), [](int k) { return k == 1 || k == 2; }),
+                   out.free.end());
+    return true;
+  }
   return false;
+}
+
+std::string simpler_form_name(const Part& from, const Part& to) {
+  if (to.id != from.id) return to.id;
+  return to.id + (to.id == "force_lag" ? " without its dead time" : " as a symmetric dead zone");
 }
 
 std::vector<Part> without_part(std::vector<Part> parts, std::size_t i) {
@@ -197,7 +211,7 @@ void Explainer::parsimony(FitOutcome& o, std::vector<RemovedEffect>& removed) {
         FitOutcome a = refit(all_, alt, 12, 1);
         ++structures_;
         if (std::isfinite(a.cost) && compare_error(a.parts) <= err * (1.0 + kAddHeldout)) {
-          changed = remove_part(i, "replaced by " + simpler.id + (simpler.id == o.parts[i].id ? " without its dead time" : "") +
+          changed = remove_part(i, "replaced by " + simpler_form_name(o.parts[i], simpler) +
                                        ": a parameter of it is not identified and the simpler form predicts as well",
                                 c, &simpler);
           break;

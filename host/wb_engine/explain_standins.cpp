@@ -151,8 +151,7 @@ void Explainer::confirm_in_form(FitOutcome& o, ExplainResult& res) {
       if (std::isfinite(a.cost)) {
         polish(a);
         const std::string name = label(o.parts[stand_in], ctx_.size());
-        const bool same = simpler.id == o.parts[stand_in].id;  // a force lag without its dead time
-        res.removed.push_back({name, "replaced by " + simpler.id + (same ? " without its dead time" : "") + ": " + why, size});
+        res.removed.push_back({name, "replaced by " + simpler_form_name(o.parts[stand_in], simpler) + ": " + why, size});
         progress("explain: form check: %s replaced by its simpler form (%s)", name.c_str(), why.c_str());
         o = std::move(a);
         continue;

@@ -31,7 +31,7 @@ std::vector<std::vector<Part>> starts(const std::vector<Part>& parts) {
     for (int i : p.free) {
       const ParamSpec& sp = p.specs[static_cast<std::size_t>(i)];
       double v;
-      if (!p.entry) v = sp.default_value;  // paper_params: start at the paper's values
+      if (!p.entry || sp.form) v = sp.default_value;  // paper_params: the paper's values; a form: its default
       else if (sp.log_scale) v = sp.typical * (variant == 0 ? 1.0 : 0.4);  // a limit must bite to be seen
       else if (sp.lower < 0) v = sp.typical * (variant == 0 ? 1.0 : -1.0);
       else v = sp.typical * (variant == 0 ? 1.0 : 0.3);

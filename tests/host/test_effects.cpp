@@ -88,6 +88,46 @@ TEST_CASE("dead band removes the force of slow screws only") {
   CHECK((tau - m.SB * Vec4(0, -10, 0, 12)).norm() < 1e-12);
 }
 
+TEST_CASE("dead band: other widths forward and backward, a gate, a dead zone or a ramp back to the nominal") {
+  // Written from the band's physics: below the band no thrust; above it the thrust speed ramps
+  // from 0 at the band with slope 1 / shift until it meets the nominal line (at band / (1 - shift)).
+  auto thrust_rpm = [](double w, double band_rpm, double shift) {
+    const double a = std::fabs(w);
+    if (a <= band_rpm) return 0.0;
+    if (shift == 0 || a >= band_rpm / (1 - shift)) return w;
+    return std::copysign((a - band_rpm) / shift, w);
+  };
+  const EffectRegistry& r = EffectRegistry::builtin();
+  for (double shift : {0.0, 0.25, 0.5, 1.0})
+    for (double asym : {-0.5, 0.0, 0.4}) {
+      const double mean = 2.0, fwd = mean * (1 + asym), back = mean * (1 - asym);
+      const Model m = make_model(RobotParams{}, kSand,
+                                 {r.create(config("screw_dead_band", {{"omega_dead_rpm", mean, 8, 1},
+                                                                      {"shift", shift, 9, 1},
+                                                                      {"asymmetry", asym, 10, 1}}))});
+      DynamicsData data(m);
+      for (double w0 : {-9.0, -3.1, -1.5, -0.5, 0.7, 1.9, 2.6, 3.3, 5.0, 12.0}) {
+        const Vec4 omega(w0, -w0, 0.5 * w0, 2 * w0);
+        Vec3 tau;
+        drive_force(m, data, omega, 0.01, tau);
+        Vec4 expect;
+        for (int i = 0; i < 4; ++i) expect[i] = thrust_rpm(omega[i], omega[i] > 0 ? fwd : back, shift);
+        INFO("shift " << shift << " asymmetry " << asym << " omega " << w0);
+        CHECK((tau - m.SB * expect).norm() < 1e-9 * (1 + tau.norm()));
+      }
+    }
+  // A file that gives only the width keeps the former default: a symmetric dead zone.
+  const auto zone = r.create(config("screw_dead_band", {{"omega_dead_rpm", 1.5, 8, 1}}));
+  CHECK(zone->params() == std::vector<std::pair<std::string, double>>{{"omega_dead_rpm", 1.5}, {"shift", 1.0}, {"asymmetry", 0.0}});
+  for (auto bad : {std::pair<const char*, double>{"shift", 1.5}, {"shift", -0.1}, {"asymmetry", 1.2}})
+    try {
+      r.create(config("screw_dead_band", {{"omega_dead_rpm", 1.5, 8, 1}, {bad.first, bad.second, 9, 3}}));
+      FAIL("accepted " << bad.first << " = " << bad.second);
+    } catch (const ConfigError& ex) {
+      CHECK_THAT(ex.what(), Catch::StartsWith("fx.toml:7:1:") && Catch::Contains(bad.first));  // the effect's line
+    }
+}
+
 TEST_CASE("IMU heading bias changes what the IMU reports, not the pose") {
   const Model m = make_model(RobotParams{}, kSand, {std::make_shared<ImuHeadingBias>(0.2)});
   SensorValues v;

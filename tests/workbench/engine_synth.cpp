@@ -37,7 +37,9 @@ Dataset synth(const Model& truth, const SynthOptions& o) {
   const double dt = 0.01;
   const auto n = static_cast<std::size_t>(o.seconds / dt) + 1;
   auto speed = [&](double t) {
-    return o.steps && t <= 0 ? Vec4(Vec4::Zero()) : Vec4(o.drive_scale * drive_profile(t, 4.0, !o.steps));
+    const double piece = std::floor(t / 4.0), golden = 0.6180339887;
+    const double scale = o.drive_scale * (o.speed_sweep ? 0.15 + 0.85 * (piece * golden - std::floor(piece * golden)) : 1.0);
+    return o.steps && t <= 0 ? Vec4(Vec4::Zero()) : Vec4(scale * drive_profile(t, 4.0, !o.steps));
   };
   DynamicsData dyn(truth);
   Vec3 eta(0.5, -0.2, 0.3), zeta = Vec3::Zero();

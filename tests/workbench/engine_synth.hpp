@@ -25,6 +25,7 @@ struct SynthOptions {
   bool gaps = true;            // a 1 s gap without poses every 20 s
   bool steps = false;          // speeds step (from rest at t = 0 straight to the first piece's)
   double drive_scale = 1;      // drive_profile's speeds times this (a slow drive: a robot that stalls)
+  bool speed_sweep = false;    // each 4 s piece's speeds also times 0.15-1 (golden-ratio steps): many steady speeds
   unsigned seed = 1;
 };
 

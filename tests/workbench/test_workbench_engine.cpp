@@ -302,6 +302,9 @@ TEST_CASE("diagnose --model refits the model's effects jointly with each candida
   CHECK(r.refits_model);
   CHECK(r.candidates[0].fitted.effect == "coulomb_friction");
   REQUIRE(r.candidates[0].refitted.size() == 1);
+  std::string got;
+  for (const FitParam& p : r.candidates[0].refitted[0].params) got += p.name + " = " + std::to_string(p.value) + "; ";
+  INFO(got);
   CHECK(r.candidates[0].refitted[0].params[0].value == Approx(2.0).epsilon(0.1));  // refitted, not held
   CHECK(r.candidates[0].heldout_ratio < 1.2);
 }

@@ -142,6 +142,13 @@ struct ParamSpec {
     physical_upper = upper_value;
     return *this;
   }
+  // A form parameter (a dead band's shift and asymmetry): the workbench starts it at its default
+  // and, while it is there, fits its effect's size first with it held (search_lm.cpp).
+  bool form = false;
+  ParamSpec& form_param() {
+    form = true;
+    return *this;
+  }
   // A model file may mark it `online = true` (augerd estimates it while driving): its effect
   // implements Effect::online_basis / online_shape for it and its physical range is finite.
   bool online = false;
@@ -239,20 +246,24 @@ class CoulombFriction final : public Effect {
   Vec3 limit_;
 };
 
-// Dead band: a screw turning slower than omega_dead_rpm produces no force. With shift (a dead
-// zone, the registry's default) a faster screw pushes as if it turned omega_dead_rpm slower;
-// without, it pushes with its full speed.
+// Dead band: a screw turning slower than its band produces no force. The band is
+// omega_dead_rpm (1 + asymmetry) wide turning forward (omega > 0) and omega_dead_rpm
+// (1 - asymmetry) backward. Above it the screw pushes as if it turned at
+// min(|omega|, (|omega| - band) / shift): shift 1 a dead zone (omega_dead_rpm slower at every
+// speed), 0 a gate (full force above the band), in between a ramp of slope 1 / shift that
+// joins the nominal line at band / (1 - shift) (docs/workbench.md "`auger effects`").
 class ScrewDeadBand final : public Effect {
  public:
-  explicit ScrewDeadBand(double omega_dead_rpm, bool shift = false);
+  explicit ScrewDeadBand(double omega_dead_rpm, double shift = 0, double asymmetry = 0);
   const std::string& id() const override;
   std::vector<std::pair<std::string, double>> params() const override;
   void drive_force(const Model& model, const Vec4& omega_rpm, double sigma_scale, double dt_s, Vec3& tau_n,
                    double* state) const override;
+  // The speed a screw turning at omega_rpm pushes with.
+  double effective_rpm(double omega_rpm) const;
 
  private:
-  double omega_dead_rpm_;
-  bool shift_;
+  double omega_dead_rpm_, shift_, asymmetry_;
 };
 
 // A constant IMU heading bias: the IMU reports psi + bias_rad.

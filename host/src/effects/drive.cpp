@@ -136,23 +136,47 @@ class ForceLag final : public Effect {
   double tau_s_, delay_s_;
 };
 
+// "a screw turning slower than 2 rpm forward and 1 rpm backward pushes with no force; above it its
+// force ramps back to the nominal at 4 rpm forward and 2 rpm backward: screw dead band"
+std::string describe_dead_band(double omega_dead_rpm, double shift, double asymmetry) {
+  const double fwd = omega_dead_rpm * (1 + asymmetry), back = omega_dead_rpm * (1 - asymmetry);
+  const bool sym = std::fabs(asymmetry) < 0.02;  // within 4 %: one width
+  auto both = [&](double f, double b) { return sym ? fmt(f) + " rpm" : fmt(f) + " rpm forward and " + fmt(b) + " rpm backward"; };
+  std::string s = "a screw turning slower than " + both(fwd, back) + " pushes with no force";
+  if (shift >= 0.995) s += " (above, as if it turned that much slower)";
+  else if (shift <= 0.005) s += " (above, with its full speed)";
+  else s += "; above, its force ramps back to the nominal at " + both(fwd / (1 - shift), back / (1 - shift));
+  return s + ": screw dead band";
+}
+
 }  // namespace
 
 void register_drive(EffectRegistry& r) {
   auto non_negative = [](double v, const char* name) {
     if (!(v >= 0) || !std::isfinite(v)) throw std::invalid_argument(std::string(name) + " must be >= 0");
   };
-  r.add({"screw_dead_band", "a screw slower than omega_dead_rpm gives no force",
-         {ParamSpec{"omega_dead_rpm", 0, true, "dead band half-width", "rpm", 0, 23, 1.0}.physical(0.1, 6),
-          ParamSpec{"shift", 1, false, "1: a dead zone (force of |omega| - omega_dead_rpm), 0: full force above it", "", 0, 1, 1,
-           false, false}.physical(0, 1)},
+  // The band's form (docs/workbench.md "`auger effects`"): its width forward and backward, and
+  // whether the force above it jumps back (a gate), ramps back to the nominal line, or stays
+  // shifted (a dead zone), all fitted: a dead zone fitted to a band that ramps back ends at several
+  // times the noise floor (the independent generator's ramp-join and asymmetric dead bands).
+  r.add({"screw_dead_band", "a screw slower than its band (omega_dead_rpm (1 +- asymmetry) forward / backward) gives no force",
+         {ParamSpec{"omega_dead_rpm", 0, true, "dead band half-width (the mean of forward and backward)", "rpm", 0, 23, 1.0}.physical(0.1, 6),
+          ParamSpec{"shift", 1, false,
+                    "above the band the screw pushes with min(|omega|, (|omega| - band) / shift): 1 a dead zone, 0 a gate, "
+                    "between a ramp joining the nominal line at band / (1 - shift)",
+                    "", 0, 1, 1}.physical(0, 1).form_param(),
+          ParamSpec{"asymmetry", 0, false, "the band is omega_dead_rpm (1 + asymmetry) turning forward (omega > 0), "
+                    "omega_dead_rpm (1 - asymmetry) backward", "", -1, 1, 0.3}.physical(-1, 1).form_param()},
+         // (The form parameters default where a caller gives only the first values.)
          [non_negative](const std::vector<double>& v) {
-           non_negative(v[0], "omega_dead_rpm");
-           if (!(v[1] == 0 || v[1] == 1)) throw std::invalid_argument("shift must be 0 or 1");
-           return std::make_shared<ScrewDeadBand>(v[0], v[1] == 1);
+           const double shift = v.size() > 1 ? v[1] : 1.0, asymmetry = v.size() > 2 ? v[2] : 0.0;
+           non_negative(v.at(0), "omega_dead_rpm");
+           if (!(shift >= 0 && shift <= 1)) throw std::invalid_argument("shift must be in [0, 1]");
+           if (!(asymmetry >= -1 && asymmetry <= 1)) throw std::invalid_argument("asymmetry must be in [-1, 1]");
+           return std::make_shared<ScrewDeadBand>(v[0], shift, asymmetry);
          },
          [](const std::vector<double>& v) {
-           return "a screw turning slower than " + fmt(v[0]) + " rpm pushes with no force: screw dead band";
+           return describe_dead_band(v.at(0), v.size() > 1 ? v[1] : 1.0, v.size() > 2 ? v[2] : 0.0);
          }});
   r.add({"screw_traction_loss", "screw `screw` (0 front-right, 1 rear-right, 2 rear-left, 3 front-left) "
                                 "transmits only (1 - loss) of its force",
