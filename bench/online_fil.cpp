@@ -5,7 +5,8 @@
 // the IMU through KinematicVelocity (velocity = "kinematic") or, to tell the velocity's errors
 // from the model's, the true velocity of the truth log.
 //   online_fil stats DIR [options]   the innovation's statistics per DOF on the uniform logs
-//   online_fil curve DIR [options]   detection delay and false alarms over the threshold
+//   online_fil curve DIR [options]   detection delay and false alarms over the threshold, and
+//                                    sigma_long / D_x 3 s after the robot reached a terrain
 // With apply off the controller never sees the estimate, so replaying the estimator on a log is
 // what augerd with [online] would have computed on it.
 #include <algorithm>
@@ -171,6 +172,28 @@ std::map<std::string, std::vector<double>> read_changes(const std::string& dir) 
   return out;
 }
 
+// The stretches of a field log with all four contacts on one terrain (changes.csv's contacts rows
+// whose ids are all equal): from, until the next contacts row, and the terrain (0: the field's
+// sand, 1: its frozen-grass band).
+struct Stretch {
+  double from_s, to_s;
+  int terrain;
+};
+std::map<std::string, std::vector<Stretch>> read_stretches(const std::string& dir) {
+  std::map<std::string, std::vector<Stretch>> out;
+  std::map<std::string, std::string> last_ids;
+  for (const auto& row : read_csv(dir + "/changes.csv")) {
+    if (row.size() < 4 || row[2] != "contacts") continue;
+    auto& v = out[row[0] + ".csv"];
+    const double t = std::stod(row[1]);
+    if (!v.empty() && std::isnan(v.back().to_s)) v.back().to_s = t;
+    std::string ids = row[3];
+    while (!ids.empty() && (ids.back() == '\r' || ids.back() == ' ')) ids.pop_back();  // the csv module's CRLF
+    if (ids == "0 0 0 0" || ids == "1 1 1 1") v.push_back({t, NAN, ids[0] - '0'});
+  }
+  return out;
+}
+
 // Per-DOF statistics of the innovation on the uniform logs.
 struct InnovStats {
   double n = 0, sum = 0, sum2 = 0, nis0 = 0;  // nis0: e^2 / (configured noise + phi^T P phi)
@@ -278,7 +301,11 @@ int stats(const std::string& dir, const std::vector<Entry>& logs, const Options&
 
 int curve(const std::string& dir, const std::vector<Entry>& logs, const Options& o, const Model& sand, const Model& grass) {
   const auto changes = read_changes(dir);
+  const auto stretches = read_stretches(dir);
   const std::size_t nt = o.thresholds.size();
+  // Point 2's re-identification: sigma_long / D_x (the steady speed per rpm, what a held drag
+  // leaves to identify) 3 s after all four contacts reached a terrain, against that terrain's.
+  std::vector<std::vector<double>> ratio_err(nt);
   std::vector<std::vector<double>> delays(nt);
   std::vector<int> missed(nt, 0), n_changes(nt, 0);
   std::vector<long> alarms_uniform(nt, 0), alarms_field_extra(nt, 0);
@@ -297,8 +324,19 @@ int curve(const std::string& dir, const std::vector<Entry>& logs, const Options&
       c.cusum_threshold = o.thresholds[i];
       OnlineEstimator est(m, c);
       std::vector<double> alarms;
-      for (std::size_t k = 0; k < rp.t.size(); ++k)
+      const auto st = stretches.find(e.log);
+      std::size_t next_stretch = 0;
+      for (std::size_t k = 0; k < rp.t.size(); ++k) {
         if (est.step(rp.omega[k], rp.zeta[k], kDt)) alarms.push_back(rp.t[k]);
+        if (st == stretches.end() || next_stretch >= st->second.size()) continue;
+        const Stretch& s = st->second[next_stretch];
+        if (rp.t[k] < s.from_s + 3.0) continue;
+        ++next_stretch;
+        if (!(s.to_s >= s.from_s + 3.0) || s.from_s < 10) continue;  // left before 3 s, or the start
+        const Model& truth = s.terrain == 1 ? grass : sand;
+        const Vec5& v = est.estimate().value;
+        ratio_err[i].push_back(std::fabs((v[kSigmaLong] / v[kDx]) / (truth.terrain.sigma_long / truth.terrain.D_x) - 1));
+      }
       if (e.kind == "uniform") {
         alarms_uniform[i] += long(alarms.size());
         continue;
@@ -336,6 +374,14 @@ int curve(const std::string& dir, const std::vector<Entry>& logs, const Options&
     std::printf("| %g | %.2f s | %.2f s | %d of %d | %.2f | %.1f |\n", o.thresholds[i], quantile(delays[i], 0.5),
                 quantile(delays[i], 0.95), missed[i], n_changes[i], double(alarms_uniform[i]) / h_uniform,
                 double(alarms_field_extra[i]) / h_field);
+  std::printf("\nsigma_long / D_x 3 s after all four contacts reached a terrain (stretches of 3 s or more), error "
+              "against that terrain's:\n\n| threshold | stretches | median | 95th pct. | within 5 %% |\n|---|---|---|---|---|\n");
+  for (std::size_t i = 0; i < nt; ++i) {
+    const std::vector<double>& r = ratio_err[i];
+    const auto within = std::count_if(r.begin(), r.end(), [](double x) { return x <= 0.05; });
+    std::printf("| %g | %zu | %.1f %% | %.1f %% | %ld of %zu |\n", o.thresholds[i], r.size(), 100 * quantile(r, 0.5),
+                100 * quantile(r, 0.95), long(within), r.size());
+  }
   if (o.list_missed)
     for (std::size_t i = 0; i < nt; ++i) std::printf("\nmissed at threshold %g: %s\n", o.thresholds[i], missed_list[i].c_str());
   return 0;
