@@ -287,6 +287,12 @@ class Explainer {
   // The residual variance of s's fit, times n / n_eff over the segments it was fitted on
   // (fit_params' s2_scale).
   double s2_scale(const State& s) const;
+  // The same for an outcome fitted on every segment (1 without residuals): its parameters'
+  // uncertainties, as parsimony's identification and the check of form judge them.
+  std::vector<FitParam> params_on_all(const FitOutcome& o) const {
+    const double n = static_cast<double>(o.r.size());
+    return search::fit_params(o, o.r.size() ? o.cost / std::max(1.0, n - o.n_params) * n / n_eff_of(o, all_) : 1.0);
+  }
 
   static double bic_change(double cost_from, int k_from, double cost_to, int k_to, double n_eff) {
     return n_eff * std::log(std::max(cost_to, 1e-300) / std::max(cost_from, 1e-300)) + (k_to - k_from) * std::log(n_eff);

@@ -183,9 +183,7 @@ void Explainer::parsimony(FitOutcome& o, std::vector<RemovedEffect>& removed) {
     // 2. Identified: a parameter the log does not identify (at the end of its range with an
     // uncertainty over half its value, or an uncertainty over its value) is kept only if neither
     // taking the effect out nor its simpler form predicts the 25 s segments within 2 % as well.
-    const double n = static_cast<double>(o.r.size());
-    const double s2 = o.r.size() ? o.cost / std::max(1.0, n - o.n_params) * n / n_eff_of(o, all_) : 1.0;
-    const std::vector<FitParam> params = fit_params(o, s2);
+    const std::vector<FitParam> params = params_on_all(o);
     bool changed = false;
     std::size_t k = 0;
     for (std::size_t i = 0; i < o.parts.size() && !changed; ++i) {

@@ -99,9 +99,7 @@ void Explainer::confirm_in_form(FitOutcome& o, ExplainResult& res) {
     for (std::size_t i = 0; i < o.parts.size(); ++i)
       if (is_library_effect(o.parts[i]) || paper_free(o.parts[i])) effects.push_back(i);
     if (effects.empty()) return;
-    const double n = static_cast<double>(o.r.size());
-    const std::vector<FitParam> params =
-        fit_params(o, o.r.size() ? o.cost / std::max(1.0, n - o.n_params) * n / n_eff_of(o, all_) : 1.0);
+    const std::vector<FitParam> params = params_on_all(o);
     std::array<std::vector<Part>, kFolds> fits;
     cross_validated(o.parts, &fits);
     std::size_t stand_in = o.parts.size();
