@@ -8,6 +8,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <limits>
 #include <string>
@@ -24,6 +25,13 @@ const char* channel_name(int channel);  // "x", "y", "psi", "imu_psi"
 const char* channel_unit(int channel);  // "m" or "rad"
 using ChannelValues = std::array<double, kChannels>;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// The largest finite channel; NaN when none is.
+inline double largest_finite(const ChannelValues& v) {
+  double m = kNaN;
+  for (double x : v)
+    if (std::isfinite(x) && !(x <= m)) m = x;
+  return m;
+}
 
 // A log in memory, in the columns the workbench uses.
 struct Dataset {

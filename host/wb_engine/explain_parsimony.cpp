@@ -65,10 +65,8 @@ std::vector<Part> without_part(std::vector<Part> parts, std::size_t i) {
 }
 
 double largest(const ChannelValues& v) {
-  double m = 0;
-  for (double x : v)
-    if (std::isfinite(x)) m = std::max(m, x);
-  return m;
+  const double m = largest_finite(v);
+  return std::isfinite(m) ? std::max(m, 0.0) : 0.0;
 }
 
 ChannelValues Explainer::contribution(const std::vector<Part>& parts, std::size_t i) const {

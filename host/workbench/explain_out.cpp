@@ -19,14 +19,6 @@ std::string cell(double v) {
   return buf;
 }
 
-// The largest finite channel (NaN when none).
-double worst_channel(const ChannelValues& v) {
-  double m = kNaN;
-  for (double x : v)
-    if (std::isfinite(x) && !(x <= m)) m = x;
-  return m;
-}
-
 }  // namespace
 
 
@@ -189,7 +181,7 @@ for (const auto& x : r.removed)
 for (const auto& x : r.stand_ins)
   std::printf("  a possible stand-in, not a finding: %s: %s (with it %.2f times the noise floor at most, %.2f "
               "without)\n",
-              x.effect.c_str(), x.why.c_str(), worst_channel(x.ratio_with), worst_channel(x.ratio_without));
+              x.effect.c_str(), x.why.c_str(), largest_finite(x.ratio_with), largest_finite(x.ratio_without));
 if (!r.discovered.empty()) {
   std::printf("discovered terms (no library effect has them; docs/workbench.md \"Discovered terms\"):\n");
   for (const auto& g : r.discovered) {
