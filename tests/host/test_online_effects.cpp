@@ -135,8 +135,8 @@ TEST_CASE("online effects: a step allocates nothing, the effects' columns, a cha
   CHECK(est.windows() >= 159);
   CHECK(informed);
   CHECK_FALSE(est.fallback().empty());
-  // The fallback: the controller is back on the file's values (the estimator itself keeps
-  // running on the diverging data, its estimate wherever that takes it).
+  CHECK(est.estimate().effect_value[0] == 0);  // the fallback: back to the file's value
+  // ... and so is the controller's.
   CHECK(est.control_effect_parameters()[0] == 0);
   CHECK(est.control_effect_parameters()[2] == 10);
   CHECK(est.control_parameters()[0] == cm.terrain.sigma_long);
