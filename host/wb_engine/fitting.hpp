@@ -113,6 +113,9 @@ double search_upper(const ParamSpec& s);
 // Levenberg-Marquardt restarted with a fresh damping while it still gains (a stalled step is
 // often a poor finite-difference direction, not the optimum).
 FitOutcome refit(const Problem& pr, std::vector<Part> parts, int max_iter, int restarts = 3);
+// A size left on a plateau where the model's robot is stalled and the log's is not (its column
+// of the Jacobian zero, the fit better at its lower end) is started again from that end.
+FitOutcome leave_plateaus(const Problem& pr, FitOutcome o, int max_iter);
 // A stalled robot: a free size (a friction level, a dead band, a blocking force) that the log
 // cannot see above some value (any larger one predicts the same, the robot stuck as it is) is
 // moved down near the lowest value that predicts the same, that value recorded as a lower bound

@@ -191,7 +191,7 @@ FitOutcome fit_candidate(const Problem& pr, const std::vector<Part>& held_in, co
     if (o.cost <= best.cost) best = std::move(o);
   }
   best.sims = sims;
-  return best;
+  return leave_plateaus(pr, std::move(best), max_iter);
 }
 
 FitOutcome fit_joint(const Problem& pr, const std::vector<Part>& state, const Part& candidate, int max_iter,

@@ -131,9 +131,13 @@ ModelChoice with_effects(std::vector<std::shared_ptr<const Effect>> effects) {
 
 double param_of(const ExplainResult& r, const std::string& effect, const std::string& name) {
   for (const FittedEffect& fe : r.final_fitted)
-    if (fe.effect == effect)
-      for (const FitParam& p : fe.params)
-        if (p.name == name) return p.value;
+    if (fe.effect == effect) return value_of(fe, name);
+  return kNaN;
+}
+
+double value_of(const FittedEffect& e, const std::string& name) {
+  for (const FitParam& p : e.params)
+    if (p.name == name) return p.value;
   return kNaN;
 }
 

@@ -49,5 +49,7 @@ std::vector<double> test_values(const EffectRegistry::Entry& e, double duration_
 
 // A fitted parameter of explain's final model, NaN if it is not there.
 double param_of(const ExplainResult& r, const std::string& effect, const std::string& name);
+// A parameter of a fitted effect, NaN if it has none of that name.
+double value_of(const FittedEffect& e, const std::string& name);
 
 }  // namespace auger::wb::test

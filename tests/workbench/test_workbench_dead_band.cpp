@@ -42,13 +42,6 @@ class RampJoinBand final : public Effect {
   double fwd_, back_;
 };
 
-double value_of(const FittedEffect& e, const std::string& name) {
-  for (const FitParam& p : e.params)
-    if (p.name == name) return p.value;
-  FAIL("no parameter " << name << " in " << e.effect);
-  return NAN;
-}
-
 }  // namespace
 
 TEST_CASE("dead band: a ramp-join band of other widths forward and backward is fitted in form") {
