@@ -69,6 +69,7 @@ struct DiagnoseResult {
   ChannelValues segment_floor{};  // the ratios' reference (segment_floor(), dataset.hpp)
   ErrorStats nominal;          // segments, whole log
   double nominal_heldout_ratio = 0;
+  double nominal_all_ratio = 0;  // over every segment of the search (the nominal fits nothing)
   double n_eff = 0, n = 0;
   std::vector<Candidate> candidates;  // ranked, best first
   bool significant = false;

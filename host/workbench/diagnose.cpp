@@ -80,7 +80,7 @@ int run_diagnose(int argc, char** argv) {
       j.channels("segment_floor", r.segment_floor, d.active);
       j.channels("nominal_rms", r.nominal.rms, d.active);
       j.channels("nominal_ratio", r.nominal.ratio_to_noise, d.active);
-      j.num("nominal_heldout_ratio", r.nominal_heldout_ratio).num("n", r.n).num("n_eff", r.n_eff);
+      j.num("nominal_heldout_ratio", r.nominal_heldout_ratio).num("nominal_all_ratio", r.nominal_all_ratio).num("n", r.n).num("n_eff", r.n_eff);
       j.boolean("significant", r.significant).str("verdict", r.verdict);
       j.begin_array("candidates");
       for (const auto& c : r.candidates) {
@@ -132,8 +132,9 @@ int run_diagnose(int argc, char** argv) {
         std::printf("  %-8s RMS %s = %s\n", channel_name(c),
                     with_unit(r.nominal.rms[static_cast<std::size_t>(c)], channel_unit(c), 3).c_str(),
                     times_noise(r.nominal.ratio_to_noise[static_cast<std::size_t>(c)]).c_str());
-    std::printf("held-out error (the segments the fits never see, RMS over channels): %.3f times the noise floor\n",
-                r.nominal_heldout_ratio);
+    std::printf("held-out error (the segments the fits never see, RMS over channels): %.3f times the noise floor; "
+                "over every segment %.3f\n",
+                r.nominal_heldout_ratio, r.nominal_all_ratio);
     std::printf("\n%s\n", r.verdict.c_str());
     if (!tc.better.empty())
       std::printf("  but the paper's parameters for terrain '%s' explain this log clearly better than those of '%s': "
