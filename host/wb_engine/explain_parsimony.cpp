@@ -15,13 +15,21 @@ namespace auger::wb::explain_internal {
 using namespace search;
 
 // The simpler form an effect reduces to when a parameter of it is not identified: stick-slip
-// friction to Coulomb friction at its sliding level, an IMU drift to a bias, a force lag with a
-// dead time to the plain lag, a dead band of any form to the symmetric dead zone. False: none.
+// friction to Coulomb friction at its sliding level, a settling IMU drift to the linear one, a
+// linear drift to a bias, a force lag with a dead time to the plain lag, saturation pooled over
+// the footprint to each screw's own, a dead band of any form to the symmetric dead zone. False:
+// none.
 bool simpler_form(const Part& p, const Dataset& d, Part& out) {
   if (p.id == "stick_slip_friction") {
     out = make_part("coulomb_friction", Model{}, d);
     for (std::size_t k = 0; k < 3 && k < p.values.size(); ++k) out.values[k] = p.values[k];
     out.log = p.log;
+    return true;
+  }
+  if (p.id == "imu_heading_drift" && p.values.size() > 2 && p.values[2] != 0) {  // settling: the linear drift
+    out = p;
+    out.values[2] = 0;
+    out.free.erase(std::remove(out.free.begin(), out.free.end(), 2), out.free.end());
     return true;
   }
   if (p.id == "imu_heading_drift") {
@@ -34,6 +42,13 @@ bool simpler_form(const Part& p, const Dataset& d, Part& out) {
     out = p;
     out.values[1] = 0;
     out.free.erase(std::remove(out.free.begin(), out.free.end(), 1), out.free.end());
+    return true;
+  }
+  // Saturation pooled over the footprint: each screw's own.
+  if (p.id == "traction_saturation" && p.values.size() > 3 && p.values[3] != 0) {
+    out = p;
+    out.values[3] = 0;
+    out.free.erase(std::remove(out.free.begin(), out.free.end(), 3), out.free.end());
     return true;
   }
   // The dead band's form parameters (shift, asymmetry) at their defaults: a symmetric dead zone.
@@ -50,7 +65,10 @@ bool simpler_form(const Part& p, const Dataset& d, Part& out) {
 
 std::string simpler_form_name(const Part& from, const Part& to) {
   if (to.id != from.id) return to.id;
-  return to.id + (to.id == "force_lag" ? " without its dead time" : " as a symmetric dead zone");
+  if (to.id == "force_lag") return to.id + " without its dead time";
+  if (to.id == "imu_heading_drift") return to.id + " as a linear drift";
+  if (to.id == "traction_saturation") return to.id + " per screw";
+  return to.id + " as a symmetric dead zone";
 }
 
 std::vector<Part> without_part(std::vector<Part> parts, std::size_t i) {

@@ -88,6 +88,47 @@ TEST_CASE("dead band removes the force of slow screws only") {
   CHECK((tau - m.SB * Vec4(0, -10, 0, 12)).norm() < 1e-12);
 }
 
+TEST_CASE("traction saturation: each screw's own force, or pooled, the footprint's total saturating per axis") {
+  const EffectRegistry& reg = EffectRegistry::builtin();
+  const double L = 6, Ly = 2, p = 4;
+  auto sat = [&](double f, double limit) { return f / std::pow(1 + std::pow(std::fabs(f / limit), p), 1 / p); };
+  auto tau_with = [&](double pooling, const Vec4& omega) {
+    const Model m = make_model(RobotParams{}, kSand,
+                               {reg.create(config("traction_saturation", {{"force_max_long_n", L},
+                                                                          {"force_max_lat_n", Ly},
+                                                                          {"sharpness", p},
+                                                                          {"pooling", pooling}}))});
+    DynamicsData data(m);
+    Vec3 tau;
+    drive_force(m, data, omega, 0.01, tau);
+    return std::make_pair(m, tau);
+  };
+  const Vec4 omega(-20, -4, 6, 18);  // unequal screws: the two forms differ
+  {  // Each screw's own: x and y of each column saturated apart.
+    const auto [m, tau] = tau_with(0, omega);
+    double x = 0, y = 0;
+    for (int i = 0; i < 4; ++i) {
+      const Vec3 f = m.SB.col(i) * omega[i];
+      x += sat(f.x(), L);
+      y += sat(f.y(), Ly);
+    }
+    CHECK(tau.x() == Approx(x));
+    CHECK(tau.y() == Approx(y));
+  }
+  {  // Pooled: the total along each axis against four screws' limit, whatever the split.
+    const auto [m, tau] = tau_with(1, omega);
+    const Vec3 total = m.SB * omega;
+    CHECK(tau.x() == Approx(4 * sat(total.x() / 4, L)));
+    CHECK(tau.y() == Approx(4 * sat(total.y() / 4, Ly)));
+    const Vec3 own = tau_with(0, omega).second;
+    CHECK(std::fabs(tau.x() - own.x()) > 0.05 * std::fabs(own.x()));
+  }
+  // Equal screws: the footprint's total and the screws' own are the same.
+  const Vec4 even(-10, -10, 10, 10);
+  CHECK((tau_with(1, even).second - tau_with(0, even).second).norm() < 1e-9);
+  CHECK_THROWS_AS(reg.create(config("traction_saturation", {{"pooling", 1.5}})), ConfigError);
+}
+
 TEST_CASE("dead band: other widths forward and backward, a gate, a dead zone or a ramp back to the nominal") {
   // Written from the band's physics: below the band no thrust; above it the thrust speed ramps
   // from 0 at the band with slope 1 / shift until it meets the nominal line (at band / (1 - shift)).
@@ -135,6 +176,30 @@ TEST_CASE("IMU heading bias changes what the IMU reports, not the pose") {
   CHECK(v.pose == Vec3(1, 2, 3.1));
   CHECK(v.imu_psi_rad == Approx(wrap_angle(3.3)));
   CHECK(v.imu_r_radps == 0.3);
+}
+
+TEST_CASE("IMU heading drift: linear by default; settling, its rate decays and the heading error ends at bias + drift / k") {
+  const EffectRegistry& reg = EffectRegistry::builtin();
+  auto imu_at = [&](const std::vector<EffectParamValue>& params, double t_s, double* r_radps = nullptr) {
+    const Model m = make_model(RobotParams{}, kSand, {reg.create(config("imu_heading_drift", params))});
+    SensorValues v;
+    v.t_s = t_s;
+    predict_sensors(m, Vec3(0, 0, 0.5), Vec3(0, 0, 0.1), v);
+    if (r_radps) *r_radps = v.imu_r_radps;
+    return v.imu_psi_rad - 0.5;
+  };
+  double r = 0;
+  // A model file of before the settling form: the linear drift.
+  CHECK(imu_at({{"bias_rad", 0.01}, {"drift_radps", 1e-3}}, 100, &r) == Approx(0.11));
+  CHECK(r == Approx(0.101));
+  // Settling over 20 s: half the way after 20 ln 2 s, 0.01 + 1e-3 * 20 at the end, the rate decayed.
+  const std::vector<EffectParamValue> settling{{"bias_rad", 0.01}, {"drift_radps", 1e-3}, {"settle_per_s", 0.05}};
+  CHECK(imu_at(settling, 20 * std::log(2.0)) == Approx(0.01 + 0.5 * 0.02));
+  CHECK(imu_at(settling, 400, &r) == Approx(0.03).epsilon(1e-6));
+  CHECK(r == Approx(0.1).margin(1e-10));
+  // Towards k = 0 the settling form joins the linear drift (no jump for the fit to see).
+  CHECK(imu_at({{"bias_rad", 0.01}, {"drift_radps", 1e-3}, {"settle_per_s", 1e-9}}, 100) == Approx(0.11).epsilon(1e-6));
+  CHECK_THROWS_AS(reg.create(config("imu_heading_drift", {{"settle_per_s", -0.01}})), ConfigError);
 }
 
 TEST_CASE("stick-slip friction: breakaway excess decays with the contacts' sliding speed, also in yaw") {

@@ -33,31 +33,44 @@ class ScrewTractionLoss final : public Effect {
 // (sigma_long B_x,i omega_i, sigma_lat B_y,i omega_i) saturates towards +-force_max,
 // f / (1 + |f / force_max|^p)^(1/p), as when the soil under a screw shears before it reaches its
 // nominal thrust; the sharpness p runs from gradual (2) to a clip (large p). The yaw share of a
-// screw (the lumped row of B) scales with its lateral force.
+// screw (the lumped row of B) scales with its lateral force. Where the soil under the whole
+// footprint shears as one (a soft layer under a firm crust), the limit is the robot's, on the total
+// force per axis, four times a screw's: the form parameter pooling blends what each screw's
+// saturation sees, its own force (0) or the footprint's mean (1), and at 1 the total along each
+// axis is 4 f_max sat(mean / f_max); its yaw against the lateral limit at the screws' lever arm.
 class TractionSaturation final : public Effect {
  public:
-  TractionSaturation(double long_max, double lat_max, double p) : long_max_(long_max), lat_max_(lat_max), p_(p) {}
+  TractionSaturation(double long_max, double lat_max, double p, double pooling)
+      : long_max_(long_max), lat_max_(lat_max), p_(p), pooling_(pooling) {}
   const std::string& id() const override {
     static const std::string s = "traction_saturation";
     return s;
   }
   std::vector<std::pair<std::string, double>> params() const override {
-    return {{"force_max_long_n", long_max_}, {"force_max_lat_n", lat_max_}, {"sharpness", p_}};
+    return {{"force_max_long_n", long_max_}, {"force_max_lat_n", lat_max_}, {"sharpness", p_}, {"pooling", pooling_}};
   }
   void drive_force(const Model& model, const Vec4& omega_rpm, double sigma_scale, double, Vec3& tau_n,
                    double*) const override {
+    Vec3 f[4];
+    Vec3 mean = Vec3::Zero();
     for (int i = 0; i < 4; ++i) {
-      const Vec3 f = sigma_scale * model.SB.col(i) * omega_rpm[i];
-      const double fx = f.x() / std::pow(1.0 + std::pow(std::fabs(f.x() / long_max_), p_), 1.0 / p_);
-      const double fy = f.y() / std::pow(1.0 + std::pow(std::fabs(f.y() / lat_max_), p_), 1.0 / p_);
-      const double share = f.y() != 0 ? fy / f.y() : 1.0;
-      tau_n -= f;
-      tau_n += Vec3(fx, fy, f.z() * share);
+      f[i] = sigma_scale * model.SB.col(i) * omega_rpm[i];
+      mean += 0.25 * f[i];
+    }
+    for (int i = 0; i < 4; ++i) {
+      const Vec3 g = (1 - pooling_) * f[i] + pooling_ * mean;
+      // The yaw torque in lateral force at this screw's lever arm (B's yaw over its lateral row).
+      const double lever_m = model.SB(1, i) != 0 ? std::fabs(model.SB(2, i) / model.SB(1, i)) : 0.0;
+      const double share_z = lever_m > 0 ? share(g.z() / lever_m, lat_max_) : share(g.y(), lat_max_);
+      tau_n += Vec3(f[i].x() * (share(g.x(), long_max_) - 1), f[i].y() * (share(g.y(), lat_max_) - 1),
+                    f[i].z() * (share_z - 1));
     }
   }
 
  private:
-  double long_max_, lat_max_, p_;
+  // What is left of a force f saturated towards +-f_max: 1 / (1 + |f / f_max|^p)^(1/p).
+  double share(double f, double f_max) const { return 1.0 / std::pow(1.0 + std::pow(std::fabs(f / f_max), p_), 1.0 / p_); }
+  double long_max_, lat_max_, p_, pooling_;
 };
 
 // The drive force builds up after a dead time delay_s with a first-order lag of time constant
@@ -197,15 +210,23 @@ void register_drive(EffectRegistry& r) {
   r.add({"traction_saturation", "each screw's longitudinal / lateral force saturates smoothly towards +-force_max",
          {ParamSpec{"force_max_long_n", 1e6, false, "per-screw longitudinal limit", "N", 0.05, 1e6, 8, false, true, true}.physical(2, 100),
           ParamSpec{"force_max_lat_n", 1e6, false, "per-screw lateral limit", "N", 0.05, 1e6, 2.5, false, true, true}.physical(0.5, 50),
-          ParamSpec{"sharpness", 4, false, "p of f / (1 + |f / f_max|^p)^(1/p): 2 gradual, 20 a clip", "", 1, 30, 4, false, true, true}.physical(1, 30)},
+          ParamSpec{"sharpness", 4, false, "p of f / (1 + |f / f_max|^p)^(1/p): 2 gradual, 20 a clip", "", 1, 30, 4, false, true, true}.physical(1, 30),
+          ParamSpec{"pooling", 0, false, "what saturates: 0 each screw's own force, 1 the footprint's total (4 f_max)", "", 0, 1, 1}
+              .physical(0, 1)
+              .form_param()},
          [](const std::vector<double>& v) {
            if (!(v[0] > 0 && v[1] > 0)) throw std::invalid_argument("force limits must be > 0");
            if (!(v[2] >= 1 && v[2] <= 100)) throw std::invalid_argument("sharpness must be in [1, 100]");
-           return std::make_shared<TractionSaturation>(v[0], v[1], v[2]);
+           if (!(v[3] >= 0 && v[3] <= 1)) throw std::invalid_argument("pooling must be in [0, 1]");
+           return std::make_shared<TractionSaturation>(v[0], v[1], v[2], v[3]);
          },
          [](const std::vector<double>& v) {
-           return "each screw's thrust saturates at " + fmt(v[0]) + " N along and " + fmt(v[1]) +
-                  " N across the robot: saturation of the traction force";
+           if (v[3] >= 0.5)
+             return "the robot's total thrust saturates at " + fmt(4 * v[0]) + " N along and " + fmt(4 * v[1]) +
+                    " N across (four screws' " + fmt(v[0]) + " and " + fmt(v[1]) + " N; pooling " + fmt(v[3]) +
+                    "): saturation of the traction force under the whole footprint";
+           return "each screw's thrust saturates at " + fmt(v[0]) + " N along and " + fmt(v[1]) + " N across the robot" +
+                  (v[3] > 0 ? " (pooling " + fmt(v[3]) + ")" : std::string()) + ": saturation of the traction force";
          }});
   r.add({"force_lag", "the drive force follows S B omega after a dead time delay_s with a first-order lag tau_s",
          {ParamSpec{"tau_s", 0, true, "time constant", "s", 0, 3, 0.1}.physical(0.005, 1.0),
