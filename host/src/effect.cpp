@@ -35,6 +35,21 @@ ConfigError::ConfigError(std::string file, int line, int column, const std::stri
 
 void EffectRegistry::add(Entry entry) {
   if (entries_.count(entry.id)) throw std::invalid_argument("effect id registered twice: " + entry.id);
+  // Every factory and description sees one value per spec: a caller that gives only the first
+  // values (an effect given a form parameter since) gets the specs' defaults for the rest.
+  auto padded = [id = entry.id, specs = entry.params](const std::vector<double>& v) {
+    if (v.size() > specs.size())
+      throw std::invalid_argument("effect '" + id + "' takes " + std::to_string(specs.size()) + " values, not " +
+                                  std::to_string(v.size()));
+    std::vector<double> all = v;
+    for (std::size_t k = v.size(); k < specs.size(); ++k) all.push_back(specs[k].default_value);
+    return all;
+  };
+  if (entry.make) entry.make = [padded, make = std::move(entry.make)](const std::vector<double>& v) { return make(padded(v)); };
+  if (entry.describe)
+    entry.describe = [padded, describe = std::move(entry.describe)](const std::vector<double>& v) {
+      return describe(padded(v));
+    };
   std::string id = entry.id;
   entries_.emplace(std::move(id), std::move(entry));
 }

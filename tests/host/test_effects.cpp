@@ -127,6 +127,13 @@ TEST_CASE("traction saturation: each screw's own force, or pooled, the footprint
   const Vec4 even(-10, -10, 10, 10);
   CHECK((tau_with(1, even).second - tau_with(0, even).second).norm() < 1e-9);
   CHECK_THROWS_AS(reg.create(config("traction_saturation", {{"pooling", 1.5}})), ConfigError);
+  // A caller that gives the values of before the form parameter gets its default.
+  const auto& entry = reg.entries().at("traction_saturation");
+  const auto before = entry.make({L, Ly, p});
+  CHECK(before->params().size() == 4);
+  CHECK(before->params()[3].second == 0.0);
+  CHECK(entry.describe({L, Ly, p}).find("each screw's thrust") == 0);
+  CHECK_THROWS_AS(entry.make({L, Ly, p, 0, 1}), std::invalid_argument);
 }
 
 TEST_CASE("dead band: other widths forward and backward, a gate, a dead zone or a ramp back to the nominal") {

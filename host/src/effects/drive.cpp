@@ -180,17 +180,13 @@ void register_drive(EffectRegistry& r) {
                     "", 0, 1, 1}.physical(0, 1).form_param(),
           ParamSpec{"asymmetry", 0, false, "the band is omega_dead_rpm (1 + asymmetry) turning forward (omega > 0), "
                     "omega_dead_rpm (1 - asymmetry) backward", "", -1, 1, 0.3}.physical(-1, 1).form_param()},
-         // (The form parameters default where a caller gives only the first values.)
          [non_negative](const std::vector<double>& v) {
-           const double shift = v.size() > 1 ? v[1] : 1.0, asymmetry = v.size() > 2 ? v[2] : 0.0;
-           non_negative(v.at(0), "omega_dead_rpm");
-           if (!(shift >= 0 && shift <= 1)) throw std::invalid_argument("shift must be in [0, 1]");
-           if (!(asymmetry >= -1 && asymmetry <= 1)) throw std::invalid_argument("asymmetry must be in [-1, 1]");
-           return std::make_shared<ScrewDeadBand>(v[0], shift, asymmetry);
+           non_negative(v[0], "omega_dead_rpm");
+           if (!(v[1] >= 0 && v[1] <= 1)) throw std::invalid_argument("shift must be in [0, 1]");
+           if (!(v[2] >= -1 && v[2] <= 1)) throw std::invalid_argument("asymmetry must be in [-1, 1]");
+           return std::make_shared<ScrewDeadBand>(v[0], v[1], v[2]);
          },
-         [](const std::vector<double>& v) {
-           return describe_dead_band(v.at(0), v.size() > 1 ? v[1] : 1.0, v.size() > 2 ? v[2] : 0.0);
-         }});
+         [](const std::vector<double>& v) { return describe_dead_band(v[0], v[1], v[2]); }});
   r.add({"screw_traction_loss", "screw `screw` (0 front-right, 1 rear-right, 2 rear-left, 3 front-left) "
                                 "transmits only (1 - loss) of its force",
          {ParamSpec{"screw", 0, true, "screw index (docs/model-notes.md table)", "", 0, 3, 1, true}.physical(0, 3),
