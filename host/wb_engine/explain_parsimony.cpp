@@ -14,22 +14,28 @@ namespace auger::wb::explain_internal {
 
 using namespace search;
 
-// The simpler form an effect reduces to when a parameter of it is not identified: stick-slip
-// friction to Coulomb friction at its sliding level, a settling IMU drift to the linear one, a
-// linear drift to a bias, a force lag with a dead time to the plain lag, saturation pooled over
-// the footprint to each screw's own, a dead band of any form to the symmetric dead zone. False:
-// none.
+// The simpler form an effect reduces to when a parameter of it is not identified: an effect with
+// form parameters (ParamSpec::form) off their defaults to its default form (a settling IMU drift
+// to the linear one, saturation pooled over the footprint to each screw's own, a dead band of any
+// form to the symmetric dead zone); stick-slip friction to Coulomb friction at its sliding level, a
+// linear drift to a bias, a force lag with a dead time to the plain lag. False: none.
 bool simpler_form(const Part& p, const Dataset& d, Part& out) {
+  bool off_default = false;
+  for (std::size_t k = 0; k < p.specs.size() && k < p.values.size(); ++k)
+    off_default = off_default || (p.specs[k].form && p.values[k] != p.specs[k].default_value);
+  if (off_default) {
+    out = p;
+    for (std::size_t k = 0; k < p.specs.size() && k < p.values.size(); ++k)
+      if (p.specs[k].form) out.values[k] = p.specs[k].default_value;
+    out.free.erase(std::remove_if(out.free.begin(), out.free.end(),
+                                  [&](int k) { return p.specs[static_cast<std::size_t>(k)].form; }),
+                   out.free.end());
+    return true;
+  }
   if (p.id == "stick_slip_friction") {
     out = make_part("coulomb_friction", Model{}, d);
     for (std::size_t k = 0; k < 3 && k < p.values.size(); ++k) out.values[k] = p.values[k];
     out.log = p.log;
-    return true;
-  }
-  if (p.id == "imu_heading_drift" && p.values.size() > 2 && p.values[2] != 0) {  // settling: the linear drift
-    out = p;
-    out.values[2] = 0;
-    out.free.erase(std::remove(out.free.begin(), out.free.end(), 2), out.free.end());
     return true;
   }
   if (p.id == "imu_heading_drift") {
@@ -42,22 +48,6 @@ bool simpler_form(const Part& p, const Dataset& d, Part& out) {
     out = p;
     out.values[1] = 0;
     out.free.erase(std::remove(out.free.begin(), out.free.end(), 1), out.free.end());
-    return true;
-  }
-  // Saturation pooled over the footprint: each screw's own.
-  if (p.id == "traction_saturation" && p.values.size() > 3 && p.values[3] != 0) {
-    out = p;
-    out.values[3] = 0;
-    out.free.erase(std::remove(out.free.begin(), out.free.end(), 3), out.free.end());
-    return true;
-  }
-  // The dead band's form parameters (shift, asymmetry) at their defaults: a symmetric dead zone.
-  if (p.id == "screw_dead_band" && p.values.size() > 2 && (p.values[1] != 1 || p.values[2] != 0)) {
-    out = p;
-    out.values[1] = 1;
-    out.values[2] = 0;
-    out.free.erase(std::remove_if(out.free.begin(), out.free.end(), [](int k) { return k == 1 || k == 2; }),
-                   out.free.end());
     return true;
   }
   return false;
