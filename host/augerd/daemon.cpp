@@ -270,6 +270,7 @@ void Daemon::run(volatile const std::sig_atomic_t* stop) {
   // the loop thread's CPU time does not, so a long period with a short CPU time is the machine's
   // doing (no SCHED_FIFO, another process), not the loop's.
   double work_wall_max_s = 0, work_cpu_max_s = 0, work_cpu_sum_s = 0;
+  long work_over_period = 0;  // cycles whose own CPU time exceeded the period
   while (!*stop) {
     next.tv_nsec += period_ns;
     while (next.tv_nsec >= 1000000000L) next.tv_nsec -= 1000000000L, ++next.tv_sec;
@@ -330,6 +331,7 @@ void Daemon::run(volatile const std::sig_atomic_t* stop) {
       work_wall_max_s = std::max(work_wall_max_s, clock_s(CLOCK_MONOTONIC) - mono);
       work_cpu_max_s = std::max(work_cpu_max_s, cpu_s);
       work_cpu_sum_s += cpu_s;
+      if (cpu_s > cfg_.period_s) ++work_over_period;
     }
   }
   // Leave the motors stopped at once rather than after the modules' timeout.
@@ -343,8 +345,10 @@ void Daemon::run(volatile const std::sig_atomic_t* stop) {
     std::fprintf(stderr,
                  "augerd: %ld cycles; loop period mean %.4f ms, std %.4f ms, min %.4f ms, max %.4f ms\n", cycles,
                  1e3 * mean, 1e3 * std::sqrt(std::max(0.0, sum_dt2 / n - mean * mean)), 1e3 * min_dt, 1e3 * max_dt);
-    std::fprintf(stderr, "augerd: cycle work: longest %.3f ms wall, %.3f ms CPU; mean %.3f ms CPU\n",
-                 1e3 * work_wall_max_s, 1e3 * work_cpu_max_s, 1e3 * work_cpu_sum_s / n);
+    std::fprintf(stderr,
+                 "augerd: cycle work: longest %.3f ms wall, %.3f ms CPU; mean %.3f ms CPU; %ld cycles over the period "
+                 "in CPU\n",
+                 1e3 * work_wall_max_s, 1e3 * work_cpu_max_s, 1e3 * work_cpu_sum_s / n, work_over_period);
   }
   const DataLog::Stats ls = log_->stats();
   std::fprintf(stderr,
