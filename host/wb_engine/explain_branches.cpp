@@ -35,12 +35,14 @@ std::string key_of(const std::vector<Part>& parts, std::size_t n_logs) {
 
 // Held-out error of a structure, pooled over the logs per channel.
 void Explainer::heldout(State& s) const {
-  ChannelPool pool;
+  ChannelPool pool, all;
   for (std::size_t i = 0; i < ctx_.size(); ++i) {
     const Model m = build(ctx_[i].base, s.parts, static_cast<int>(i));
     pool.add(segments_error(m, ctx_[i].data, judged_on(ctx_[i], s.fold), ctx_[i].noise));
+    all.add(segments_error(m, ctx_[i].data, ctx_[i].all, ctx_[i].noise));
   }
   s.h = pool.combined(s.held);
+  all.combined(s.all_ratio);
 }
 
 // Cost on the training segments of a structure as it stands (no fit).

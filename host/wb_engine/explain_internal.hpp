@@ -115,6 +115,9 @@ struct State {
   int n_params = 0;
   ChannelValues held{kNaN, kNaN, kNaN, kNaN};
   double h = kNaN;
+  // Its error over every segment of the search (training and held-out) per channel: the held-out
+  // third alone can miss what the log shows (explain_stop.cpp, at_noise).
+  ChannelValues all_ratio{kNaN, kNaN, kNaN, kNaN};
   // The split it is fitted and judged on: 0, the search's; 1 or 2 for a branch taken on the
   // other splits' second opinion (Explainer::other_splits).
   int fold = 0;
@@ -194,7 +197,8 @@ class Explainer {
   static const Segments& fitted_on(const LogCtx& c, int fold) { return c.fit[static_cast<std::size_t>(fold)]; }
   static const Segments& judged_on(const LogCtx& c, int fold) { return c.judge[static_cast<std::size_t>(fold)]; }
 
-  // Held-out error of a structure, pooled over the logs per channel.
+  // Held-out error of a structure, pooled over the logs per channel, and its error over every
+  // segment (State::all_ratio).
   void heldout(State& s) const;
 
   // Cost on the training segments of a structure as it stands (no fit).

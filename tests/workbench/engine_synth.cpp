@@ -39,6 +39,7 @@ Dataset synth(const Model& truth, const SynthOptions& o) {
   auto speed = [&](double t) {
     const double piece = std::floor(t / 4.0), golden = 0.6180339887;
     const double scale = o.drive_scale * (o.speed_sweep ? 0.15 + 0.85 * (piece * golden - std::floor(piece * golden)) : 1.0);
+    if (o.drive) return o.drive(t);
     return o.steps && t <= 0 ? Vec4(Vec4::Zero()) : Vec4(scale * drive_profile(t, 4.0, !o.steps));
   };
   DynamicsData dyn(truth);

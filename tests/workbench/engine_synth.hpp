@@ -3,6 +3,7 @@
 // of the screws, the camera and IMU with noise, coloured camera noise, and the nominal model.
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -27,6 +28,7 @@ struct SynthOptions {
   double drive_scale = 1;      // drive_profile's speeds times this (a slow drive: a robot that stalls)
   bool speed_sweep = false;    // each 4 s piece's speeds also times 0.15-1 (golden-ratio steps): many steady speeds
   unsigned seed = 1;
+  std::function<Vec4(double)> drive;  // screw speeds (rpm) at t in place of drive_profile's, if set
 };
 
 // A log of the host model `truth` driven by drive_profile, noise added.
