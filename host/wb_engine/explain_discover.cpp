@@ -302,8 +302,12 @@ bool Explainer::discover(FitOutcome& o, ExplainResult& res) {
         (r.err <= best->err * (1.0 + kAddHeldout) && r.parts < best->parts))
       best = &r;
   }
-  progress("explain: discovery: the 25 s segments %.3f times the noise floor with the terms, %.3f without",
-           best ? best->err : kNaN, err_library);
+  if (best)
+    progress("explain: discovery: the 25 s segments %.3f times the noise floor with the terms, %.3f without",
+             best->err, err_library);
+  else
+    progress("explain: discovery: no term is left after its checks (the 25 s segments %.3f times the noise "
+             "floor without)", err_library);
   if (!best || !(best->err <= (1.0 - kAddHeldout) * err_library)) return false;
   res.removed.insert(res.removed.end(), best->stand_ins.begin(), best->stand_ins.end());
   const FitOutcome& with = best->fit;

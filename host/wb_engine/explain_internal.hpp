@@ -374,6 +374,9 @@ class Explainer {
   // not sit at the end of their range); those that do not leave the model, the largest first,
   // and are listed in res.stand_ins.
   void confirm_in_form(FitOutcome& o, ExplainResult& res);
+  // Part i's paper parameter k, at the end of its range, held at the paper's value with the rest
+  // refitted, where that costs at most 2 % (the log does not identify it); true when o changed.
+  bool hold_one_paper_param(FitOutcome& o, std::size_t i, int k, const std::string& why, ExplainResult& res);
   // Why part p's folds (its fits on each two thirds of the segments) disagree with it ("" when
   // they agree); params: the fit's parameters, p's from index at.
   std::string fold_disagreement(const Part& p, const std::array<const Part*, kFolds>& folds,

@@ -1,6 +1,7 @@
 """Self-tests of the independent generator (ctest indep_gen_unit; pytest in the build venv):
 the paper's signs and steady speeds, the noise a clean log carries, the visibility each effect
 records, determinism."""
+import argparse
 import math
 import os
 import sys
@@ -208,6 +209,27 @@ def test_runner_scores_pairs_and_false_discoveries():
     c = ri.Case("outside:sideways_from_forward", 2)
     ri.score(c, _truth((False, "sideways_from_forward")), {}, r, 0.1)
     assert not c.failures and c.info["discovered_ok"]
+
+
+def test_runner_scores_an_effect_below_the_floor_at_its_maximum_like_a_clean_log():
+    # weak_at_max: not asked to be named (nor diagnose to be significant), but nothing else may
+    # be; such cases leave the singles' share for a row of their own
+    import run_indep as ri
+    truth = _truth((True, "rigid_body_coupling"))
+    truth["effects"][0].update(size=dict(weak_at_max=True), strongest_visibility=0.6)
+    quiet, wrong = ri.Case("single:rigid_body_coupling", 1), ri.Case("single:rigid_body_coupling", 2)
+    ri.score(quiet, truth, {"significant": False}, {"effects": [], "verdict_kind": "unexplained"}, 0.1)
+    ri.score(wrong, truth, {"significant": False}, {"effects": ["pose_time_offset"], "final": {}}, 0.1)
+    assert quiet.info["weak"] and not quiet.failures
+    assert wrong.info["false"] == ["pose_time_offset"] and "below the noise floor" in wrong.failures[0]
+    strong = ri.Case("single:rigid_body_coupling", 3)
+    ri.score(strong, _truth((True, "rigid_body_coupling")), {"significant": False}, {"effects": []}, 0.1)
+    assert "weak" not in strong.info and strong.failures
+    args = argparse.Namespace(min_single=0.95, min_pair=0.9, min_clean=1.0, min_outside=1.0,
+                              min_discovered=0.7, max_fdr=0.05, seconds=120, jobs=1)
+    rows = {r["key"]: r for r in ri.totals(args, [quiet, wrong, strong], 1.0)["rows"]}
+    assert (rows["single_weak"]["ok"], rows["single_weak"]["cases"]) == (1, 2)
+    assert (rows["single"]["ok"], rows["single"]["cases"]) == (0, 1)
 
 
 def test_runner_counts_a_partner_named_beside_the_family_as_false():
