@@ -58,7 +58,9 @@ std::string simpler_form_name(const Part& from, const Part& to) {
   if (to.id == "force_lag") return to.id + " without its dead time";
   if (to.id == "imu_heading_drift") return to.id + " as a linear drift";
   if (to.id == "traction_saturation") return to.id + " per screw";
-  return to.id + " as a symmetric dead zone";
+  if (to.id == "rigid_body_coupling") return to.id + " of the rigid body alone (no added mass)";
+  if (to.id == "screw_dead_band") return to.id + " as a symmetric dead zone";
+  return to.id + " in its default form";
 }
 
 std::vector<Part> without_part(std::vector<Part> parts, std::size_t i) {

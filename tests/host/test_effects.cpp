@@ -306,3 +306,36 @@ TEST_CASE("force lag: a first-order lag after a dead time, the same for any step
                       Catch::Contains("delay_s must be in [0, 0.2]"));
   }
 }
+
+TEST_CASE("rigid-body coupling: the rigid body's Coriolis terms; added mass sideways adds sway inertia and a Munk "
+          "moment that turns the robot broadside") {
+  const EffectRegistry& reg = EffectRegistry::builtin();
+  const double m = RobotParams{}.m_kg, u = 0.08, v = 0.05, r = 0.2;
+  auto force = [&](const std::vector<EffectParamValue>& params, Vec3* M_diag = nullptr) {
+    const Model model = make_model(RobotParams{}, kSand, {reg.create(config("rigid_body_coupling", params))});
+    if (M_diag) *M_diag = model.M_diag;
+    EffectContext ctx;
+    ctx.zeta = Vec3(u, v, r);
+    Vec3 f = Vec3::Zero();
+    model.effects.front()->body_force(model, ctx, f, nullptr);
+    return f;
+  };
+  Vec3 M;
+  // A model file of before the added mass: the rigid body alone, forces (m r v, -m r u), no moment.
+  const Vec3 rigid = force({{"coupling", 1}}, &M);
+  CHECK(rigid.x() == Approx(m * r * v));
+  CHECK(rigid.y() == Approx(-m * r * u));
+  CHECK(rigid.z() == Approx(0).margin(1e-12));
+  CHECK(M[1] == Approx(m));
+  // Heavier sideways by 2 m (Fossen's C(nu) of diag(m, 3 m)): the sway mass in the surge force,
+  // the surge mass in the sway force, and (m11 - m22) u v in yaw: negative while the robot moves
+  // forward and to its left, so it turns to the right, its side towards its path.
+  const Vec3 heavy = force({{"coupling", 1}, {"added_sway", 2}}, &M);
+  CHECK(heavy.x() == Approx(3 * m * r * v));
+  CHECK(heavy.y() == Approx(-m * r * u));
+  CHECK(heavy.z() == Approx(-2 * m * u * v));
+  CHECK(heavy.z() < 0);
+  CHECK(M[1] == Approx(3 * m));
+  CHECK(M[0] == Approx(m));
+  CHECK_THROWS_AS(reg.create(config("rigid_body_coupling", {{"added_sway", -0.5}})), ConfigError);
+}

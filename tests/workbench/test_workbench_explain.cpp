@@ -219,6 +219,23 @@ TEST_CASE("explain: an effect the held-out segments do not show is sought where 
   for (int c = 0; c < kChannels; ++c) CHECK(r.final_ratio[static_cast<std::size_t>(c)] < 1.2);
 }
 
+TEST_CASE("explain: a robot heavier sideways is fitted with the added mass of its rigid-body coupling", "[slow]") {
+  // Soil moved with the screws sideways: twice the robot's mass added in sway, with the Coriolis
+  // terms and Munk moment that go with it (the form parameter added_sway, searched after the
+  // coupling's size): named as the rigid-body coupling, its added mass found.
+  SynthOptions o;
+  o.seconds = 90;
+  o.seed = 6;
+  const Model truth = make_model(RobotParams{}, kSand, {entry("rigid_body_coupling").make({1.0, 2.0})});
+  ExplainOptions eo;
+  eo.only = {"rigid_body_coupling", "pose_time_offset", "yaw_time_constant", "force_lag"};
+  const ExplainResult r = explain({synth(truth, o)}, {nominal()}, eo);
+  INFO(r.verdict);
+  CHECK(r.effects == std::vector<std::string>{"rigid_body_coupling"});
+  CHECK(param_of(r, "rigid_body_coupling", "added_sway") == Approx(2.0).epsilon(0.25));
+  for (int c = 0; c < kChannels; ++c) CHECK(r.final_ratio[static_cast<std::size_t>(c)] < 1.2);
+}
+
 TEST_CASE("explain: where no library effect is significant, the missing term is still sought", "[slow]") {
   // A library that cannot touch a drive force (an IMU bias alone): the search adds nothing, and
   // explain once ended "unexplained" without trying the dictionary.
