@@ -123,11 +123,14 @@ bool Explainer::hold_one_paper_param(FitOutcome& o, std::size_t i, int k, const 
   bool at_noise = true;
   for (double v : held) at_noise = at_noise && !(v > kAtNoise);
   if (!(after <= 1.02 * before) && !at_noise) return false;
-  char buf[160];
-  std::snprintf(buf, sizeof buf, "; held, the error on the 25 s segments is %.3f against %.3f times the noise floor",
+  char buf[200];
+  std::snprintf(buf, sizeof buf,
+                "; held, the error on the 25 s segments is %.3f against %.3f times the noise floor: the log does not "
+                "identify it",
                 after, before);
-  res.removed.push_back({label(p, ctx_.size()) + " (" + name + ")", "held at the paper's value (" + why + buf + ")", kNaN});
-  progress("explain: form check: paper_params keep %s at the paper's value (%s)", name.c_str(), why.c_str());
+  const std::string was = why.substr(0, why.find(": the sign of"));  // "D_y at the end of its physical range, ..."
+  res.removed.push_back({label(p, ctx_.size()) + " (" + name + ")", "held at the paper's value (" + was + buf + ")", kNaN});
+  progress("explain: form check: paper_params keep %s at the paper's value (%s%s)", name.c_str(), was.c_str(), buf);
   o = std::move(a);
   return true;
 }
