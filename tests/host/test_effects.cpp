@@ -307,8 +307,8 @@ TEST_CASE("force lag: a first-order lag after a dead time, the same for any step
   }
 }
 
-TEST_CASE("rigid-body coupling: the rigid body's Coriolis terms; added mass sideways adds sway inertia and a Munk "
-          "moment that turns the robot broadside") {
+TEST_CASE("rigid-body coupling: the rigid body's Coriolis terms; added mass adds inertia and, heavier sideways, a "
+          "Munk moment that turns the robot broadside") {
   const EffectRegistry& reg = EffectRegistry::builtin();
   const double m = RobotParams{}.m_kg, u = 0.08, v = 0.05, r = 0.2;
   auto force = [&](const std::vector<EffectParamValue>& params, Vec3* M_diag = nullptr) {
@@ -337,5 +337,14 @@ TEST_CASE("rigid-body coupling: the rigid body's Coriolis terms; added mass side
   CHECK(heavy.z() < 0);
   CHECK(M[1] == Approx(3 * m));
   CHECK(M[0] == Approx(m));
+  // Soil ahead too (0.5 m): the surge mass in the sway force and the surge inertia; the Munk
+  // moment from the difference of the two.
+  const Vec3 both = force({{"coupling", 0}, {"added_sway", 2}, {"added_surge", 0.5}}, &M);
+  CHECK(both.x() == Approx(2 * m * r * v));
+  CHECK(both.y() == Approx(-0.5 * m * r * u));
+  CHECK(both.z() == Approx(-1.5 * m * u * v));
+  CHECK(M[0] == Approx(1.5 * m));
+  CHECK(M[1] == Approx(3 * m));
   CHECK_THROWS_AS(reg.create(config("rigid_body_coupling", {{"added_sway", -0.5}})), ConfigError);
+  CHECK_THROWS_AS(reg.create(config("rigid_body_coupling", {{"added_surge", -0.5}})), ConfigError);
 }

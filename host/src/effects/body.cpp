@@ -20,33 +20,37 @@ namespace {
 // of them they carry; the force is evaluated at the step's start velocity (r dt << 1).
 class RigidBodyCoupling final : public Effect {
  public:
-  RigidBodyCoupling(double coupling, double added_sway) : coupling_(coupling), added_sway_(added_sway) {}
+  RigidBodyCoupling(double coupling, double added_sway, double added_surge)
+      : coupling_(coupling), added_sway_(added_sway), added_surge_(added_surge) {}
   const std::string& id() const override {
     static const std::string s = "rigid_body_coupling";
     return s;
   }
   std::vector<std::pair<std::string, double>> params() const override {
-    return {{"coupling", coupling_}, {"added_sway", added_sway_}};
+    return {{"coupling", coupling_}, {"added_sway", added_sway_}, {"added_surge", added_surge_}};
   }
   void body_force(const Model& model, const EffectContext& ctx, Vec3& force_n, double*) const override {
     feedforward_force(model, ctx.eta, ctx.zeta, force_n);
   }
   // The Coriolis and centripetal forces -C(nu) nu of a body of surge mass m11 and sway mass m22
   // (Fossen's C(nu) of a diagonal mass matrix): (m22 v r, -m11 u r, (m11 - m22) u v). The rigid
-  // body gives m11 = m22 = coupling m; soil moved sideways with the screws adds a m to m22 alone
-  // (added mass), heavier sideways: its sway inertia (inertia below) and the Munk moment
-  // -a m u v, which turns a robot driving at an angle broadside to its path. Smooth in the
-  // velocity: safe to anticipate.
+  // body gives m11 = m22 = coupling m. Soil moved with the screws adds mass (added mass): a_v m
+  // sideways, a_u m ahead, in the inertia (below) and in m22 and m11; heavier sideways than ahead,
+  // the robot feels the Munk moment (a_u - a_v) m u v, which turns it broadside to its path when
+  // it drives at an angle. Smooth in the velocity: safe to anticipate.
   bool feedforward_force(const Model& model, const Vec3&, const Vec3& zeta, Vec3& force_n) const override {
-    const double m = model.robot.m_kg, m11 = coupling_ * m, m22 = (coupling_ + added_sway_) * m;
+    const double m = model.robot.m_kg, m11 = (coupling_ + added_surge_) * m, m22 = (coupling_ + added_sway_) * m;
     const double u = zeta.x(), v = zeta.y(), r = zeta.z();
     force_n << m22 * r * v, -m11 * r * u, (m11 - m22) * u * v;
     return true;
   }
-  void inertia(const Model& model, Vec3& M_diag) const override { M_diag[1] += added_sway_ * model.robot.m_kg; }
+  void inertia(const Model& model, Vec3& M_diag) const override {
+    M_diag[0] += added_surge_ * model.robot.m_kg;
+    M_diag[1] += added_sway_ * model.robot.m_kg;
+  }
 
  private:
-  double coupling_, added_sway_;
+  double coupling_, added_sway_, added_surge_;
 };
 
 // The paper's yaw row of B is an empirical lump, -l_x sin(alpha) per screw, about 17 times
@@ -144,24 +148,30 @@ void check_finite_positive(double v, const char* name) {
 void register_body(EffectRegistry& r) {
   r.add({"rigid_body_coupling",
          "the rigid body's Coriolis terms m (r v, -r u) that the body-frame eq. (6) leaves out, times coupling; with "
-         "added_sway, a body heavier sideways (sway inertia, Coriolis terms and Munk moment of that added mass)",
+         "added_sway and added_surge, soil moved with the robot (inertia, Coriolis terms and Munk moment of that added "
+         "mass)",
          {ParamSpec{"coupling", 1, false, "share of the rigid body's terms (1: mass m)", "", 0, 3, 1}.physical(0.5, 1.5),
-          // A form parameter: 0 is the rigid body alone.
+          // Form parameters: 0 is the rigid body alone. Up to three times the robot's mass of soil
+          // moved sideways with the screws, less ahead.
           ParamSpec{"added_sway", 0, false, "added mass sideways, as a multiple of m (soil moved with the screws)", "",
                     0, 4, 0.5}
-              .physical(0, 2)
+              .physical(0, 3)
+              .form_param(),
+          ParamSpec{"added_surge", 0, false, "added mass ahead, as a multiple of m", "", 0, 4, 0.2}
+              .physical(0, 1.5)
               .form_param()},
          [](const std::vector<double>& v) {
            if (!(v[0] >= 0) || !std::isfinite(v[0])) throw std::invalid_argument("coupling must be >= 0");
            if (!(v[1] >= 0) || !std::isfinite(v[1])) throw std::invalid_argument("added_sway must be >= 0");
-           return std::make_shared<RigidBodyCoupling>(v[0], v[1]);
+           if (!(v[2] >= 0) || !std::isfinite(v[2])) throw std::invalid_argument("added_surge must be >= 0");
+           return std::make_shared<RigidBodyCoupling>(v[0], v[1], v[2]);
          },
          [](const std::vector<double>& v) {
-           if (v[1] > 0)
-             return "the robot is " + fmt(1 + v[1]) + " times as heavy sideways as along (added mass " + fmt(v[1]) +
-                    " m: soil moved with the screws), with the Coriolis terms of a body of " + fmt(v[0]) +
-                    " times the model's mass and the Munk moment -" + fmt(v[1]) +
-                    " m u v: rigid-body coupling with added mass sideways";
+           if (v[1] > 0 || v[2] > 0)
+             return "soil moved with the screws adds " + fmt(v[1]) + " m sideways and " + fmt(v[2]) +
+                    " m ahead (added mass), with the Coriolis terms of a body of " + fmt(v[0]) +
+                    " times the model's mass and the Munk moment (" + fmt(v[2] - v[1]) +
+                    ") m u v: rigid-body coupling with added mass";
            return "turning couples the axes as a rigid body of " + fmt(v[0]) +
                   " times the model's mass (forces m r v along x and -m r u along y): Coriolis coupling of a "
                   "turning rigid body";
