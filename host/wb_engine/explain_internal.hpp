@@ -3,8 +3,9 @@
 // search over model structures. At every step each candidate is fitted jointly with everything
 // chosen so far and the paper's parameters (never on top of a frozen earlier fit); an effect
 // that no longer pays for itself is dropped; near ties are carried as a small beam; the loop
-// stops when what remains is noise (held-out error at the noise floor, residuals white and
-// independent of the inputs) or when no candidate is significant, and then says what is left.
+// stops when what remains is noise (the error at the noise floor on the held-out segments and
+// over the whole log, residuals white and independent of the inputs) or when no candidate is
+// significant, and then says what is left.
 // Internal to the workbench engine: the Explainer class that explain.cpp (the beam loop),
 // explain_search.cpp (one step: candidates fitted, the significant ones, the backward check, the
 // other splits' second opinion), explain_branches.cpp (a structure's state, the paper's

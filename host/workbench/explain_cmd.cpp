@@ -26,8 +26,9 @@ const CommandLine kCli{
     "The loop compare -> diagnose -> fit --add -> diagnose ... in one command: at every step each\n"
     "library effect is fitted jointly with the effects chosen so far and the paper's parameters;\n"
     "an effect that no longer pays for itself is dropped; near ties are carried along; it stops\n"
-    "when what remains is noise (held-out error at the noise floor, residuals white and\n"
-    "independent of the inputs) or no candidate is significant, and says what is left.\n"
+    "when what remains is noise (the error at the noise floor on the held-out segments and over\n"
+    "the whole log, residuals white and independent of the inputs) or no candidate is\n"
+    "significant, and says what is left.\n"
     "Several logs of one robot are explained together (effects shared, the paper's parameters\n"
     "per terrain).\n",
     {kModelOption,
