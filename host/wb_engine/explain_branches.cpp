@@ -33,15 +33,22 @@ std::string key_of(const std::vector<Part>& parts, std::size_t n_logs) {
   return k + (paper ? "+paper" : "");
 }
 
-// Held-out error of a structure, pooled over the logs per channel.
+// Held-out error of a structure, pooled over the logs per channel; where that is at the noise in
+// every channel (the only case at_noise reads it), its error over every segment too.
 void Explainer::heldout(State& s) const {
-  ChannelPool pool, all;
+  ChannelPool pool;
+  std::vector<Model> models;
   for (std::size_t i = 0; i < ctx_.size(); ++i) {
-    const Model m = build(ctx_[i].base, s.parts, static_cast<int>(i));
-    pool.add(segments_error(m, ctx_[i].data, judged_on(ctx_[i], s.fold), ctx_[i].noise));
-    all.add(segments_error(m, ctx_[i].data, ctx_[i].all, ctx_[i].noise));
+    models.push_back(build(ctx_[i].base, s.parts, static_cast<int>(i)));
+    pool.add(segments_error(models.back(), ctx_[i].data, judged_on(ctx_[i], s.fold), ctx_[i].noise));
   }
   s.h = pool.combined(s.held);
+  s.all_ratio = {kNaN, kNaN, kNaN, kNaN};
+  for (double v : s.held)
+    if (std::isfinite(v) && v > kAtNoise) return;
+  ChannelPool all;
+  for (std::size_t i = 0; i < ctx_.size(); ++i)
+    all.add(segments_error(models[i], ctx_[i].data, ctx_[i].all, ctx_[i].noise));
   all.combined(s.all_ratio);
 }
 

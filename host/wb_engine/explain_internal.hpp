@@ -116,8 +116,9 @@ struct State {
   int n_params = 0;
   ChannelValues held{kNaN, kNaN, kNaN, kNaN};
   double h = kNaN;
-  // Its error over every segment of the search (training and held-out) per channel: the held-out
-  // third alone can miss what the log shows (explain_stop.cpp, at_noise).
+  // Its error over every segment of the search (training and held-out) per channel, where the
+  // held-out error is at the noise (NaN otherwise): the held-out third alone can miss what the
+  // log shows (explain_stop.cpp, at_noise).
   ChannelValues all_ratio{kNaN, kNaN, kNaN, kNaN};
   // The split it is fitted and judged on: 0, the search's; 1 or 2 for a branch taken on the
   // other splits' second opinion (Explainer::other_splits).
@@ -199,7 +200,7 @@ class Explainer {
   static const Segments& judged_on(const LogCtx& c, int fold) { return c.judge[static_cast<std::size_t>(fold)]; }
 
   // Held-out error of a structure, pooled over the logs per channel, and its error over every
-  // segment (State::all_ratio).
+  // segment (State::all_ratio) where the held-out one is at the noise.
   void heldout(State& s) const;
 
   // Cost on the training segments of a structure as it stands (no fit).
@@ -377,7 +378,8 @@ class Explainer {
   void confirm_in_form(FitOutcome& o, ExplainResult& res);
   // Part i's paper parameter k, at the end of its range, held at the paper's value with the rest
   // refitted, where that costs at most 2 % (the log does not identify it); true when o changed.
-  bool hold_one_paper_param(FitOutcome& o, std::size_t i, int k, const std::string& why, ExplainResult& res);
+  // at_end: what sits there ("D_y at the end of its physical range, ..."), for the reason given.
+  bool hold_one_paper_param(FitOutcome& o, std::size_t i, int k, const std::string& at_end, ExplainResult& res);
   // Why part p's folds (its fits on each two thirds of the segments) disagree with it ("" when
   // they agree); params: the fit's parameters, p's from index at.
   std::string fold_disagreement(const Part& p, const std::array<const Part*, kFolds>& folds,

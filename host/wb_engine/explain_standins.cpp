@@ -108,7 +108,7 @@ std::string Explainer::fold_disagreement(const Part& p, const std::array<const P
 // parameter), once per structure. Where the model is not at the noise, something is missing that
 // the parameters may stand in for (a screw blocking, a force lag of the independent generator: the
 // rule kept their re-identified parameters when it asked only that holding cost at most 2 %).
-bool Explainer::hold_one_paper_param(FitOutcome& o, std::size_t i, int k, const std::string& why,
+bool Explainer::hold_one_paper_param(FitOutcome& o, std::size_t i, int k, const std::string& at_end,
                                      ExplainResult& res) {
   Part& p = o.parts[i];
   if (p.entry || p.free.size() != p.specs.size() || p.free.size() < 2) return false;
@@ -135,9 +135,8 @@ bool Explainer::hold_one_paper_param(FitOutcome& o, std::size_t i, int k, const 
                 "; held, the error on the 25 s segments is %.3f against %.3f times the noise floor: the log does not "
                 "identify it",
                 after, before);
-  const std::string was = why.substr(0, why.find(": the sign of"));  // "D_y at the end of its physical range, ..."
-  res.removed.push_back({label(p, ctx_.size()) + " (" + name + ")", "held at the paper's value (" + was + buf + ")", kNaN});
-  progress("explain: form check: paper_params keep %s at the paper's value (%s%s)", name.c_str(), was.c_str(), buf);
+  res.removed.push_back({label(p, ctx_.size()) + " (" + name + ")", "held at the paper's value (" + at_end + buf + ")", kNaN});
+  progress("explain: form check: paper_params keep %s at the paper's value (%s%s)", name.c_str(), at_end.c_str(), buf);
   o = std::move(a);
   return true;
 }
@@ -155,19 +154,22 @@ void Explainer::confirm_in_form(FitOutcome& o, ExplainResult& res) {
     std::string why;
     double size = -1;
     int at_end = -1;  // the paper's parameter at the end of its range, of the part chosen
+    std::string at_end_what;  // "D_y at the end of its physical range, 631.5 N/(m/s)"
     std::vector<std::size_t> start(o.parts.size() + 1, 0);
     for (std::size_t i = 0; i < o.parts.size(); ++i) start[i + 1] = start[i] + o.parts[i].specs.size();
     for (std::size_t i : effects) {
       const Part& p = o.parts[i];
       std::string reason;
       int end_k = -1;
+      std::string end_what;
       // The paper's parameters at the end of their range are the sign of an effect they took up
       // ("Plausibility").
       if (!p.entry)
         for (std::size_t k = 0; k < p.specs.size() && reason.empty(); ++k) {
           const FitParam& fp = params[start[i] + k];
           if (fp.flag.find("physical range") != std::string::npos) {
-            reason = p.specs[k].name + " " + fp.flag + ": the sign of an effect they took up";
+            end_what = p.specs[k].name + " " + fp.flag;
+            reason = end_what + ": the sign of an effect they took up";
             end_k = static_cast<int>(k);
           }
         }
@@ -189,10 +191,11 @@ void Explainer::confirm_in_form(FitOutcome& o, ExplainResult& res) {
         stand_in = i;
         why = reason;
         at_end = end_k;
+        at_end_what = end_what;
       }
     }
     if (stand_in == o.parts.size()) return;
-    if (at_end >= 0 && hold_one_paper_param(o, stand_in, at_end, why, res)) continue;
+    if (at_end >= 0 && hold_one_paper_param(o, stand_in, at_end, at_end_what, res)) continue;
     // An effect whose extra parameter the folds do not confirm first gives way to its simpler form
     // (an IMU drift whose rate the folds disagree on to a bias), which is checked in turn.
     Part simpler;
