@@ -144,6 +144,10 @@ FitOutcome refit_joint(const Problem& pr, const std::vector<Part>& state, const 
 // whose wait_for is another index (>= 0) starts only when that one is done.
 void run_parallel(int threads, const std::vector<std::size_t>& which, const std::function<int(std::size_t)>& wait_for,
                   const std::function<void(std::size_t)>& fn);
+// Runs fn(i) for i in [0, n) on the calling thread, with any worker of run_parallel that has no
+// task of its own left helping: a long task's independent fits (a change time's grid) then use
+// the thread that would idle. fn(i) must touch only what is its own (its result slot).
+void share_loop(std::size_t n, const std::function<void(std::size_t)>& fn);
 
 // Lag-1 autocorrelation of residuals, within each (log, segment, channel) run.
 double lag1_autocorrelation(const Problem& pr, const Eigen::VectorXd& r);

@@ -149,18 +149,28 @@ FitOutcome fit_candidate(const Problem& pr, const std::vector<Part>& held_in, co
   std::vector<FitOutcome> tried;
   int sims = 0;
   FitOutcome best;
-  for (const auto& v : variants)
-    for (const auto& s : starts(v)) {
-      FitOutcome o = levenberg_marquardt(pr, s, grid ? (change ? 2 : 4) : max_iter);
+  // A grid has one start per point, each fit independent of the others: shared with an idle
+  // worker, then taken in the grid's order (the same result on any number of threads).
+  std::vector<FitOutcome> at_point(grid ? variants.size() : 0);
+  if (grid)
+    share_loop(variants.size(), [&](std::size_t g) {
+      at_point[g] = levenberg_marquardt(pr, starts(variants[g]).front(), change ? 2 : 4);
+    });
+  for (std::size_t g = 0; g < variants.size(); ++g)
+    for (const auto& s : grid ? std::vector<std::vector<Part>>{} : starts(variants[g])) {
+      FitOutcome o = levenberg_marquardt(pr, s, max_iter);
       sims += o.sims;
-      if (change && std::isfinite(o.cost)) tried.push_back(o);
       const bool at_noise = o.r.size() && o.cost < 1.3 * static_cast<double>(o.r.size());
       if (o.cost < best.cost) best = std::move(o);
-      if (grid) break;  // one start per grid point
       // At the noise already (mean squared normalised residual near 1): another start cannot do
       // better than noise, so it is skipped.
       if (at_noise) break;
     }
+  for (FitOutcome& o : at_point) {
+    sims += o.sims;
+    if (change && std::isfinite(o.cost)) tried.push_back(o);
+    if (o.cost < best.cost) best = std::move(o);
+  }
   if (change && !tried.empty()) {
     // Refine the two best grid times that are not neighbours: halving steps down to 0.1 s.
     std::sort(tried.begin(), tried.end(), [](const FitOutcome& a, const FitOutcome& b) { return a.cost < b.cost; });
@@ -245,10 +255,13 @@ FitOutcome profile_change_time(const Problem& pr, FitOutcome o, int max_iter) {
     const double t0 = d.t_s.front(), T = d.duration_s(), spacing = T / 16.0;
     FitOutcome best;
     int sims = 0;
-    for (int g = 1; g < 16; ++g) {
+    std::vector<FitOutcome> at_time(15);
+    share_loop(at_time.size(), [&](std::size_t g) {
       std::vector<Part> w = o.parts;
-      w[c].values[0] = t0 + spacing * g;
-      FitOutcome x = levenberg_marquardt(pr, std::move(w), 3);
+      w[c].values[0] = t0 + spacing * static_cast<double>(g + 1);
+      at_time[g] = levenberg_marquardt(pr, std::move(w), 3);
+    });
+    for (FitOutcome& x : at_time) {
       sims += x.sims;
       if (x.cost < best.cost) best = std::move(x);
     }

@@ -73,10 +73,15 @@ FitOutcome lm_free(const Problem& pr, std::vector<Part> parts, int max_iter) {
   Eigen::MatrixXd J(r.size(), P);
   double lambda = 1e-3;
   bool have_j = false;
+  std::vector<Workspace> col_work(static_cast<std::size_t>(P));  // one per column: each its own thread's
   for (int it = 0; it < max_iter && P > 0; ++it) {
     // Forward differences; steps of a few % of a typical value (hard effects such as dry
     // friction are piecewise smooth: a larger step sees their slope, not their kinks).
-    for (Eigen::Index j = 0; j < P; ++j) {
+    // The columns are independent simulations: shared with an idle worker (each column its
+    // own; the same Jacobian on any number of threads).
+    std::vector<char> simulated(static_cast<std::size_t>(P), 0);
+    share_loop(static_cast<std::size_t>(P), [&](std::size_t col) {
+      const auto j = static_cast<Eigen::Index>(col);
       Eigen::VectorXd zj = z;
       const double h = 0.03 * std::max(1.0, std::fabs(z[j]));
       zj[j] += h;
@@ -84,20 +89,21 @@ FitOutcome lm_free(const Problem& pr, std::vector<Part> parts, int max_iter) {
       set_z(pj, f, zj);
       const double actual = get_z(pj, f)[j] - z[j];  // the bound may cut the step
       Eigen::VectorXd rj;
-      if (std::fabs(actual) < 1e-12 || !residuals(pr, pj, rj, work)) {
+      if (std::fabs(actual) < 1e-12 || !residuals(pr, pj, rj, col_work[col])) {
         zj[j] = z[j] - h;
         set_z(pj, f, zj);
         const double back = get_z(pj, f)[j] - z[j];
-        if (std::fabs(back) < 1e-12 || !residuals(pr, pj, rj, work)) {
+        if (std::fabs(back) < 1e-12 || !residuals(pr, pj, rj, col_work[col])) {
           J.col(j).setZero();
-          continue;
+          return;
         }
         J.col(j) = (rj - r) / back;
       } else {
         J.col(j) = (rj - r) / actual;
       }
-      ++out.sims;
-    }
+      simulated[col] = 1;
+    });
+    for (char c : simulated) out.sims += c;
     have_j = true;
     const Eigen::MatrixXd A = J.transpose() * J;
     const Eigen::VectorXd g = J.transpose() * r;

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <condition_variable>
 #include <cstdio>
+#include <exception>
 #include <mutex>
 #include <set>
 #include <thread>
@@ -18,12 +19,76 @@ namespace auger::wb {
 namespace search {
 
 // ---------------------------------------------------------------- threads
+namespace {
+
+// A loop that share_loop offers to idle workers: its items are taken one at a time by whoever
+// runs it (its owner, and helpers), and the owner waits for the helpers' items before it returns.
+struct SharedLoop {
+  std::size_t n = 0;
+  const std::function<void(std::size_t)>* fn = nullptr;
+  std::atomic<std::size_t> next{0};
+  int helpers = 0;  // in the loop now (guarded by the board's mutex)
+  std::mutex failed_m;
+  std::exception_ptr failed;  // the first exception of an item: the rest are skipped, the owner rethrows it
+  void run() {
+    for (std::size_t i; (i = next++) < n;) {
+      try {
+        (*fn)(i);
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(failed_m);
+        if (!failed) failed = std::current_exception();
+        next = n;
+      }
+    }
+  }
+  bool open() const { return next.load() < n; }
+};
+
+// The loops on offer, and the workers of run_parallel that wait for one. A worker with no task
+// of its own left waits here while another worker of its run is still busy: that one may offer
+// a loop (a change time's grid) that would otherwise run on one thread with the other idle.
+struct Board {
+  std::mutex m;
+  std::condition_variable cv;
+  std::vector<SharedLoop*> loops;
+  SharedLoop* open_loop() const {
+    for (SharedLoop* l : loops)
+      if (l->open()) return l;
+    return nullptr;
+  }
+};
+Board& board() {
+  static Board b;
+  return b;
+}
+
+}  // namespace
+
+void share_loop(std::size_t n, const std::function<void(std::size_t)>& fn) {
+  SharedLoop loop;
+  loop.n = n;
+  loop.fn = &fn;
+  Board& b = board();
+  {
+    std::lock_guard<std::mutex> lock(b.m);
+    b.loops.push_back(&loop);
+  }
+  b.cv.notify_all();
+  loop.run();
+  std::unique_lock<std::mutex> lock(b.m);
+  b.loops.erase(std::find(b.loops.begin(), b.loops.end(), &loop));
+  b.cv.wait(lock, [&] { return loop.helpers == 0; });
+  if (loop.failed) std::rethrow_exception(loop.failed);
+}
+
 void run_parallel(int threads, const std::vector<std::size_t>& which, const std::function<int(std::size_t)>& wait_for,
                   const std::function<void(std::size_t)>& fn) {
   std::atomic<std::size_t> next{0};
   std::set<std::size_t> done;
   std::condition_variable cv;
   std::mutex m;
+  Board& b = board();
+  int busy = std::max(1, threads);  // workers still running tasks of `which` (under b.m)
   auto worker = [&]() {
     for (std::size_t n; (n = next++) < which.size();) {
       const std::size_t i = which[n];
@@ -39,6 +104,22 @@ void run_parallel(int threads, const std::vector<std::size_t>& which, const std:
         done.insert(i);
       }
       cv.notify_all();
+    }
+    // No task left: help with a loop on offer until every worker of this run is done. (Only
+    // with more than one thread: --threads 1 keeps explain on one.)
+    std::unique_lock<std::mutex> lock(b.m);
+    --busy;
+    b.cv.notify_all();
+    for (;;) {
+      b.cv.wait(lock, [&] { return busy == 0 || b.open_loop(); });
+      SharedLoop* loop = b.open_loop();
+      if (!loop) break;
+      ++loop->helpers;
+      lock.unlock();
+      loop->run();
+      lock.lock();
+      --loop->helpers;
+      b.cv.notify_all();
     }
   };
   std::vector<std::thread> pool;
