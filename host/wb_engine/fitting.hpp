@@ -141,7 +141,9 @@ FitOutcome refit_joint(const Problem& pr, const std::vector<Part>& state, const 
                        int max_iter);
 
 // Runs fn(i) for every index of `which` on `threads` threads (the caller's included); an index
-// whose wait_for is another index (>= 0) starts only when that one is done.
+// whose wait_for is another index (>= 0) starts only when that one is done. The first exception
+// of a task is rethrown to the caller once every thread has ended (tasks not started by then are
+// skipped).
 void run_parallel(int threads, const std::vector<std::size_t>& which, const std::function<int(std::size_t)>& wait_for,
                   const std::function<void(std::size_t)>& fn);
 // Runs fn(i) for i in [0, n) on the calling thread, with any worker of run_parallel that has no

@@ -97,9 +97,10 @@ struct FitResult {
 // terms: discovered terms to fit as well, each (dof, form) of auger/term_form.hpp (`fit --add-term`).
 // hold: parameters of paper_params kept at the model's values (`fit --hold`, e.g. D_x, D_y, D_psi
 // as augerd's online estimate holds them); an unknown name throws std::invalid_argument.
+// threads: the fit's simulations share them (the same answer on any number).
 FitResult fit(const Dataset& data, ModelChoice model, const std::vector<std::string>& effect_ids,
               bool progress = false, const std::vector<std::pair<std::string, std::string>>& terms = {},
-              const std::vector<std::string>& hold = {});
+              const std::vector<std::string>& hold = {}, int threads = 2);
 
 // The effect library as the workbench knows it: registry entries plus paper_params, with the
 // fitting metadata (documented in docs/workbench.md "Adding an effect").

@@ -12,8 +12,30 @@ namespace auger::wb {
 
 using namespace search;
 
+namespace {
+
+FitResult fit_on_this_thread(const Dataset& full, ModelChoice mc, const std::vector<std::string>& ids, bool progress,
+                             const std::vector<std::pair<std::string, std::string>>& terms,
+                             const std::vector<std::string>& hold);
+
+}  // namespace
+
 FitResult fit(const Dataset& full, ModelChoice mc, const std::vector<std::string>& ids, bool progress,
-              const std::vector<std::pair<std::string, std::string>>& terms, const std::vector<std::string>& hold) {
+              const std::vector<std::pair<std::string, std::string>>& terms, const std::vector<std::string>& hold,
+              int threads) {
+  // One task: the other threads, idle from the start, take the columns of its Jacobians
+  // (share_loop), where most of a fit's simulations are.
+  FitResult res;
+  run_parallel(threads, {0}, [](std::size_t) { return -1; },
+               [&](std::size_t) { res = fit_on_this_thread(full, std::move(mc), ids, progress, terms, hold); });
+  return res;
+}
+
+namespace {
+
+FitResult fit_on_this_thread(const Dataset& full, ModelChoice mc, const std::vector<std::string>& ids, bool progress,
+                             const std::vector<std::pair<std::string, std::string>>& terms,
+                             const std::vector<std::string>& hold) {
   FitResult res;
   res.before = mc;
   const Model& base = mc.model;
@@ -87,6 +109,8 @@ FitResult fit(const Dataset& full, ModelChoice mc, const std::vector<std::string
   res.model_toml = write_model_file(fitted_model_file(res.after.model, data, res.effects, res.after.online));
   return res;
 }
+
+}  // namespace
 
 // ---------------------------------------------------------------- model file
 ModelFile fitted_model_file(const Model& m, const Dataset& d, const std::vector<FittedEffect>& effects,

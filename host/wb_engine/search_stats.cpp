@@ -89,6 +89,7 @@ void run_parallel(int threads, const std::vector<std::size_t>& which, const std:
   std::mutex m;
   Board& b = board();
   int busy = std::max(1, threads);  // workers still running tasks of `which` (under b.m)
+  std::exception_ptr failed;        // a task's exception (the first; under m): rethrown once all are joined
   auto worker = [&]() {
     for (std::size_t n; (n = next++) < which.size();) {
       const std::size_t i = which[n];
@@ -98,7 +99,13 @@ void run_parallel(int threads, const std::vector<std::size_t>& which, const std:
         std::unique_lock<std::mutex> lock(m);
         cv.wait(lock, [&] { return done.count(static_cast<std::size_t>(w)) != 0; });
       }
-      fn(i);
+      try {
+        fn(i);
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(m);
+        if (!failed) failed = std::current_exception();
+        next = which.size();  // the tasks not started are skipped
+      }
       {
         std::lock_guard<std::mutex> lock(m);
         done.insert(i);
@@ -126,6 +133,7 @@ void run_parallel(int threads, const std::vector<std::size_t>& which, const std:
   for (int t = 1; t < std::max(1, threads); ++t) pool.emplace_back(worker);
   worker();
   for (auto& th : pool) th.join();
+  if (failed) std::rethrow_exception(failed);
 }
 
 // ---------------------------------------------------------------- statistics

@@ -40,7 +40,7 @@ const CommandLine kCli{
     {kModelOption,
      kTerrainOption,
      {"--only", "ID,...", "fit only these effects"},
-     {"--threads", "N", "threads for the fits (default 2; 1 .. 256)"},
+     {"--threads", "N", "threads for the fits (default 2; 1 .. 64)"},
      {"--json", "", "one JSON object on stdout"},
      {"--progress", "", "a line per candidate on stderr (default: for logs over 300 s)"},
      {"--quiet", "", "no progress lines"}},
@@ -60,7 +60,7 @@ int run_diagnose(int argc, char** argv) {
     DiagnoseOptions o;
     o.only = split_ids(a.get("--only"));
     long threads = 0;
-    if (!known_effects("auger diagnose", o.only) || !a.whole("auger diagnose", "--threads", o.threads, 1, 256, threads))
+    if (!known_effects("auger diagnose", o.only) || !a.whole("auger diagnose", "--threads", o.threads, 1, 64, threads))
       return 2;
     o.threads = static_cast<int>(threads);
     o.progress = a.has("--progress") || (!a.has("--quiet") && d.duration_s() > 300);

@@ -21,7 +21,7 @@ namespace {
 const CommandLine kCli{
     "auger fit",
     "LOG --add EFFECT[,EFFECT...] [--add-term DOF:FORM[,DOF:FORM...]] [--hold PARAM[,...]] [--out MODEL]\n"
-    "                 [--model FILE] [--terrain NAME|auto] [--json]",
+    "                 [--model FILE] [--terrain NAME|auto] [--threads N] [--json]",
     "Re-identifies sigma and D (eqs. (15)-(17)) together with the effects added, prints the error\n"
     "per channel before and after (also as multiples of the noise floor), writes a model file.\n",
     {{"--add", "EFFECT[,EFFECT...]", "the effects to add (auger effects lists them); paper_params: the\n"
@@ -33,6 +33,7 @@ const CommandLine kCli{
      {"--out", "MODEL", "write the fitted model file there"},
      kModelOption,
      kTerrainOption,
+     {"--threads", "N", "threads for the fits (default 2; 1 .. 64)"},
      {"--json", "", "one JSON object on stdout"},
      {"--progress", "", "progress lines on stderr"}},
     ""};
@@ -61,6 +62,8 @@ int run_fit(int argc, char** argv) {
     return 2;
   }
   if (!known_effects("auger fit", ids)) return 2;
+  long threads = 0;
+  if (!a.whole("auger fit", "--threads", 2, 1, 64, threads)) return 2;
   try {
     Dataset d = load_dataset(a.positional[0]);
     require_fit_data(d, "fit");
@@ -68,7 +71,8 @@ int run_fit(int argc, char** argv) {
     if (a.has("--add-term")) added += " --add-term '" + a.get("--add-term") + "'";
     const std::string model_arg = a.has("--model") ? " --model " + typed(a.get("--model")) : "";
     const TerrainChoice tc = choose_terrain(d, a.get("--model"), a.get("--terrain"), "fit", model_arg + added);
-    const FitResult r = fit(d, tc.model, ids, a.has("--progress"), terms, split_ids(a.get("--hold")));
+    const FitResult r = fit(d, tc.model, ids, a.has("--progress"), terms, split_ids(a.get("--hold")),
+                              static_cast<int>(threads));
     // Numbers, or nothing is written (a model of NaN would load and mislead).
     require_noise_floor(d, r.noise_floor);
     require_finite(d, r.err_before, r.before, "segments, before");

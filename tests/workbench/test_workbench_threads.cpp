@@ -12,9 +12,13 @@
 
 #include <catch2/catch.hpp>
 
+#include "engine_synth.hpp"
 #include "fitting.hpp"
 
+using namespace auger;
+using namespace auger::wb;
 using namespace auger::wb::search;
+using namespace auger::wb::test;
 
 namespace {
 
@@ -79,4 +83,30 @@ TEST_CASE("share_loop: an item's exception reaches the owner; the next loop runs
   offer_slow_loop(after, 2);
   for (int c : after.count) CHECK(c == 1);
   CHECK(after.runners.size() == 2);
+}
+
+TEST_CASE("run_parallel: a task's exception reaches the caller, whichever thread ran it") {
+  for (std::size_t thrower = 0; thrower < 4; ++thrower) {
+    std::atomic<int> ran{0};
+    CHECK_THROWS_WITH(run_parallel(2, {0, 1, 2, 3}, [](std::size_t) { return -1; },
+                                   [&](std::size_t task) {
+                                     ++ran;
+                                     std::this_thread::sleep_for(std::chrono::milliseconds(5));
+                                     if (task == thrower) throw std::invalid_argument("task failed");
+                                   }),
+                      "task failed");
+    CHECK(ran >= 1);
+  }
+}
+
+TEST_CASE("fit: the same answer on one thread and on two") {
+  SynthOptions o;
+  o.seconds = 40;
+  const Model truth = make_model(RobotParams{}, kSand, {entry("coulomb_friction").make({8, 6, 1})});
+  const Dataset d = synth(truth, o);
+  const FitResult one = fit(d, nominal(), {"coulomb_friction"}, false, {}, {}, 1);
+  const FitResult two = fit(d, nominal(), {"coulomb_friction"}, false, {}, {}, 2);
+  CHECK(one.model_toml == two.model_toml);
+  for (std::size_t c = 0; c < one.err_after.rms.size(); ++c) CHECK(one.err_after.rms[c] == two.err_after.rms[c]);
+  CHECK(one.err_after.ratio_to_noise[0] < 1.3);  // (and it is a fit: the friction found)
 }
