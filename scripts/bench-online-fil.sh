@@ -36,3 +36,11 @@ echo "### now"
 echo
 echo "### now, fed the true velocity"
 "$bin" curve "$out" --truth --thresholds 4,8,16,24,40,80
+echo
+echo "## The estimator's memory, at make demo's setting"
+demo=(--velocity-sd 0.002,0.002,0.01 --camera-corr-s 0.3 --drag-prior 0.01)
+for memory in 5 2 1; do
+  echo
+  echo "### --memory-s $memory ${demo[*]}"
+  "$bin" curve "$out" "${demo[@]}" --memory-s "$memory" --thresholds 8,12,16,24
+done
