@@ -1,6 +1,6 @@
 // The online estimator and change detector (auger/online_estimator.hpp), docs/benchmarks.md
 // "Online identification":
-//   online_bench cost [CYCLES (20000)] [effects]
+//   online_bench cost [CYCLES (20000)] [effects | twin]
 //     time per 10 ms cycle of OnlineEstimator::step on recorded driving with terrain changes (the
 //     inputs are made before the clock starts; scripts/bench-online.sh counts instructions from
 //     two runs of different length, on x86 with callgrind and on aarch64 under qemu); `effects`:
@@ -44,7 +44,7 @@ Vec5 params(const Model& m) {
   return p;
 }
 
-int cost(const Model& sand_plain, const Model& grass_plain, long cycles, bool effects) {
+int cost(const Model& sand_plain, const Model& grass_plain, long cycles, bool effects, bool twin) {
   // 30 s of driving with a change at 15 s, replayed as often as needed.
   constexpr int kRecorded = 3000;
   ModelFile file = load_model_file(AUGER_MODELS_DIR "/robot.toml");
@@ -83,6 +83,7 @@ int cost(const Model& sand_plain, const Model& grass_plain, long cycles, bool ef
   }
   OnlineConfig c;
   c.enabled = true;
+  if (twin) c.detect_memory_s = 1.0;  // the detector's twin (docs/daemon.md `detect_memory_s`)
   OnlineEstimator est(sand, c, online);
   double checksum = 0;
   const auto t0 = std::chrono::steady_clock::now();
@@ -94,7 +95,7 @@ int cost(const Model& sand_plain, const Model& grass_plain, long cycles, bool ef
   const auto t1 = std::chrono::steady_clock::now();
   const double us = 1e6 * std::chrono::duration<double>(t1 - t0).count() / double(cycles);
   std::printf("online_bench: %ld cycles, %.3f us per cycle (estimator and detector%s), %llu changes%s\n", cycles, us,
-              effects ? ", three effect parameters" : "", static_cast<unsigned long long>(est.changes()),
+              effects ? ", three effect parameters" : twin ? ", the detector's twin" : "", static_cast<unsigned long long>(est.changes()),
               std::isfinite(checksum) ? "" : " (non-finite!)");
   if (cycles < 100000) return 0;  // the instruction counts (scripts/bench-online.sh) need no more
   // The cycle that ends a window carries the RLS and CUSUM updates: each call timed alone (the
@@ -275,7 +276,7 @@ int track(const Model& sand, const Model& grass, const ModelFile& file, int runs
 }  // namespace
 
 int main(int argc, char** argv) {
-  const CommandLine cli{"online_bench", "cost [CYCLES] [effects | kinematic | kinematic-acc] | curve [RUNS] [HOURS] [VELOCITY_SD_MPS] | track [RUNS]",
+  const CommandLine cli{"online_bench", "cost [CYCLES] [effects | twin | kinematic | kinematic-acc] | curve [RUNS] [HOURS] [VELOCITY_SD_MPS] | track [RUNS]",
                         "The online estimator's cost per cycle, and the change detector's delay / false-alarm\n"
                         "curve over its threshold on the core's model (docs/benchmarks.md).\n",
                         {},
@@ -294,15 +295,15 @@ int main(int argc, char** argv) {
   const ModelFile file = load_model_file(AUGER_MODELS_DIR "/robot.toml");
   const Model sand = build_model(file, "sand"), grass = build_model(file, "frozen_grass");
   const std::string what = pos.size() > 2 && !pos.empty() && pos[0] == "cost" ? pos[2] : "";
-  if (!what.empty() && what != "effects" && what != "kinematic" && what != "kinematic-acc") {
-    std::fprintf(stderr, "online_bench: cost's third word is 'effects', 'kinematic', 'kinematic-acc' or nothing, not '%s'\n",
+  if (!what.empty() && what != "effects" && what != "twin" && what != "kinematic" && what != "kinematic-acc") {
+    std::fprintf(stderr, "online_bench: cost's third word is 'effects', 'twin', 'kinematic', 'kinematic-acc' or nothing, not '%s'\n",
                  what.c_str());
     return 2;
   }
   if (what == "kinematic" || what == "kinematic-acc")
     return kinematic_cost(sand, grass, long(num(1, 20000, "CYCLES")), what == "kinematic-acc");
   if (!pos.empty() && pos[0] == "cost")
-    return cost(sand, grass, long(num(1, 20000, "CYCLES")), pos.size() > 2 && pos[2] == "effects");
+    return cost(sand, grass, long(num(1, 20000, "CYCLES")), what == "effects", what == "twin");
   if (!pos.empty() && pos[0] == "track") return track(sand, grass, file, int(num(1, 5, "RUNS")));
   if (!pos.empty() && pos[0] == "curve")
     return curve(sand, grass, int(num(1, 40, "RUNS")), num(2, 1, "HOURS"), num(3, 0.002, "VELOCITY_SD_MPS"));

@@ -423,6 +423,7 @@ int main(int argc, char** argv) {
        {"--velocity-sd", "U,V,R", "[online] velocity_sd (default 0.012,0.012,0.01, scripts/online-fil.sh)"},
        {"--drag-prior", "X", "[online] drag_prior_rel_sd (default 0.01)"},
        {"--memory-s", "S", "[online] memory_s (default 5)"},
+       {"--detect-memory-s", "S", "[online] detect_memory_s (default 0: the detector tests the estimate's own)"},
        {"--window-s", "S", "OnlineConfig::window_s, the regression's window (default 0.1)"},
        {"--detect-s", "S", "an alarm later than S after a change is a miss (default 3)"},
        {"--slow-screw-rpm", "X", "OnlineConfig::slow_screw_rpm (default 2; 0: every window)"},
@@ -456,6 +457,7 @@ int main(int argc, char** argv) {
   if (!args.whole("online_fil", "--omega-delay", 0, 0, 100, delay)) return 2;
   o.omega_delay = int(delay);
   if (!args.number("online_fil", "--memory-s", 5.0, o.cfg.memory_s) ||
+      !args.number("online_fil", "--detect-memory-s", 0.0, o.cfg.detect_memory_s) ||
       !args.number("online_fil", "--detect-s", 3.0, o.detect_s) ||
       !args.number("online_fil", "--window-s", 0.1, o.cfg.window_s) ||
       !args.number("online_fil", "--slow-screw-rpm", 2.0, o.cfg.slow_screw_rpm) ||

@@ -44,3 +44,6 @@ for memory in 5 2 1; do
   echo "### --memory-s $memory ${demo[*]}"
   "$bin" curve "$out" "${demo[@]}" --memory-s "$memory" --thresholds 8,12,16,24
 done
+echo
+echo "### --detect-memory-s 1 (the detector's twin; the estimate keeps 5 s) ${demo[*]}"
+"$bin" curve "$out" "${demo[@]}" --detect-memory-s 1 --thresholds 8,10,12,16

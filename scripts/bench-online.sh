@@ -26,6 +26,7 @@ trap 'rm -rf "$tmp"' EXIT
 echo "## Cost per cycle"
 "$bin" cost 200000
 "$bin" cost 200000 effects
+"$bin" cost 200000 twin
 "$bin" cost 200000 kinematic
 "$bin" cost 200000 kinematic-acc
 if command -v valgrind >/dev/null; then
@@ -35,6 +36,7 @@ if command -v valgrind >/dev/null; then
   }
   echo "x86-64 instructions per cycle (callgrind): $(( ($(ir 60000) - $(ir 20000)) / 40000 ))"
   echo "  with three effect parameters online: $(( ($(ir 60000 effects) - $(ir 20000 effects)) / 40000 ))"
+  echo "  with the detector's twin (detect_memory_s = 1): $(( ($(ir 60000 twin) - $(ir 20000 twin)) / 40000 ))"
   echo "  KinematicVelocity (velocity = \"kinematic\"): $(( ($(ir 60000 kinematic) - $(ir 20000 kinematic)) / 40000 ))"
   echo "  KinematicVelocity with the accelerometer: $(( ($(ir 60000 kinematic-acc) - $(ir 20000 kinematic-acc)) / 40000 ))"
 else

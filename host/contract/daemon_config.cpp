@@ -204,6 +204,8 @@ void read_online(const Reader& r, const toml::table& t, DaemonConfig& c) {
           {"apply", [&](const toml::node& v) { c.online_apply = r.boolean(v, "apply"); }},
           {"velocity_sd", [&](const toml::node& v) { o.velocity_sd = r.vec3(v, "velocity_sd", 1e-5, 1); }},
           {"memory_s", [&](const toml::node& v) { o.memory_s = r.number(v, "memory_s", 0.5, 600); }},
+          {"detect_memory_s",
+           [&](const toml::node& v) { o.detect_memory_s = r.number(v, "detect_memory_s", 0, 600); }},
           {"cusum_threshold", [&](const toml::node& v) { o.cusum_threshold = r.number(v, "cusum_threshold", 1, 1000); }},
           {"apply_rel_sd", [&](const toml::node& v) { o.apply_rel_sd = r.number(v, "apply_rel_sd", 0.001, 1); }},
           {"drag_prior_rel_sd",

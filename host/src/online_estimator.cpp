@@ -58,10 +58,12 @@ OnlineEstimator::OnlineEstimator(const Model& model, const OnlineConfig& config,
     hi_rel_[5 + k] = e.upper / e.prior_sd;
     configured_eff_[k] = std::clamp(e.configured, e.lower, e.upper);
   }
-  if (!(cfg_.window_s > 0) || !(cfg_.memory_s > 0) || !(cfg_.prior_rel_sd > 0) || !(cfg_.drag_prior_rel_sd > 0) ||
+  if (!(cfg_.window_s > 0) || !(cfg_.memory_s > 0) || !(cfg_.detect_memory_s >= 0) || !(cfg_.prior_rel_sd > 0) ||
+      !(cfg_.drag_prior_rel_sd > 0) ||
       !(cfg_.cusum_ratio > 1) || !(cfg_.cusum_threshold > 0) || !(cfg_.velocity_sd.minCoeff() > 0) ||
       !(cfg_.slow_screw_guard_s >= 0))
     throw std::invalid_argument("online estimation: window_s, prior_rel_sd, drag_prior_rel_sd, velocity_sd > 0, memory_s > 0, "
+                                "detect_memory_s >= 0, "
                                 "cusum_ratio > 1, cusum_threshold > 0, slow_screw_guard_s >= 0");
   fallback_.reserve(64);  // latching a reason later allocates nothing
   P0_.setZero();  // an unused effect column: no prior variance, never moves
@@ -78,10 +80,12 @@ OnlineEstimator::OnlineEstimator(const Model& model, const OnlineConfig& config,
 
 void OnlineEstimator::reset() {
   theta_ = theta0_;
+  theta_d_ = theta0_;
   applied_ = ref_;
   applied_eff_ = configured_eff_;
   applied_changed_ = false;
   noise_var_ = noise_var0_;
+  noise_var_d_ = noise_var0_;
   e_prev_.setConstant(NAN);
   e_var_.setZero();
   e_cov1_.setZero();
@@ -102,6 +106,7 @@ void OnlineEstimator::reset() {
 
 void OnlineEstimator::restart_memory() {
   P_ = P0_;
+  P_d_ = P0_;
   g_ = 0;
   est_.informed.setZero();
   est_.effect_informed.setZero();
@@ -122,44 +127,61 @@ void OnlineEstimator::publish() {
 void OnlineEstimator::enter_fallback(const char* why) {
   if (fallback_.empty()) fallback_ = why;  // latched: the first reason (no allocation: short, SSO)
   theta_ = theta0_;
+  theta_d_ = theta0_;
   applied_changed_ = applied_ != ref_ || applied_eff_ != configured_eff_;
   applied_ = ref_;
   applied_eff_ = configured_eff_;
   restart_memory();
 }
 
-// One scalar RLS update with directional forgetting (Kulhavy): the information along phi is
-// scaled by the forgetting factor, the rest of the covariance stays, so a parameter the data do
-// not inform keeps its uncertainty instead of winding up. Returns the normalised innovation
-// squared of the prediction before the update.
+// One scalar RLS update with directional forgetting (Kulhavy) of (theta, P) over a memory of
+// memory_s, r the noise variance of the row: the information along phi is scaled by the forgetting factor, the rest of the
+// covariance stays, so a parameter the data do not inform keeps its uncertainty instead of
+// winding up. e and s: the innovation of the prediction before the update and the parameters'
+// share of its variance (phi^T P phi); s_forgot: that share after the forgetting (the gain's).
 // phi_update is phi with the columns that are not informative in this window zeroed: they stay
 // in the prediction (e) but take no update.
-double OnlineEstimator::update_row(int j, const VecN& phi, const VecN& phi_update, double y, bool adapt) {
-  const double r = noise_var_[j];
-  const double e = y - phi.dot(theta_);
-  VecN Pphi = P_ * phi_update;
-  double s = phi_update.dot(Pphi);
-  const double nis = e * e / (r + s);
-  innov_[j] = e;
-  innov_s_[j] = s;
+void OnlineEstimator::rls_row(VecN& theta, MatN& P, double memory_s, double r, const VecN& phi, const VecN& phi_update,
+                              double y, double& e, double& s, double& s_forgot) const {
+  e = y - phi.dot(theta);
+  VecN Pphi = P * phi_update;
+  s = phi_update.dot(Pphi);
+  s_forgot = s;
   if (s > 1e-12 * r) {
-    const double lambda = std::exp(-cfg_.window_s / cfg_.memory_s);
-    P_ += ((1.0 - lambda) / (lambda * s)) * (Pphi * Pphi.transpose());
+    const double lambda = std::exp(-cfg_.window_s / memory_s);
+    P += ((1.0 - lambda) / (lambda * s)) * (Pphi * Pphi.transpose());
     Pphi /= lambda;  // P phi after the forgetting: phi^T P phi grew by 1 / lambda, along Pphi
-    s /= lambda;
+    s_forgot /= lambda;
   }
-  const VecN K = Pphi / (r + s);
-  theta_ += K * e;
-  P_ -= K * Pphi.transpose();
-  P_ = 0.5 * (P_ + P_.transpose());
+  const VecN K = Pphi / (r + s_forgot);
+  theta += K * e;
+  P -= K * Pphi.transpose();
+  P = 0.5 * (P + P.transpose());
   // Never more uncertain than the prior (the forgetting cannot wind up a direction for good).
   for (int k = 0; k < 5 + n_eff_; ++k) {
-    if (P_(k, k) > P0_(k, k)) {
-      const double c = std::sqrt(P0_(k, k) / P_(k, k));
-      P_.row(k) *= c;
-      P_.col(k) *= c;
+    if (P(k, k) > P0_(k, k)) {
+      const double c = std::sqrt(P0_(k, k) / P(k, k));
+      P.row(k) *= c;
+      P.col(k) *= c;
     }
   }
+}
+
+// The estimate's update of DOF j's row, and the detector's statistic of the row: the normalised
+// innovation squared of the detector's estimate (the estimate's own, or with detect_memory_s its
+// faster twin), whitened.
+double OnlineEstimator::update_row(int j, const VecN& phi, const VecN& phi_update, double y, bool adapt) {
+  double e = 0, s0 = 0, s = 0;
+  rls_row(theta_, P_, cfg_.memory_s, noise_var_[j], phi, phi_update, y, e, s0, s);
+  // Each estimate's noise variance follows its own innovation (below); the detector's statistic
+  // and whitening take the twin's where there is one.
+  const double e_est = e, s_est = s;
+  const bool twin = cfg_.detect_memory_s > 0;
+  if (twin) rls_row(theta_d_, P_d_, cfg_.detect_memory_s, noise_var_d_[j], phi, phi_update, y, e, s0, s);
+  const double r = twin ? noise_var_d_[j] : noise_var_[j];
+  const double nis = e * e / (r + s0);
+  innov_[j] = e;
+  innov_s_[j] = s0;
   // The detector's statistic: the innovation whitened by its learned lag-1 correlation rho
   // (an AR(1) model of the colour: w = e_k - rho e_(k-1), variance (1 - rho^2) of e's), in units
   // of its learned variance, never below the variance the regression predicts (r + s). On the
@@ -180,8 +202,11 @@ double OnlineEstimator::update_row(int j, const VecN& phi, const VecN& phi_updat
   // velocity's colour are noise to it, a change is not.
   if (adapt) {
     const double a = cfg_.window_s / cfg_.noise_adapt_s;
-    noise_var_[j] = std::clamp((1 - a) * noise_var_[j] + a * std::max(0.0, e * e - s), 0.05 * noise_var0_[j],
-                               100.0 * noise_var0_[j]);
+    auto follow = [&](double& var, double e1, double s1) {
+      var = std::clamp((1 - a) * var + a * std::max(0.0, e1 * e1 - s1), 0.05 * noise_var0_[j], 100.0 * noise_var0_[j]);
+    };
+    follow(noise_var_[j], e_est, s_est);
+    if (twin) follow(noise_var_d_[j], e, s);
     e_var_[j] = e_var_[j] > 0 ? (1 - a) * e_var_[j] + a * e * e : r + s;
     if (!std::isnan(e_prev_[j])) e_cov1_[j] = (1 - a) * e_cov1_[j] + a * e * e_prev_[j];
   }
@@ -202,17 +227,22 @@ double OnlineEstimator::update_row(int j, const VecN& phi, const VecN& phi_updat
 // sand came out 0.65-0.69 instead of 0.812 on firmware-in-the-loop logs, 0.81 with this
 // (docs/benchmarks.md "The drag's prior kept").
 void OnlineEstimator::keep_prior(const bool* updated) {
-  const double share = cfg_.window_s / cfg_.memory_s;
+  keep_prior(theta_, P_, cfg_.memory_s, updated);
+  if (cfg_.detect_memory_s > 0) keep_prior(theta_d_, P_d_, cfg_.detect_memory_s, updated);
+}
+
+void OnlineEstimator::keep_prior(VecN& theta, MatN& P, double memory_s, const bool* updated) const {
+  const double share = cfg_.window_s / memory_s;
   bool pulled = false;
   for (int k = 0; k < 5; ++k) {
     if (!updated[k] || est_.held[k] == 0) continue;
-    const double s = P_(k, k) + P0_(k, k) / share;
-    const VecN Pk = P_.col(k);
-    theta_ += Pk * ((theta0_[k] - theta_[k]) / s);
-    P_ -= (Pk * Pk.transpose()) / s;
+    const double s = P(k, k) + P0_(k, k) / share;
+    const VecN Pk = P.col(k);
+    theta += Pk * ((theta0_[k] - theta[k]) / s);
+    P -= (Pk * Pk.transpose()) / s;
     pulled = true;
   }
-  if (pulled) P_ = 0.5 * (P_ + P_.transpose());
+  if (pulled) P = 0.5 * (P + P.transpose());
 }
 
 void OnlineEstimator::effect_bases(const Vec3& eta, const Vec3& zeta, Vec3* out) const {
@@ -352,8 +382,9 @@ void OnlineEstimator::end_window() {
     const double c = std::clamp(theta_[k], lo_rel_[k], hi_rel_[k]);
     if (k < 5) at_bound_s_[k] = c != theta_[k] ? at_bound_s_[k] + w_s : 0.0;
     theta_[k] = c;
+    theta_d_[k] = std::clamp(theta_d_[k], lo_rel_[k], hi_rel_[k]);
   }
-  if (!theta_.allFinite() || !P_.allFinite()) {
+  if (!theta_.allFinite() || !P_.allFinite() || !theta_d_.allFinite() || !P_d_.allFinite()) {
     enter_fallback("the estimate became non-finite");
     return;
   }

@@ -398,13 +398,15 @@ TEST_CASE("configuration: [online] is off by default; its keys and errors", "[da
   // The model-free velocity and the held drag (docs/daemon.md "Online identification").
   CHECK_FALSE(c.online_kinematic);
   const std::string kin = write_tmp(kGood + "[online]\nenabled = true\nvelocity = \"kinematic\"\ndrag_prior_rel_sd = 0.01\n"
-                                                 "slow_screw_rpm = 2\nslow_screw_guard_s = 0.05\n");
+                                                 "slow_screw_rpm = 2\nslow_screw_guard_s = 0.05\ndetect_memory_s = 1\n");
   const DaemonConfig k = load_daemon_config(kin);
   unlink(kin.c_str());
   CHECK(k.online_kinematic);
   CHECK(k.online.drag_prior_rel_sd == 0.01);
   CHECK(k.online.slow_screw_rpm == 2.0);
   CHECK(k.online.slow_screw_guard_s == 0.05);
+  CHECK(k.online.detect_memory_s == 1.0);
+  CHECK(c.online.detect_memory_s == 0.0);  // off unless asked for
   // The kinematic filter's accelerometer: on with the sample's values unless the keys say otherwise.
   CHECK(k.online_kin.use_accelerometer);
   CHECK(k.online_kin.acc_noise_mps2_per_sqrt_hz == 1.5e-3);
@@ -425,6 +427,7 @@ TEST_CASE("configuration: [online] is off by default; its keys and errors", "[da
   expect_config_error(kGood + "[online]\ndrag_prior_rel_sd = 0\n", ":17:");
   expect_config_error(kGood + "[online]\nslow_screw_rpm = -1\n", ":17:");
   expect_config_error(kGood + "[online]\nslow_screw_guard_s = 1\n", ":17:");
+  expect_config_error(kGood + "[online]\ndetect_memory_s = -1\n", ":17:");
 }
 
 TEST_CASE("module words for augerd's messages and event log", "[daemon][unit]") {

@@ -87,6 +87,49 @@ TEST_CASE("online: a change sand -> frozen grass is detected within 0.5 s and re
   }
 }
 
+// detect_memory_s: the detector tests a faster twin of the estimate; the estimate the controller
+// takes keeps its own memory (its SD as without the twin, not the twin's, about sqrt(5) larger).
+TEST_CASE("online: a detector with a shorter memory leaves the estimate alone and finds the change") {
+  Terrains t;
+  OnlineDriveOptions o;
+  o.change_at_s = 20.0;
+  o.seed = 3;
+  o.velocity_sd = Vec3(0.0005, 0.0005, 0.00125);
+  OnlineDrive drive(t.sand, t.grass, o);
+  OnlineConfig c = on();
+  c.velocity_sd = o.velocity_sd;
+  OnlineEstimator alone(t.sand, c);
+  c.detect_memory_s = 1.0;
+  OnlineEstimator twin(t.sand, c);
+  bool innovations_differ = false;
+  double detected_s = NAN;
+  while (drive.t_s() < 23.0 - 1e-9) {
+    drive.next();
+    const bool a = alone.step(drive.omega_rpm, drive.zeta_meas, OnlineDrive::kDt);
+    const bool b = twin.step(drive.omega_rpm, drive.zeta_meas, OnlineDrive::kDt);
+    if (b && std::isnan(detected_s)) detected_s = drive.t_s();
+    if (!drive.changed()) {
+      REQUIRE(!a);
+      REQUIRE(!b);
+      if (drive.t_s() > 10) {
+        const Vec5 sd = alone.estimate().sd;
+        INFO("t " << drive.t_s() << " s: SD with the twin " << twin.estimate().sd.transpose() << ", without " << sd.transpose());
+        REQUIRE(((twin.estimate().sd - sd).cwiseAbs().array() <= 0.1 * sd.array()).all());
+        REQUIRE(((twin.estimate().value - alone.estimate().value).cwiseAbs().array() <= sd.array()).all());
+      }
+      const Vec3 ea = alone.last_innovation(), eb = twin.last_innovation();
+      for (int j = 0; j < 3; ++j) innovations_differ = innovations_differ || (std::isfinite(ea[j]) && ea[j] != eb[j]);
+    }
+  }
+  CHECK(innovations_differ);  // the detector tests the twin's innovation, not the estimate's
+  REQUIRE(std::isfinite(detected_s));
+  CHECK(detected_s - 20.0 <= 0.5);
+  const Vec5 truth = params(t.grass);
+  const Vec5 err = (twin.estimate().value - truth).cwiseAbs().cwiseQuotient(truth);
+  INFO("relative errors 3 s after the change " << err.transpose());
+  CHECK(err.maxCoeff() < 0.05);
+}
+
 TEST_CASE("online: no false alarm in 20 minutes on uniform sand, and the estimate stays on sand") {
   Terrains t;
   OnlineDriveOptions o;

@@ -106,6 +106,12 @@ struct OnlineConfig {
   // Memory of the directional forgetting (only the information along the regressor is
   // forgotten): each informative window scales it by exp(-window_s / memory_s).
   double memory_s = 5.0;
+  // > 0: the detector tests the innovation of a second estimate with this shorter memory, run
+  // beside the one the controller takes. A short memory follows the model's slow mismatches, so
+  // the innovation's mean wanders less on uniform ground and a lower threshold holds the false
+  // alarms, but the estimate it makes is too noisy to control with (docs/benchmarks.md "The
+  // estimator's memory"). 0: the detector tests the estimate's own innovation.
+  double detect_memory_s = 0.0;
   double window_s = 0.1;  // the regression's window (whole cycles; one RLS and detector update each)
   // SD of the fused body velocity fed in each cycle (m/s, m/s, rad/s): the noise of the
   // regression's left side is M sqrt(2) sd / W. The detector adapts its scale (below).
@@ -240,6 +246,9 @@ class OnlineEstimator {
   bool slow_guarded() const;
   void publish();
   double update_row(int dof, const VecN& phi, const VecN& phi_update, double y, bool adapt);
+  void rls_row(VecN& theta, MatN& P, double memory_s, double r, const VecN& phi, const VecN& phi_update, double y,
+               double& e, double& s, double& s_forgot) const;
+  void keep_prior(VecN& theta, MatN& P, double memory_s, const bool* updated) const;
   void effect_bases(const Vec3& eta, const Vec3& zeta, Vec3* out) const;
   void keep_prior(const bool* updated);
 
@@ -256,6 +265,11 @@ class OnlineEstimator {
   MatN P0_;
   VecN theta_;
   MatN P_;
+  // The detector's estimate with detect_memory_s (unused at 0): the same regression, a shorter
+  // memory; restarted, clamped and pulled to the held prior as the estimate is.
+  VecN theta_d_;
+  MatN P_d_;
+  Vec3 noise_var_d_;              // its noise variance per DOF (adapted from its innovation)
   Vec3 eff_prev_[kMaxOnlineEffects], eff_sum_[kMaxOnlineEffects];  // the effects' bases: last, window sum
   Vec3 noise_var_;                // per DOF: the regression's noise variance (adapted)
   Vec3 noise_var0_;
