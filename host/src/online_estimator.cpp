@@ -135,9 +135,9 @@ void OnlineEstimator::enter_fallback(const char* why) {
 }
 
 // One scalar RLS update with directional forgetting (Kulhavy) of (theta, P) over a memory of
-// memory_s, r the noise variance of the row: the information along phi is scaled by the forgetting factor, the rest of the
-// covariance stays, so a parameter the data do not inform keeps its uncertainty instead of
-// winding up. e and s: the innovation of the prediction before the update and the parameters'
+// memory_s, r the row's noise variance: the information along phi is scaled by the forgetting
+// factor, the rest of the covariance stays, so a parameter the data do not inform keeps its
+// uncertainty instead of winding up. e and s: the innovation of the prediction before the update and the parameters'
 // share of its variance (phi^T P phi); s_forgot: that share after the forgetting (the gain's).
 // phi_update is phi with the columns that are not informative in this window zeroed: they stay
 // in the prediction (e) but take no update.
