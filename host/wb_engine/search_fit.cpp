@@ -16,25 +16,6 @@ namespace {
 
 FitResult fit_on_this_thread(const Dataset& full, ModelChoice mc, const std::vector<std::string>& ids, bool progress,
                              const std::vector<std::pair<std::string, std::string>>& terms,
-                             const std::vector<std::string>& hold);
-
-}  // namespace
-
-FitResult fit(const Dataset& full, ModelChoice mc, const std::vector<std::string>& ids, bool progress,
-              const std::vector<std::pair<std::string, std::string>>& terms, const std::vector<std::string>& hold,
-              int threads) {
-  // One task: the other threads, idle from the start, take the columns of its Jacobians
-  // (share_loop), where most of a fit's simulations are.
-  FitResult res;
-  run_parallel(threads, {0}, [](std::size_t) { return -1; },
-               [&](std::size_t) { res = fit_on_this_thread(full, std::move(mc), ids, progress, terms, hold); });
-  return res;
-}
-
-namespace {
-
-FitResult fit_on_this_thread(const Dataset& full, ModelChoice mc, const std::vector<std::string>& ids, bool progress,
-                             const std::vector<std::pair<std::string, std::string>>& terms,
                              const std::vector<std::string>& hold) {
   FitResult res;
   res.before = mc;
@@ -111,6 +92,17 @@ FitResult fit_on_this_thread(const Dataset& full, ModelChoice mc, const std::vec
 }
 
 }  // namespace
+
+FitResult fit(const Dataset& full, ModelChoice mc, const std::vector<std::string>& ids, bool progress,
+              const std::vector<std::pair<std::string, std::string>>& terms, const std::vector<std::string>& hold,
+              int threads) {
+  // One task: the other threads, idle from the start, take the columns of its Jacobians
+  // (share_loop), where most of a fit's simulations are.
+  FitResult res;
+  run_parallel(threads, {0}, [](std::size_t) { return -1; },
+               [&](std::size_t) { res = fit_on_this_thread(full, std::move(mc), ids, progress, terms, hold); });
+  return res;
+}
 
 // ---------------------------------------------------------------- model file
 ModelFile fitted_model_file(const Model& m, const Dataset& d, const std::vector<FittedEffect>& effects,
