@@ -151,25 +151,27 @@ FitOutcome fit_candidate(const Problem& pr, const std::vector<Part>& held_in, co
   FitOutcome best;
   // A grid has one start per point, each fit independent of the others: shared with an idle
   // worker, then taken in the grid's order (the same result on any number of threads).
-  std::vector<FitOutcome> at_point(grid ? variants.size() : 0);
-  if (grid)
+  if (grid) {
+    std::vector<FitOutcome> at_point(variants.size());
     share_loop(variants.size(), [&](std::size_t g) {
       at_point[g] = levenberg_marquardt(pr, starts(variants[g]).front(), change ? 2 : 4);
     });
-  for (std::size_t g = 0; g < variants.size(); ++g)
-    for (const auto& s : grid ? std::vector<std::vector<Part>>{} : starts(variants[g])) {
-      FitOutcome o = levenberg_marquardt(pr, s, max_iter);
+    for (FitOutcome& o : at_point) {
       sims += o.sims;
-      const bool at_noise = o.r.size() && o.cost < 1.3 * static_cast<double>(o.r.size());
+      if (change && std::isfinite(o.cost)) tried.push_back(o);
       if (o.cost < best.cost) best = std::move(o);
-      // At the noise already (mean squared normalised residual near 1): another start cannot do
-      // better than noise, so it is skipped.
-      if (at_noise) break;
     }
-  for (FitOutcome& o : at_point) {
-    sims += o.sims;
-    if (change && std::isfinite(o.cost)) tried.push_back(o);
-    if (o.cost < best.cost) best = std::move(o);
+  } else {
+    for (const auto& v : variants)
+      for (const auto& s : starts(v)) {
+        FitOutcome o = levenberg_marquardt(pr, s, max_iter);
+        sims += o.sims;
+        const bool at_noise = o.r.size() && o.cost < 1.3 * static_cast<double>(o.r.size());
+        if (o.cost < best.cost) best = std::move(o);
+        // At the noise already (mean squared normalised residual near 1): another start cannot do
+        // better than noise, so it is skipped.
+        if (at_noise) break;
+      }
   }
   if (change && !tried.empty()) {
     // Refine the two best grid times that are not neighbours: halving steps down to 0.1 s.
