@@ -21,6 +21,19 @@ namespace search {
 // ---------------------------------------------------------------- threads
 namespace {
 
+// The first exception of jobs run on several threads (the others are dropped), for the caller.
+struct FirstError {
+  std::mutex m;
+  std::exception_ptr e;
+  void keep(std::exception_ptr x) {
+    std::lock_guard<std::mutex> lock(m);
+    if (!e) e = std::move(x);
+  }
+  void rethrow() const {
+    if (e) std::rethrow_exception(e);
+  }
+};
+
 // A loop that share_loop offers to idle workers: its items are taken one at a time by whoever
 // runs it (its owner, and helpers), and the owner waits for the helpers' items before it returns.
 struct SharedLoop {
@@ -28,15 +41,13 @@ struct SharedLoop {
   const std::function<void(std::size_t)>* fn = nullptr;
   std::atomic<std::size_t> next{0};
   int helpers = 0;  // in the loop now (guarded by the board's mutex)
-  std::mutex failed_m;
-  std::exception_ptr failed;  // the first exception of an item: the rest are skipped, the owner rethrows it
+  FirstError failed;  // an item's: the rest are skipped, the owner rethrows it
   void run() {
     for (std::size_t i; (i = next++) < n;) {
       try {
         (*fn)(i);
       } catch (...) {
-        std::lock_guard<std::mutex> lock(failed_m);
-        if (!failed) failed = std::current_exception();
+        failed.keep(std::current_exception());
         next = n;
       }
     }
@@ -78,7 +89,7 @@ void share_loop(std::size_t n, const std::function<void(std::size_t)>& fn) {
   std::unique_lock<std::mutex> lock(b.m);
   b.loops.erase(std::find(b.loops.begin(), b.loops.end(), &loop));
   b.cv.wait(lock, [&] { return loop.helpers == 0; });
-  if (loop.failed) std::rethrow_exception(loop.failed);
+  loop.failed.rethrow();
 }
 
 void run_parallel(int threads, const std::vector<std::size_t>& which, const std::function<int(std::size_t)>& wait_for,
@@ -89,7 +100,7 @@ void run_parallel(int threads, const std::vector<std::size_t>& which, const std:
   std::mutex m;
   Board& b = board();
   int busy = std::max(1, threads);  // workers still running tasks of `which` (under b.m)
-  std::exception_ptr failed;        // a task's exception (the first; under m): rethrown once all are joined
+  FirstError failed;                // a task's: rethrown once all are joined
   auto worker = [&]() {
     for (std::size_t n; (n = next++) < which.size();) {
       const std::size_t i = which[n];
@@ -102,8 +113,7 @@ void run_parallel(int threads, const std::vector<std::size_t>& which, const std:
       try {
         fn(i);
       } catch (...) {
-        std::lock_guard<std::mutex> lock(m);
-        if (!failed) failed = std::current_exception();
+        failed.keep(std::current_exception());
         next = which.size();  // the tasks not started are skipped
       }
       {
@@ -133,7 +143,7 @@ void run_parallel(int threads, const std::vector<std::size_t>& which, const std:
   for (int t = 1; t < std::max(1, threads); ++t) pool.emplace_back(worker);
   worker();
   for (auto& th : pool) th.join();
-  if (failed) std::rethrow_exception(failed);
+  failed.rethrow();
 }
 
 // ---------------------------------------------------------------- statistics
