@@ -176,7 +176,7 @@ double OnlineEstimator::update_row(int j, const VecN& phi, const VecN& phi_updat
   // Each estimate's noise variance follows its own innovation (below); the detector's statistic
   // and whitening take the twin's where there is one.
   const double e_est = e, s_est = s;
-  const bool twin = cfg_.detect_memory_s > 0;
+  const bool twin = this->twin();
   if (twin) rls_row(theta_d_, P_d_, cfg_.detect_memory_s, noise_var_d_[j], phi, phi_update, y, e, s0, s);
   const double r = twin ? noise_var_d_[j] : noise_var_[j];
   const double nis = e * e / (r + s0);
@@ -228,7 +228,7 @@ double OnlineEstimator::update_row(int j, const VecN& phi, const VecN& phi_updat
 // (docs/benchmarks.md "The drag's prior kept").
 void OnlineEstimator::keep_prior(const bool* updated) {
   keep_prior(theta_, P_, cfg_.memory_s, updated);
-  if (cfg_.detect_memory_s > 0) keep_prior(theta_d_, P_d_, cfg_.detect_memory_s, updated);
+  if (twin()) keep_prior(theta_d_, P_d_, cfg_.detect_memory_s, updated);
 }
 
 void OnlineEstimator::keep_prior(VecN& theta, MatN& P, double memory_s, const bool* updated) const {
@@ -382,9 +382,9 @@ void OnlineEstimator::end_window() {
     const double c = std::clamp(theta_[k], lo_rel_[k], hi_rel_[k]);
     if (k < 5) at_bound_s_[k] = c != theta_[k] ? at_bound_s_[k] + w_s : 0.0;
     theta_[k] = c;
-    theta_d_[k] = std::clamp(theta_d_[k], lo_rel_[k], hi_rel_[k]);
+    if (twin()) theta_d_[k] = std::clamp(theta_d_[k], lo_rel_[k], hi_rel_[k]);
   }
-  if (!theta_.allFinite() || !P_.allFinite() || !theta_d_.allFinite() || !P_d_.allFinite()) {
+  if (!theta_.allFinite() || !P_.allFinite() || (twin() && (!theta_d_.allFinite() || !P_d_.allFinite()))) {
     enter_fallback("the estimate became non-finite");
     return;
   }

@@ -239,6 +239,7 @@ class OnlineEstimator {
   const OnlineConfig& config() const { return cfg_; }
 
  private:
+  bool twin() const { return cfg_.detect_memory_s > 0; }  // the detector has its own estimate
   void restart_memory();
   void enter_fallback(const char* why);
   void end_window();
