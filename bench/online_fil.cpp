@@ -62,6 +62,7 @@ struct Options {
   bool truth = false;
   double truth_noise_mps = 0, truth_noise_tau_s = 0;  // --truth-noise
   std::vector<double> thresholds{8, 16, 24, 32, 40, 60, 80};
+  bool thresholds_given = false;  // --trace: the detector at the first of them
   double detect_s = 3.0;  // an alarm later than this after a change is a miss
   bool list_missed = false;
 };
@@ -160,14 +161,21 @@ Replay load(const std::string& dir, const Entry& e, const Options& o) {
   return out;
 }
 
-// The changes of the ground under the contacts (changes.csv), merged as scripts/demo-field.py does.
-std::map<std::string, std::vector<double>> read_changes(const std::string& dir) {
-  std::map<std::string, std::vector<double>> out;
+// The changes of the ground under the contacts (changes.csv), merged as scripts/demo-field.py
+// does, with how many contacts stood on the band (terrain id 1) before and after.
+struct Change {
+  double t_s;
+  int before, after;
+};
+std::map<std::string, std::vector<Change>> read_changes(const std::string& dir) {
+  std::map<std::string, std::vector<Change>> out;
   for (const auto& row : read_csv(dir + "/changes.csv")) {
-    if (row.size() < 3 || row[2] != "contacts") continue;
+    if (row.size() < 4 || row[2] != "contacts") continue;
     auto& v = out[row[0] + ".csv"];
     const double t = std::stod(row[1]);
-    if (v.empty() || t - v.back() >= kMergeS) v.push_back(t);
+    const int on_band = int(std::count(row[3].begin(), row[3].end(), '1'));
+    if (v.empty() || t - v.back().t_s >= kMergeS) v.push_back({t, v.empty() ? 0 : v.back().after, on_band});
+    else v.back().after = on_band;
   }
   return out;
 }
@@ -299,6 +307,37 @@ int stats(const std::string& dir, const std::vector<Entry>& logs, const Options&
   return 0;
 }
 
+// How far each change moves the surge innovation, with no detector restarting the estimate: the
+// mean over the windows 0.1-1 s after the change less the mean over 1.5-0.1 s before it (each of 3
+// windows or more), in N, per kind of change (drive, contacts on the band before -> after). Set
+// against the innovation's own SD on uniform ground (`online_fil stats`), it says which changes a
+// detector could see within a second.
+void innovation_shifts(const Replay& rp, const Model& m, OnlineConfig c, const std::vector<Change>& ch,
+                       const std::string& drive, std::map<std::string, std::vector<double>>& out) {
+  c.cusum_threshold = 1e300;
+  OnlineEstimator est(m, c);
+  std::vector<double> t_s, e_n;
+  std::uint64_t w = est.windows();
+  for (std::size_t k = 0; k < rp.t.size(); ++k) {
+    est.step(rp.omega[k], rp.zeta[k], kDt);
+    if (est.windows() == w) continue;
+    w = est.windows();
+    if (std::isfinite(est.last_innovation()[0])) t_s.push_back(rp.t[k]), e_n.push_back(est.last_innovation()[0]);
+  }
+  for (const Change& x : ch) {
+    double sum[2] = {0, 0};
+    int n[2] = {0, 0};
+    for (std::size_t k = 0; k < t_s.size(); ++k) {
+      const double dt = t_s[k] - x.t_s;
+      const int side = dt > -1.5 && dt < -0.1 ? 0 : dt > 0.1 && dt < 1.0 ? 1 : -1;
+      if (side >= 0) sum[side] += e_n[k], ++n[side];
+    }
+    if (n[0] >= 3 && n[1] >= 3)
+      out[drive + ", " + std::to_string(x.before) + " -> " + std::to_string(x.after)].push_back(
+          std::fabs(sum[1] / n[1] - sum[0] / n[0]));
+  }
+}
+
 int curve(const std::string& dir, const std::vector<Entry>& logs, const Options& o, const Model& sand, const Model& grass) {
   const auto changes = read_changes(dir);
   const auto stretches = read_stretches(dir);
@@ -310,6 +349,9 @@ int curve(const std::string& dir, const std::vector<Entry>& logs, const Options&
   std::vector<int> missed(nt, 0), n_changes(nt, 0);
   std::vector<long> alarms_uniform(nt, 0), alarms_field_extra(nt, 0);
   std::vector<std::string> missed_list(nt);  // "log t_s" of each missed change
+  // Missed / all per drive and contacts on the band before -> after, per threshold.
+  std::map<std::string, std::vector<std::pair<int, int>>> by_kind;
+  std::map<std::string, std::vector<double>> shifts;  // per kind, innovation_shifts
   double h_uniform = 0, h_field = 0;
   for (const Entry& e : logs) {
     const Replay rp = load(dir, e, o);
@@ -317,8 +359,9 @@ int curve(const std::string& dir, const std::vector<Entry>& logs, const Options&
     (e.kind == "uniform" ? h_uniform : h_field) += hours;
     const Model& m = e.terrain == "frozen_grass" ? grass : sand;  // a field's controller is on its background, sand
     const auto it = changes.find(e.log);
-    const std::vector<double> none;
-    const std::vector<double>& ch = it == changes.end() ? none : it->second;
+    const std::vector<Change> none;
+    const std::vector<Change>& ch = it == changes.end() ? none : it->second;
+    if (e.kind != "uniform") innovation_shifts(rp, m, o.cfg, ch, e.drive, shifts);
     for (std::size_t i = 0; i < nt; ++i) {
       OnlineConfig c = o.cfg;
       c.cusum_threshold = o.thresholds[i];
@@ -343,18 +386,23 @@ int curve(const std::string& dir, const std::vector<Entry>& logs, const Options&
       }
       std::vector<bool> used(alarms.size(), false);
       for (std::size_t c2 = 0; c2 < ch.size(); ++c2) {
-        if (ch[c2] < 5) continue;  // before the detector has started
+        const double t_ch = ch[c2].t_s;
+        if (t_ch < 5) continue;  // before the detector has started
         ++n_changes[i];
-        const double next = c2 + 1 < ch.size() ? ch[c2 + 1] : 1e300;
+        const double next = c2 + 1 < ch.size() ? ch[c2 + 1].t_s : 1e300;
         double d = NAN;
         for (std::size_t a = 0; a < alarms.size(); ++a)
-          if (alarms[a] >= ch[c2] && alarms[a] < next && alarms[a] - ch[c2] <= o.detect_s) {
-            if (std::isnan(d)) d = alarms[a] - ch[c2];
+          if (alarms[a] >= t_ch && alarms[a] < next && alarms[a] - t_ch <= o.detect_s) {
+            if (std::isnan(d)) d = alarms[a] - t_ch;
             used[a] = true;
           }
+        auto& kind = by_kind[e.drive + ", " + std::to_string(ch[c2].before) + " -> " + std::to_string(ch[c2].after)];
+        kind.resize(nt);
+        ++kind[i].second;
         if (std::isnan(d)) {
+          ++kind[i].first;
           char b[160];
-          std::snprintf(b, sizeof b, "%s%s %.2f s", missed_list[i].empty() ? "" : ", ", e.log.c_str(), ch[c2]);
+          std::snprintf(b, sizeof b, "%s%s %.2f s", missed_list[i].empty() ? "" : ", ", e.log.c_str(), t_ch);
           missed_list[i] += b;
           ++missed[i];
           delays[i].push_back(INFINITY);
@@ -382,6 +430,17 @@ int curve(const std::string& dir, const std::vector<Entry>& logs, const Options&
     std::printf("| %g | %zu | %.1f %% | %.1f %% | %ld of %zu |\n", o.thresholds[i], r.size(), 100 * quantile(r, 0.5),
                 100 * quantile(r, 0.95), long(within), r.size());
   }
+  std::printf("\nmissed of each kind of change (the drive; contacts on the field's band, before -> after):\n\n| kind |");
+  for (std::size_t i = 0; i < nt; ++i) std::printf(" threshold %g |", o.thresholds[i]);
+  std::printf(" the surge innovation's shift, median (no detector) |\n|---|");
+  for (std::size_t i = 0; i < nt; ++i) std::printf("---|");
+  std::printf("---|\n");
+  for (const auto& [kind, n] : by_kind) {
+    std::printf("| %s |", kind.c_str());
+    for (std::size_t i = 0; i < nt; ++i) std::printf(" %d of %d |", n[i].first, n[i].second);
+    std::vector<double>& sh = shifts[kind];
+    std::printf(" %.2f N |\n", quantile(sh, 0.5));
+  }
   if (o.list_missed)
     for (std::size_t i = 0; i < nt; ++i) std::printf("\nmissed at threshold %g: %s\n", o.thresholds[i], missed_list[i].c_str());
   return 0;
@@ -392,7 +451,9 @@ int trace(const std::string& dir, const std::string& log, const Options& o, cons
   const Entry e{log, log.substr(0, log.size() - 4) + ".truth.csv", "",
                 log.find("frozen_grass") != std::string::npos ? "frozen_grass" : "sand", ""};
   const Replay rp = load(dir, e, o);
-  OnlineEstimator est(e.terrain == "sand" ? sand : grass, o.cfg);
+  OnlineConfig cfg = o.cfg;
+  if (o.thresholds_given) cfg.cusum_threshold = o.thresholds.front();
+  OnlineEstimator est(e.terrain == "sand" ? sand : grass, cfg);
   std::uint64_t w = est.windows();
   std::printf("t_s,e_x,e_y,e_psi,sd_x,sd_y,u,v,sigma_long,cusum,change,kin_sd,u_true,v_true,omega_min_rpm\n");
   double omega_min = INFINITY;  // the slowest screw over the window (rpm)
@@ -438,7 +499,7 @@ int main(int argc, char** argv) {
        {"--truth-noise", "SD,TAU", "with --truth: add an independent error of SD m/s in u and v, correlated over TAU s"},
        {"--thresholds", "A,B,...", "the detector's thresholds for curve"},
        {"--list-missed", "", "curve: name each missed change (log and time) per threshold"},
-       {"--trace", "LOG", "instead: every window of LOG (CSV: innovation, sigma_long, CUSUM)"}},
+       {"--trace", "LOG", "instead: every window of LOG (CSV: innovation, sigma_long, CUSUM; the detector at the first of --thresholds)"}},
       "Exit 2: bad usage.\n"};
   Args args;
   if (const int rc = cli.parse_or_answer(argc, argv, args); rc >= 0) return rc;
@@ -475,6 +536,7 @@ int main(int argc, char** argv) {
       !args.numbers("online_fil", "--thresholds", 0, o.thresholds))
     return 2;
   o.cfg.velocity_sd = Vec3(sd[0], sd[1], sd[2]);
+  o.thresholds_given = args.has("--thresholds");
   std::vector<double> tn{0.0, 0.0};
   if (!args.numbers("online_fil", "--truth-noise", 2, tn)) return 2;
   if (!(tn[0] >= 0) || !(tn[1] >= 0) || (tn[0] > 0 && !o.truth)) {

@@ -17,7 +17,10 @@ const char* const kNames[5] = {"sigma_long", "sigma_lat", "D_x", "D_y", "D_psi"}
 const char* const kUnits[5] = {"N/rpm", "N/rpm", "N/(m/s)", "N/(m/s)", "N m/(rad/s)"};
 // Absolute limits for a 29 kg robot (the workbench flags fits outside them, host/wb_engine/search.cpp).
 const TerrainRange kRanges[5] = {{0.02, 3}, {0.01, 2}, {10, 5000}, {5, 5000}, {0.2, 200}};
-constexpr double kNisClip = 25.0;  // one wild window adds at most this much per DOF (5 SD)
+constexpr double kNisClip = 25.0;  // one wild window adds at most this much per DOF (5 SD) ...
+// ... until the next window holds the level: both beyond 3 SD, of one sign, the second at least
+// 3/4 of the first (a transient the regression's windows do not resolve decays faster).
+constexpr double kLevelHeldSd = 3.0, kLevelHeldRatio = 0.75;
 }  // namespace
 
 const char* online_param_name(int k) { return kNames[k]; }
@@ -89,6 +92,7 @@ void OnlineEstimator::reset() {
   e_prev_.setConstant(NAN);
   e_var_.setZero();
   e_cov1_.setZero();
+  clipped_.setZero();
   have_prev_ = false;
   win_.valid = false;
   last_slow_t_s_ = -1e300;
@@ -210,8 +214,17 @@ double OnlineEstimator::update_row(int j, const VecN& phi, const VecN& phi_updat
     e_var_[j] = e_var_[j] > 0 ? (1 - a) * e_var_[j] + a * e * e : r + s;
     if (!std::isnan(e_prev_[j])) e_cov1_[j] = (1 - a) * e_cov1_[j] + a * e * e_prev_[j];
   }
+  // A terrain change is a step in the innovation: whitened, its first window carries nearly all of
+  // its evidence (the level after it looks like the colour), and the clip would cut a step of
+  // 6 SD to what a 5 SD one gives. A wild window (one bad velocity) does not persist, a step does:
+  // the clipped excess is credited when the next window holds the level.
+  const double sd_raw = std::sqrt(std::max(e_var_[j] > 0 ? e_var_[j] : r + s, r + s));
+  const bool held = !std::isnan(e_prev_[j]) && e * e_prev_[j] > 0 && std::fabs(e_prev_[j]) >= kLevelHeldSd * sd_raw &&
+                    std::fabs(e) >= std::max(kLevelHeldSd * sd_raw, kLevelHeldRatio * std::fabs(e_prev_[j]));
+  const double credit = held ? clipped_[j] : 0.0;
+  clipped_[j] = std::max(0.0, stat - kNisClip);
   e_prev_[j] = e;
-  return std::min(stat, kNisClip);
+  return std::min(stat, kNisClip) + credit;
 }
 
 // Stabilised forgetting of the held parameters: the forgetting discounts the prior's information

@@ -278,6 +278,7 @@ class OnlineEstimator {
   // The detector's prewhitening per DOF: the last innovation (NaN: none in the last window) and
   // the innovation's variance and lag-1 covariance, both learned while no change is pending.
   Vec3 e_prev_ = Vec3::Constant(NAN), e_var_ = Vec3::Zero(), e_cov1_ = Vec3::Zero();
+  Vec3 clipped_ = Vec3::Zero();  // the last window's statistic beyond the clip, per DOF (update_row)
   OnlineEstimate est_;
   Vec5 applied_;
   VecE applied_eff_ = VecE::Zero(), configured_eff_ = VecE::Zero();
