@@ -341,6 +341,7 @@ void read_control(const Reader& r, const toml::table& t, DaemonConfig& c, Pendin
           {"omega_max_rpm", rpm(&auger::AllocatorConfig::omega_max_rpm, "omega_max_rpm", 0.1, &c.line_omega_max)},
           {"omega_min_rpm", rpm(&auger::AllocatorConfig::omega_min_rpm, "omega_min_rpm", 0, &c.line_omega_min)},
           {"engage_rpm", rpm(&auger::AllocatorConfig::engage_rpm, "engage_rpm", 0, nullptr)},
+          {"sign_hold_rpm", rpm(&auger::AllocatorConfig::sign_hold_rpm, "sign_hold_rpm", 0, nullptr)},
           {"gamma_per_s", vec3(&auger::ControllerConfig::gamma_per_s, "gamma_per_s", 1e-3, 100)},
           {"kp", gain(&auger::PidGains::kp, "kp")},
           {"ki", gain(&auger::PidGains::ki, "ki")},

@@ -95,6 +95,7 @@ void read_control(const std::string& file, const toml::table& t, ControlSection&
     else if (key == "integral_limit") c.integral_limit = vec3(file, v, key);
     else if (key == "omega_min_rpm") c.omega_min_rpm = number(file, v, key);
     else if (key == "engage_rpm") c.engage_rpm = number(file, v, key);
+    else if (key == "sign_hold_rpm") c.sign_hold_rpm = number(file, v, key);
     else if (key == "allocator")
       c.allocator = choice(file, v, key, kAllocatorNames);
     else if (key == "priority")
@@ -103,11 +104,11 @@ void read_control(const std::string& file, const toml::table& t, ControlSection&
       c.estimator = choice(file, v, key, kEstimatorNames);
     else
       fail(file, v, "unknown key '" + key + "' in [control] (known: gamma_per_s, kp, kd, ki, integral_limit, "
-                    "allocator, priority, omega_min_rpm, engage_rpm, estimator)");
+                    "allocator, priority, omega_min_rpm, engage_rpm, sign_hold_rpm, estimator)");
     const bool non_negative_vec =
         (key == "gamma_per_s" || key == "kp" || key == "kd" || key == "ki" || key == "integral_limit");
     if (non_negative_vec && !(vec3(file, v, key).minCoeff() >= 0)) fail(file, v, "'" + key + "' must be >= 0");
-    if ((key == "omega_min_rpm" || key == "engage_rpm") && !(number(file, v, key) >= 0))
+    if ((key == "omega_min_rpm" || key == "engage_rpm" || key == "sign_hold_rpm") && !(number(file, v, key) >= 0))
       fail(file, v, "'" + key + "' must be >= 0");
   }
 }
@@ -184,6 +185,7 @@ std::string write_model_file(const ModelFile& f) {
   if (c.priority) control.insert("priority", name_of(kPriorityNames, *c.priority));
   if (c.omega_min_rpm) control.insert("omega_min_rpm", *c.omega_min_rpm);
   if (c.engage_rpm) control.insert("engage_rpm", *c.engage_rpm);
+  if (c.sign_hold_rpm) control.insert("sign_hold_rpm", *c.sign_hold_rpm);
   if (c.estimator) control.insert("estimator", name_of(kEstimatorNames, *c.estimator));
   if (!control.empty()) put(o, toml::table{{"control", std::move(control)}});
   std::string text = o.str();
@@ -362,6 +364,7 @@ ControllerConfig controller_config(const ModelFile& f, const std::string& terrai
   if (s.priority) c.allocator.priority = *s.priority;
   if (s.omega_min_rpm) c.allocator.omega_min_rpm = *s.omega_min_rpm;
   if (s.engage_rpm) c.allocator.engage_rpm = *s.engage_rpm;
+  if (s.sign_hold_rpm) c.allocator.sign_hold_rpm = *s.sign_hold_rpm;
   if (s.estimator) c.estimator = *s.estimator;
   return c;
 }

@@ -153,3 +153,40 @@ TEST_CASE("saturated on the diagonal: the minimum speed is kept by giving up tra
   // Same direction of force, only less of it.
   CHECK((m.SB * r.omega_rpm).normalized().dot(tau.normalized()) == Approx(1.0));
 }
+
+// Where the floor can be met on either side of zero, the side is decided by the smallest |lambda|,
+// which a small change of the force flips: a screw reversed for one cycle passes through zero,
+// where it blocks in sand. Carried over from the last cycle (`out`), the side holds unless the
+// other saves more than sign_hold_rpm.
+TEST_CASE("null-space allocator keeps a screw's direction across cycles unless reversing saves more than the hold") {
+  const Model m = sand();
+  const auto tau = [&](double d_rpm) { return Vec3(m.SB * Vec4(-10, d_rpm, 10, d_rpm)); };  // screws 1, 3 near zero
+  for (double hold : {0.0, 2.0}) {
+    AllocatorConfig cfg;  // omega_min 3 rpm
+    cfg.sign_hold_rpm = hold;
+    AllocationResult carried;
+    int reversals_carried = 0, reversals_fresh = 0;
+    double last_carried = 0, last_fresh = 0;
+    for (int k = 0; k < 20; ++k) {
+      const double d = k % 2 ? -0.2 : 0.2;  // the force's wobble from cycle to cycle
+      allocate(m, cfg, tau(d), carried);
+      AllocationResult fresh;
+      allocate(m, cfg, tau(d), fresh);
+      CHECK(carried.omega_rpm.cwiseAbs().minCoeff() >= 3.0 - 1e-9);
+      CHECK((m.SB * carried.omega_rpm - tau(d)).norm() < 1e-9);  // the same force either way
+      if (k > 0 && carried.omega_rpm[1] * last_carried < 0) ++reversals_carried;
+      if (k > 0 && fresh.omega_rpm[1] * last_fresh < 0) ++reversals_fresh;
+      last_carried = carried.omega_rpm[1];
+      last_fresh = fresh.omega_rpm[1];
+    }
+    INFO("sign_hold_rpm " << hold);
+    CHECK(reversals_fresh == 19);  // no memory: the side follows the wobble
+    CHECK(reversals_carried == (hold > 0 ? 0 : 19));
+    if (hold > 0) {
+      // Far enough that the other side saves 5 rpm on every screw: it reverses.
+      const double before = carried.omega_rpm[1];
+      allocate(m, cfg, tau(before > 0 ? -5.0 : 5.0), carried);
+      CHECK(carried.omega_rpm[1] * before < 0);
+    }
+  }
+}

@@ -9,7 +9,7 @@ import time
 
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.qos import Policy, Qos
-from cyclonedds.sub import DataReader
+from cyclonedds.sub import DataReader, InvalidSample
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
@@ -27,6 +27,8 @@ def main():
     end, next_print, n, first, last = start + seconds, start, 0, None, None
     while time.time() < end:
         for o in reader.take(N=100):
+            if isinstance(o, InvalidSample):  # augerd's writer gone (it stopped): no data in it
+                continue
             n += 1
             t = o.header.stamp.sec + 1e-9 * o.header.stamp.nanosec
             first = first if first is not None else t

@@ -20,6 +20,7 @@ struct AllocatorConfig {
   double omega_max_rpm = 23.0;  // saturation (motor rating)
   double omega_min_rpm = 3.0;   // keep every screw at least this fast ...
   double engage_rpm = 3.0;      // ... when the base allocation asks this much of some screw
+  double sign_hold_rpm = 2.0;   // a screw keeps last cycle's direction unless reversing it saves more
 };
 
 struct AllocationResult {
@@ -34,7 +35,9 @@ struct AllocationResult {
 bool feasible_lambda_interval(const Vec4& base_rpm, const Vec4& n, double omega_max_rpm, double& lo,
                               double& hi);
 
-// eq. (22) with the configured allocator. No allocation on the heap.
+// eq. (22) with the configured allocator. `out` carries last cycle's speeds in (a fresh result:
+// none): the null-space allocator keeps a screw's direction from them (sign_hold_rpm). No
+// allocation on the heap.
 void allocate(const Model& model, const AllocatorConfig& config, const Vec3& tau_n, AllocationResult& out);
 
 }  // namespace auger

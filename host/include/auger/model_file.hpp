@@ -26,7 +26,7 @@ struct ControlSection {
   std::optional<Vec3> gamma_per_s, kp, kd, ki, integral_limit;
   std::optional<AllocatorKind> allocator;
   std::optional<AllocationPriority> priority;
-  std::optional<double> omega_min_rpm, engage_rpm;
+  std::optional<double> omega_min_rpm, engage_rpm, sign_hold_rpm;
   std::optional<EstimatorKind> estimator;
 };
 
