@@ -124,7 +124,7 @@ TEST_CASE("model file effects are created in order") {
 TEST_CASE("[control] overrides the defaults; bad values name their line") {
   const std::string control =
       "[control]\ngamma_per_s = [0.2, 0.2, 0.5]\nkp = [100, 90, 4]\nallocator = \"pseudo_inverse\"\n"
-      "priority = \"translation\"\nomega_min_rpm = 2\nestimator = \"dead_reckoning_imu\"\n";  // lines 19-25
+      "priority = \"translation\"\nomega_min_rpm = 2\nestimator = \"dead_reckoning_imu\"\nsign_hold_rpm = 0.5\n";  // lines 19-26
   const ModelFile f = parse_model_file(kHead + kRobot + kSand + control, "m.toml");
   const ControllerConfig c = controller_config(f, "sand");
   CHECK(c.gamma_per_s == Vec3(0.2, 0.2, 0.5));
@@ -133,6 +133,8 @@ TEST_CASE("[control] overrides the defaults; bad values name their line") {
   CHECK(c.allocator.kind == AllocatorKind::pseudo_inverse);
   CHECK(c.allocator.priority == AllocationPriority::translation);
   CHECK(c.allocator.omega_min_rpm == 2);
+  CHECK(c.allocator.sign_hold_rpm == 0.5);
+  CHECK(controller_config(parse_model_file(kHead + kRobot, "m.toml"), "sand").allocator.sign_hold_rpm == 2.0);
   CHECK(c.allocator.omega_max_rpm == 23);
   CHECK(c.estimator == EstimatorKind::dead_reckoning_imu);
   CHECK(controller_config(parse_model_file(kHead + kRobot, "m.toml"), "frozen_grass").gains.kd.x() == 90);
@@ -147,6 +149,7 @@ TEST_CASE("[control] overrides the defaults; bad values name their line") {
   CHECK(err("kp = [1, 2]\n") == 5);
   CHECK(err("gamma_per_s = [1, 2, 3]\nallocator = \"magic\"\n") == 6);
   CHECK(err("kd = [1, -2, 3]\n") == 5);
+  CHECK(err("sign_hold_rpm = -1\n") == 5);
   CHECK(err("gains = 3\n") == 5);
 }
 
@@ -213,6 +216,7 @@ TEST_CASE("write_model_file: every double reads back to the same bits") {
     }
     f.control.kp = Vec3(std::fabs(next()), std::fabs(next()), std::fabs(next()));  // the reader wants >= 0
     f.control.omega_min_rpm = std::fabs(next());
+    f.control.sign_hold_rpm = std::fabs(next());
     f.control.allocator = AllocatorKind::pseudo_inverse;
     f.control.estimator = EstimatorKind::dead_reckoning_imu;
 
@@ -252,6 +256,8 @@ TEST_CASE("write_model_file: every double reads back to the same bits") {
     REQUIRE(g.control.kp);
     for (int i = 0; i < 3; ++i) CHECK(same_bits((*f.control.kp)[i], (*g.control.kp)[i]));
     CHECK(same_bits(*f.control.omega_min_rpm, *g.control.omega_min_rpm));
+    REQUIRE(g.control.sign_hold_rpm);
+    CHECK(same_bits(*f.control.sign_hold_rpm, *g.control.sign_hold_rpm));
     CHECK(g.control.allocator == AllocatorKind::pseudo_inverse);
     CHECK(g.control.estimator == EstimatorKind::dead_reckoning_imu);
     CHECK_FALSE(g.control.kd);
