@@ -6,7 +6,7 @@ a field, each with its truth log (the true pose and the ground under the robot e
   scripts/sim-batch.py --out DIR [--build build] [--runs N] [--seconds S]
                        [--field sim/fields/sand-grass.toml] [--course-m 1.5]
                        [--drives square,diagonal] [--uniform sand,frozen_grass]
-                       [--screws fil|ideal] [--seed0 1] [--jobs 2]
+                       [--screws fil|ideal] [--seed0 1] [--jobs 2] [--model FILE]
 
 For each seed (seed0 .. seed0 + N - 1) and drive it writes DIR/field-DRIVE-SEED.csv (across the
 field; the controller configured for the field's background terrain) and, for each --uniform
@@ -85,6 +85,7 @@ def main():
     ap.add_argument("--screws", choices=["fil", "ideal"], default="fil")
     ap.add_argument("--seed0", type=int, default=1)
     ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--model", help="the model file auger-sim-drive reads (default its own: models/robot.toml)")
     a = ap.parse_args()
     if a.runs < 1 or not a.seconds > 0 or not a.course_m > 0 or a.jobs < 1:
         sys.exit("sim-batch: --runs, --seconds, --course-m and --jobs must be positive")
@@ -110,6 +111,8 @@ def main():
         truth = os.path.join(a.out, name + ".truth.csv")
         cmd = [exe, "--out", log, "--truth-out", truth, "--drive", drive, "--seed", str(seed),
                "--seconds", repr(a.seconds), "--course-m", repr(a.course_m), "--screws", a.screws] + extra
+        if a.model:
+            cmd += ["--model", a.model]
         t0 = time.monotonic()
         p = subprocess.run(cmd, capture_output=True, text=True)
         return job, p.returncode, p.stderr.strip(), time.monotonic() - t0

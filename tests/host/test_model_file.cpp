@@ -134,7 +134,7 @@ TEST_CASE("[control] overrides the defaults; bad values name their line") {
   CHECK(c.allocator.priority == AllocationPriority::translation);
   CHECK(c.allocator.omega_min_rpm == 2);
   CHECK(c.allocator.sign_hold_rpm == 0.5);
-  CHECK(controller_config(parse_model_file(kHead + kRobot, "m.toml"), "sand").allocator.sign_hold_rpm == 2.0);
+  CHECK(controller_config(parse_model_file(kHead + kRobot, "m.toml"), "sand").allocator.sign_hold_rpm == 0.0);  // off
   CHECK(c.allocator.omega_max_rpm == 23);
   CHECK(c.estimator == EstimatorKind::dead_reckoning_imu);
   CHECK(controller_config(parse_model_file(kHead + kRobot, "m.toml"), "frozen_grass").gains.kd.x() == 90);

@@ -20,7 +20,9 @@ struct AllocatorConfig {
   double omega_max_rpm = 23.0;  // saturation (motor rating)
   double omega_min_rpm = 3.0;   // keep every screw at least this fast ...
   double engage_rpm = 3.0;      // ... when the base allocation asks this much of some screw
-  double sign_hold_rpm = 2.0;   // a screw keeps last cycle's direction unless reversing it saves more
+  // A screw keeps last cycle's direction unless reversing it saves more than this on every screw
+  // (0: off, the smallest |lambda| every cycle; docs/model.md says why it is off by default).
+  double sign_hold_rpm = 0.0;
 };
 
 struct AllocationResult {
