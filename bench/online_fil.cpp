@@ -438,8 +438,9 @@ int curve(const std::string& dir, const std::vector<Entry>& logs, const Options&
   for (const auto& [kind, n] : by_kind) {
     std::printf("| %s |", kind.c_str());
     for (std::size_t i = 0; i < nt; ++i) std::printf(" %d of %d |", n[i].first, n[i].second);
-    std::vector<double>& sh = shifts[kind];
-    std::printf(" %.2f N |\n", quantile(sh, 0.5));
+    const auto sh = shifts.find(kind);
+    if (sh == shifts.end() || sh->second.empty()) std::printf(" - |\n");  // no change with windows on both sides
+    else std::printf(" %.2f N |\n", quantile(sh->second, 0.5));
   }
   if (o.list_missed)
     for (std::size_t i = 0; i < nt; ++i) std::printf("\nmissed at threshold %g: %s\n", o.thresholds[i], missed_list[i].c_str());
