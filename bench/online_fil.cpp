@@ -167,6 +167,10 @@ struct Change {
   double t_s;
   int before, after;
 };
+// A change's kind, as curve's table names it: "drive, before -> after".
+std::string kind_of(const std::string& drive, const Change& c) {
+  return drive + ", " + std::to_string(c.before) + " -> " + std::to_string(c.after);
+}
 std::map<std::string, std::vector<Change>> read_changes(const std::string& dir) {
   std::map<std::string, std::vector<Change>> out;
   for (const auto& row : read_csv(dir + "/changes.csv")) {
@@ -333,8 +337,7 @@ void innovation_shifts(const Replay& rp, const Model& m, OnlineConfig c, const s
       if (side >= 0) sum[side] += e_n[k], ++n[side];
     }
     if (n[0] >= 3 && n[1] >= 3)
-      out[drive + ", " + std::to_string(x.before) + " -> " + std::to_string(x.after)].push_back(
-          std::fabs(sum[1] / n[1] - sum[0] / n[0]));
+      out[kind_of(drive, x)].push_back(std::fabs(sum[1] / n[1] - sum[0] / n[0]));
   }
 }
 
@@ -396,7 +399,7 @@ int curve(const std::string& dir, const std::vector<Entry>& logs, const Options&
             if (std::isnan(d)) d = alarms[a] - t_ch;
             used[a] = true;
           }
-        auto& kind = by_kind[e.drive + ", " + std::to_string(ch[c2].before) + " -> " + std::to_string(ch[c2].after)];
+        auto& kind = by_kind[kind_of(e.drive, ch[c2])];
         kind.resize(nt);
         ++kind[i].second;
         if (std::isnan(d)) {

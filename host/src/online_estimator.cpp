@@ -218,7 +218,7 @@ double OnlineEstimator::update_row(int j, const VecN& phi, const VecN& phi_updat
   // its evidence (the level after it looks like the colour), and the clip would cut a step of
   // 6 SD to what a 5 SD one gives. A wild window (one bad velocity) does not persist, a step does:
   // the clipped excess is credited when the next window holds the level.
-  const double sd_raw = std::sqrt(std::max(e_var_[j] > 0 ? e_var_[j] : r + s, r + s));
+  const double sd_raw = std::sqrt(std::max(e_var_[j], r + s));  // e_var_: 0 until learned
   const bool held = !std::isnan(e_prev_[j]) && e * e_prev_[j] > 0 && std::fabs(e_prev_[j]) >= kLevelHeldSd * sd_raw &&
                     std::fabs(e) >= std::max(kLevelHeldSd * sd_raw, kLevelHeldRatio * std::fabs(e_prev_[j]));
   const double credit = held ? clipped_[j] : 0.0;
