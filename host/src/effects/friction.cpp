@@ -69,49 +69,61 @@ class StickSlipFriction final : public Effect {
   double breakaway_, v_s_;
 };
 
-// Quadratic drag -c_k v_k |v_k| per DOF, solved implicitly at the step's end velocity:
-// with v = v_free + g f and f = -c v|v|, g c v^2 + v - v_free = 0 for v of v_free's sign.
+// Quadratic drag per DOF, -c_k v_k m_k with m_k = (1 - isotropy) |v_k| + isotropy |V| along x and y
+// (V = (u, v): the speed over ground) and m = |r| in yaw. isotropy 0 is a resistance per axis,
+// -c v |v|; 1 is one that opposes the planar velocity as a whole, -c |V| V, as soil pushed aside
+// by a body moving through it resists (on a diagonal it is sqrt(2) times the per-axis form's).
+// Solved implicitly at the step's end velocity with |V| taken at the step's start: with
+// v = v_free + g f, g c (1 - a) v^2 + (1 + g c a S) v - v_free = 0 for v of v_free's sign.
 class QuadraticDrag final : public Effect {
  public:
-  explicit QuadraticDrag(const Vec3& c) : c_(c) {}
+  QuadraticDrag(const Vec3& c, double isotropy) : c_(c), isotropy_(isotropy) {}
   const std::string& id() const override {
     static const std::string s = "quadratic_drag";
     return s;
   }
   std::vector<std::pair<std::string, double>> params() const override {
-    return {{"c_x_nspm2", c_.x()}, {"c_y_nspm2", c_.y()}, {"c_psi_nmspr2", c_.z()}};
+    return {{"c_x_nspm2", c_.x()}, {"c_y_nspm2", c_.y()}, {"c_psi_nmspr2", c_.z()}, {"isotropy", isotropy_}};
   }
   void body_force(const Model& model, const EffectContext& ctx, Vec3& force_n, double*) const override {
+    const double speed_mps = std::hypot(ctx.zeta.x(), ctx.zeta.y());
     for (int k = 0; k < 3; ++k) {
       // The coefficient as the model holds it (augerd's applied online estimate, else the file's).
       const double c = effect_param(model, this, static_cast<std::size_t>(k), c_[k]);
-      const double vf = ctx.zeta_free[k], a = ctx.gain[k] * c;
-      if (a <= 0 || vf == 0) {
+      const double a = k < 2 ? isotropy_ : 0.0;
+      const double vf = ctx.zeta_free[k], gc = ctx.gain[k] * c;
+      if (gc <= 0 || vf == 0) {
         force_n[k] = 0;
         continue;
       }
-      const double s = vf > 0 ? 1.0 : -1.0;
-      const double v = s * (-1.0 + std::sqrt(1.0 + 4.0 * a * std::fabs(vf))) / (2.0 * a);
+      // The root of the quadratic in its cancellation-free form (exact also where (1 - a) is 0).
+      const double lin = 1.0 + gc * a * speed_mps, quad = gc * (1 - a);
+      const double v = 2.0 * vf / (lin + std::sqrt(lin * lin + 4.0 * quad * std::fabs(vf)));
       force_n[k] = (v - vf) / ctx.gain[k];
     }
   }
-  // Online: c_k times -v_k |v_k| at the state (the explicit form; the step's implicit solution
-  // above differs from it by the velocity change within one step).
+  // Online: c_k times -v_k m_k at the state (the explicit form; the step's implicit solution above
+  // differs from it by the velocity change within one step).
   Vec3 online_basis(const Model&, std::size_t index, const Vec3&, const Vec3& zeta) const override {
     Vec3 b = Vec3::Zero();
-    b[static_cast<int>(index)] = -zeta[static_cast<int>(index)] * std::fabs(zeta[static_cast<int>(index)]);
+    b[static_cast<int>(index)] = -zeta[static_cast<int>(index)] * magnitude(zeta, static_cast<int>(index));
     return b;
   }
   // The same explicit form, with the coefficients the model holds: smooth through zero (no sign
   // switch), so it can be anticipated.
   bool feedforward_force(const Model& model, const Vec3&, const Vec3& zeta, Vec3& force_n) const override {
     for (int k = 0; k < 3; ++k)
-      force_n[k] = -effect_param(model, this, static_cast<std::size_t>(k), c_[k]) * zeta[k] * std::fabs(zeta[k]);
+      force_n[k] = -effect_param(model, this, static_cast<std::size_t>(k), c_[k]) * zeta[k] * magnitude(zeta, k);
     return true;
   }
 
  private:
+  double magnitude(const Vec3& zeta, int k) const {
+    const double a = k < 2 ? isotropy_ : 0.0;
+    return (1 - a) * std::fabs(zeta[k]) + a * std::hypot(zeta.x(), zeta.y());
+  }
   Vec3 c_;
+  double isotropy_;
 };
 
 }  // namespace
@@ -148,20 +160,30 @@ void register_friction(EffectRegistry& r) {
            return dry_words(v, "stick-slip friction, breaking away at " + fmt(v[3]) + " times that, decaying over " +
                                    fmt(v[4] * 1000) + " mm/s");
          }});
-  r.add({"quadratic_drag", "a resistance -c v |v| per DOF on top of the linear D of eq. (6)",
+  r.add({"quadratic_drag", "a resistance -c v |v| per DOF, or along x and y with the speed over ground (isotropy), on top of the linear D of eq. (6)",
          {ParamSpec{"c_x_nspm2", 0, false, "longitudinal coefficient", "N/(m/s)^2", 0, 1e5, 500}.physical(0, 5000).estimable_online(),
           ParamSpec{"c_y_nspm2", 0, false, "lateral coefficient", "N/(m/s)^2", 0, 1e5, 500}.physical(0, 5000).estimable_online(),
-          ParamSpec{"c_psi_nmspr2", 0, false, "yaw coefficient", "N m/(rad/s)^2", 0, 1e4, 10}.physical(0, 20).estimable_online()},
+          ParamSpec{"c_psi_nmspr2", 0, false, "yaw coefficient", "N m/(rad/s)^2", 0, 1e4, 10}.physical(0, 20).estimable_online(),
+          ParamSpec{"isotropy", 0, false,
+                    "what the x and y resistance grows with: 0 each axis's own speed (-c v |v|), 1 the speed over ground "
+                    "(-c v |V|)",
+                    "", 0, 1, 1}
+              .physical(0, 1)
+              .form_param()},
          [](const std::vector<double>& v) {
            check_non_negative(v[0], "c_x_nspm2");
            check_non_negative(v[1], "c_y_nspm2");
            check_non_negative(v[2], "c_psi_nmspr2");
-           return std::make_shared<QuadraticDrag>(Vec3(v[0], v[1], v[2]));
+           if (!(v[3] >= 0 && v[3] <= 1)) throw std::invalid_argument("isotropy must be in [0, 1]");
+           return std::make_shared<QuadraticDrag>(Vec3(v[0], v[1], v[2]), v[3]);
          },
          [](const std::vector<double>& v) {
-           return "quadratic drag: a resistance growing with the square of the speed (" + fmt(v[0]) +
-                  " N at 1 m/s along x, " + fmt(v[1]) + " N at 1 m/s along y, " + fmt(v[2]) +
-                  " N m at 1 rad/s in yaw)";
+           std::string s = "quadratic drag: a resistance growing with the square of the speed (" + fmt(v[0]) +
+                           " N at 1 m/s along x, " + fmt(v[1]) + " N at 1 m/s along y, " + fmt(v[2]) +
+                           " N m at 1 rad/s in yaw)";
+           if (v[3] >= 0.995) s += ", along x and y with the speed over ground";
+           else if (v[3] > 0.005) s += ", along x and y " + fmt(v[3] * 100) + " % with the speed over ground";
+           return s;
          }});
 }
 
