@@ -90,7 +90,7 @@ class QuadraticDrag final : public Effect {
     for (int k = 0; k < 3; ++k) {
       // The coefficient as the model holds it (augerd's applied online estimate, else the file's).
       const double c = effect_param(model, this, static_cast<std::size_t>(k), c_[k]);
-      const double a = k < 2 ? isotropy_ : 0.0;
+      const double a = share(k);
       const double vf = ctx.zeta_free[k], gc = ctx.gain[k] * c;
       if (gc <= 0 || vf == 0) {
         force_n[k] = 0;
@@ -118,9 +118,11 @@ class QuadraticDrag final : public Effect {
   }
 
  private:
+  // The share of DOF k's resistance that grows with the speed over ground (none in yaw).
+  double share(int k) const { return k < 2 ? isotropy_ : 0.0; }
   double magnitude(const Vec3& zeta, int k) const {
-    const double a = k < 2 ? isotropy_ : 0.0;
-    return (1 - a) * std::fabs(zeta[k]) + a * std::hypot(zeta.x(), zeta.y());
+    const double a = share(k);
+    return a > 0 ? (1 - a) * std::fabs(zeta[k]) + a * std::hypot(zeta.x(), zeta.y()) : std::fabs(zeta[k]);
   }
   Vec3 c_;
   double isotropy_;
