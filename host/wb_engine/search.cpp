@@ -257,7 +257,9 @@ bool residuals(const Problem& pr, const std::vector<Part>& parts, Eigen::VectorX
       return false;
     }
     SimOptions o = t.options;
-    o.pose_delay_s = sim_options_for(m).pose_delay_s;
+    const SimOptions own = sim_options_for(m);
+    o.pose_delay_s = own.pose_delay_s;
+    o.warm_s = own.warm_s;
     const Dataset& d = *t.data;
     Prediction& w = work[ti];
     if (w.pred.size() != d.size()) w.pred.assign(d.size(), ChannelValues{kNaN, kNaN, kNaN, kNaN});

@@ -365,7 +365,8 @@ SimOptions window_sim_options(const SimOptions& options, double window_s) {
   SimOptions o = options;
   o.segment_s = window_s;
   o.anchor_s = std::min(o.anchor_s, 0.2 * window_s);
-  o.warm_s = std::min(o.warm_s, 0.2 * window_s);  // 1 s: 3 yaw time constants, for 5 s windows
+  // 1 s (3 of the paper's yaw time constants) for 5 s windows, or the model's own settling time
+  o.warm_s = std::max(std::min(o.warm_s, 0.2 * window_s), o.settle_s);
   return o;
 }
 
@@ -546,6 +547,16 @@ std::vector<RegimeRow> error_by_regime(const Model& model, const Dataset& data, 
 SimOptions sim_options_for(const Model& model) {
   SimOptions o;
   o.pose_delay_s = pose_delay_s(model);
+  // The warm-up before a segment spans five of the model's slowest time constants M / D
+  // (eq. (8)): a segment that starts mid-turn must start at the model's own yaw rate, and with a
+  // yaw time constant of 2.3 s the fixed 2 s left 42 % of a turn's transient at the start (a
+  // window after a turn at 20 times the noise floor on a log with a slow yaw).
+  double tau_s = 0;
+  for (int k = 0; k < 3; ++k)
+    if (model.D_diag[k] > 0 && std::isfinite(model.M_diag[k] / model.D_diag[k]))
+      tau_s = std::max(tau_s, model.M_diag[k] / model.D_diag[k]);
+  o.settle_s = std::min(5.0 * tau_s, kMaxWarm_s);
+  o.warm_s = std::max(o.warm_s, o.settle_s);
   return o;
 }
 

@@ -32,6 +32,9 @@ ModelChoice choose_model(const Dataset& data, const std::string& model_path = ""
 std::vector<std::string> table_terrains(bool gantry);
 
 // How the model is run against the log.
+// The longest warm-up sim_options_for gives a model with a slow time constant.
+constexpr double kMaxWarm_s = 15.0;
+
 struct SimOptions {
   double segment_s = 25.0;    // re-initialise from the measured pose every segment (<= 0: open loop)
   bool imu_heading = false;   // the paper's Fig. 9 variant: heading taken from the IMU
@@ -43,6 +46,8 @@ struct SimOptions {
   // ... the heading from the IMU heading where the log has one (the camera's noise may wander).
   bool heading_from_imu = true;
   double warm_s = 2.0;  // the model runs this long (> 5 x I_z / D_psi) before a segment start to set its velocity
+                        // (sim_options_for: at least settle_s)
+  double settle_s = 0;  // five of the model's slowest time constants M / D, up to kMaxWarm_s (sim_options_for)
 };
 
 // The options a model's effects imply (pose_time_offset sets pose_delay_s).

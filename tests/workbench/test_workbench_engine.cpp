@@ -67,6 +67,42 @@ TEST_CASE("simulation: the exact model reproduces a noise-free log; segments res
   CHECK(error_stats(d, pw, one).rms[kX] > 1e-3);
 }
 
+TEST_CASE("simulation: the warm-up before a segment covers five of the model's slowest time constants") {
+  // A yaw time constant of 2.5 s: a segment that starts within 12 s of a turn must start at the
+  // model's own yaw rate, which a fixed 2 s warm-up (0.8 time constants) does not reach.
+  SynthOptions o;
+  o.pose_noise_m = o.psi_noise_rad = o.imu_noise_rad = 0;
+  o.seconds = 80;
+  const Model m = make_model(RobotParams{}, kSand,
+                             {EffectRegistry::builtin().entries().at("yaw_time_constant").make({2.5})});
+  const Dataset d = synth(m, o);
+  const SimOptions own = sim_options_for(m);
+  CHECK(own.settle_s == Approx(12.5));
+  CHECK(own.warm_s == Approx(12.5));
+  // The paper's model on sand settles in 5 x 0.32 s: the 2 s floor stays.
+  CHECK(sim_options_for(nominal().model).warm_s == Approx(2.0));
+  const ChannelValues one{1, 1, 1, 1};
+  SimOptions so = own;
+  so.n_sub = 4;
+  Prediction p;
+  simulate(m, d, so, p);
+  const double psi_own = error_stats(d, p, one).rms[kPsi];
+  so.warm_s = 2.0;
+  Prediction p2;
+  simulate(m, d, so, p2);
+  const double psi_2s = error_stats(d, p2, one).rms[kPsi];
+  INFO("psi RMS " << psi_own << " rad with the model's warm-up, " << psi_2s << " rad with 2 s");
+  CHECK(psi_own < 2e-4);
+  CHECK(psi_2s > 10 * psi_own);
+  // The 5 s windows keep the model's settling time too (1 s only where it is shorter).
+  CHECK(window_sim_options(own, 5.0).warm_s == Approx(12.5));
+  const Model& paper = nominal().model;
+  CHECK(window_sim_options(sim_options_for(paper), 5.0).warm_s == Approx(5 * paper.M_diag[2] / paper.D_diag[2]));
+  SimOptions fast;
+  fast.settle_s = 0.5;
+  CHECK(window_sim_options(fast, 5.0).warm_s == Approx(1.0));
+}
+
 TEST_CASE("simulation: a lagged drive force starts from the speeds before the log, not the first step's") {
   // The robot rests at t = 0 and its screws step to speed at once (the first row's speed is 0,
   // the second's is not), as in a gantry run that starts with the log.
