@@ -200,47 +200,13 @@ FitOutcome Explainer::change_from_alone(FitOutcome o, int log, int fold) {
   return o;
 }
 
-// A change of terrain that falls in a held-out segment: the training segments say only that it
-// lies somewhere in that gap (the training cost is the same anywhere in it), and a place chosen
-// at random in the gap would charge the held-out segment with up to 25 s of the wrong terrain.
-// So its place inside the gap, and only that, is read from the held-out segment.
+// A change of terrain that falls in a held-out segment is placed in its gap by that segment
+// (search::place_changes_in_gaps).
 void Explainer::place_changes_in_gaps(std::vector<Part>& parts, int fold) const {
-  for (std::size_t pi = 0; pi < parts.size(); ++pi) {
-    Part& p = parts[pi];
-    if (p.id != kTerrainChange || !p.entry || p.values.empty()) continue;
-    const std::size_t li = static_cast<std::size_t>(std::max(p.log, 0));
-    if (li >= ctx_.size()) continue;
+  for (std::size_t li = 0; li < ctx_.size(); ++li) {
     const LogCtx& c = ctx_[li];
-    const std::vector<double>& t = c.data.t_s;
-    const Segments& fitted = fitted_on(c, fold);
-    for (const auto& seg : judged_on(c, fold)) {
-      const auto [b, e] = seg;
-      if (e <= b + 1 || std::find(fitted.begin(), fitted.end(), seg) != fitted.end()) continue;
-      const double lo = b > 0 ? t[b - 1] : -std::numeric_limits<double>::infinity();
-      const double hi = e < t.size() ? t[e] : std::numeric_limits<double>::infinity();
-      if (!(p.values[0] > lo && p.values[0] <= hi)) continue;
-      const Segments one{seg};
-      double best_t = p.values[0], best = std::numeric_limits<double>::infinity();
-      constexpr int kGrid = 101;
-      for (int g = 0; g <= kGrid; ++g) {
-        // (g == kGrid: the place the fit chose, kept on a tie.)
-        const double tc = g < kGrid ? t[b] + (t[e - 1] - t[b]) * g / (kGrid - 1) : p.values[0];
-        std::vector<Part> trial = parts;
-        trial[pi].values[0] = tc;
-        const ErrorStats es = segments_error(build(c.base, trial, static_cast<int>(li)), c.data, one, c.noise);
-        double sum = 0;
-        for (int ch = 0; ch < kChannels; ++ch) {
-          const auto cc = static_cast<std::size_t>(ch);
-          if (es.n[cc] && std::isfinite(es.ratio_to_noise[cc])) sum += es.ratio_to_noise[cc] * es.ratio_to_noise[cc];
-        }
-        if (sum < best * (1 - 1e-9)) {
-          best = sum;
-          best_t = tc;
-        }
-      }
-      p.values[0] = best_t;
-      break;
-    }
+    search::place_changes_in_gaps(parts, c.base, c.data, fitted_on(c, fold), judged_on(c, fold), c.noise,
+                                  static_cast<int>(li));
   }
 }
 

@@ -37,7 +37,7 @@ using search::Segments;
 
 constexpr const char* kCoulomb = "coulomb_friction";
 constexpr const char* kStickSlip = "stick_slip_friction";
-constexpr const char* kTerrainChange = "terrain_change";
+using search::kTerrainChange;
 // A channel whose held-out error is at most this multiple of the noise floor is at the noise:
 // logs with no missing effect give 1.0-1.1 (docs/workbench.md "Calibration").
 constexpr double kAtNoise = 1.15;

@@ -18,6 +18,7 @@ namespace auger::wb::search {
 
 using Segments = std::vector<std::pair<std::size_t, std::size_t>>;
 constexpr const char* kPaperParams = "paper_params";
+constexpr const char* kTerrainChange = "terrain_change";
 
 // One effect (or paper_params) in a fit: its full parameter values and which are free.
 struct Part {
@@ -157,6 +158,10 @@ double lag1_autocorrelation(const Problem& pr, const Eigen::VectorXd& r);
 double effective_n(double n, double rho);
 double combined_ratio(const ErrorStats& e, const Dataset& d);
 ErrorStats segments_error(const Model& m, const Dataset& d, const Segments& segs, const ChannelValues& noise);
+// A terrain change of log `log` whose time falls in a segment judged but not fitted is placed
+// inside that gap where the judged segment puts it (docs/workbench.md "explain").
+void place_changes_in_gaps(std::vector<Part>& parts, const Model& base, const Dataset& data, const Segments& fitted,
+                           const Segments& judged, const ChannelValues& noise, int log);
 // Parameter values with 1-sigma uncertainties (Gauss-Newton covariance, times s2_scale).
 std::vector<FitParam> fit_params(const FitOutcome& o, double s2_scale);
 std::string describe(const Part& p, const Model& base);

@@ -12,7 +12,6 @@ namespace {
 
 constexpr const char* kCoulomb = "coulomb_friction";
 constexpr const char* kStickSlip = "stick_slip_friction";
-constexpr const char* kTerrainChange = "terrain_change";
 
 const Dataset& log_data(const Problem& pr, const Part& p) { return pr.data(p.log < 0 ? 0 : p.log); }
 

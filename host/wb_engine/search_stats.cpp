@@ -1,5 +1,5 @@
 // The search's statistics and words (fitting.hpp): segments, the effective sample size, errors
-// over segments, flags of implausible or unidentified values, plain-words descriptions, which
+// over segments (and a terrain change placed in a held-out gap), flags of implausible or unidentified values, plain-words descriptions, which
 // experiment tells two effects apart, the candidates for a log; and the threads that fit them.
 #include "fitting.hpp"
 
@@ -11,6 +11,7 @@
 #include <condition_variable>
 #include <cstdio>
 #include <exception>
+#include <limits>
 #include <mutex>
 #include <set>
 #include <thread>
@@ -211,6 +212,47 @@ ErrorStats segments_error(const Model& m, const Dataset& d, const Segments& segs
   return error_stats(d, p, noise);
 }
 
+// A change of terrain that falls in a held-out segment: the training segments say only that it
+// lies somewhere in that gap (the training cost is the same anywhere in it), and a place chosen
+// at random in the gap would charge the held-out segment with up to 25 s of the wrong terrain.
+// So its place inside the gap, and only that, is read from the held-out segment.
+void place_changes_in_gaps(std::vector<Part>& parts, const Model& base, const Dataset& data, const Segments& fitted,
+                           const Segments& judged, const ChannelValues& noise, int log) {
+  for (std::size_t pi = 0; pi < parts.size(); ++pi) {
+    Part& p = parts[pi];
+    if (p.id != kTerrainChange || !p.entry || p.values.empty() || std::max(p.log, 0) != log) continue;
+    const std::vector<double>& t = data.t_s;
+    for (const auto& seg : judged) {
+      const auto [b, e] = seg;
+      if (e <= b + 1 || std::find(fitted.begin(), fitted.end(), seg) != fitted.end()) continue;
+      const double lo = b > 0 ? t[b - 1] : -std::numeric_limits<double>::infinity();
+      const double hi = e < t.size() ? t[e] : std::numeric_limits<double>::infinity();
+      if (!(p.values[0] > lo && p.values[0] <= hi)) continue;
+      const Segments one{seg};
+      double best_t = p.values[0], best = std::numeric_limits<double>::infinity();
+      constexpr int kGrid = 101;
+      for (int g = 0; g <= kGrid; ++g) {
+        // (g == kGrid: the place the fit chose, kept on a tie.)
+        const double tc = g < kGrid ? t[b] + (t[e - 1] - t[b]) * g / (kGrid - 1) : p.values[0];
+        std::vector<Part> trial = parts;
+        trial[pi].values[0] = tc;
+        const ErrorStats es = segments_error(build(base, trial, log), data, one, noise);
+        double sum = 0;
+        for (int ch = 0; ch < kChannels; ++ch) {
+          const auto cc = static_cast<std::size_t>(ch);
+          if (es.n[cc] && std::isfinite(es.ratio_to_noise[cc])) sum += es.ratio_to_noise[cc] * es.ratio_to_noise[cc];
+        }
+        if (sum < best * (1 - 1e-9)) {
+          best = sum;
+          best_t = tc;
+        }
+      }
+      p.values[0] = best_t;
+      break;
+    }
+  }
+}
+
 void flag_params(std::vector<FitParam>& params, const Part& part) {
   for (std::size_t i = 0; i < params.size() && i < part.specs.size(); ++i) {
     const ParamSpec& s = part.specs[i];
@@ -328,7 +370,7 @@ std::string tell_apart(const std::string& a, const std::string& b) {
            "still while the others push; a breakaway shows in starts from rest";
   if (is("imu_heading_bias", "imu_heading_drift"))
     return "a longer log or two logs minutes apart: a drift grows with time, a bias stays";
-  if (any({kPaperParams, "quadratic_drag", "traction_saturation", "terrain_change"}))
+  if (any({kPaperParams, "quadratic_drag", "traction_saturation", kTerrainChange}))
     return "runs at constant 5, 10, 15, 20 rpm: linear drag gives speeds proportional to omega, quadratic drag "
            "and saturation flatten the fast end, a terrain change shows as a step in time";
   if (any({"terrain_slope", "resistance_offset"}))

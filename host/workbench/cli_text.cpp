@@ -105,7 +105,8 @@ const char* rank_group_words(RankGroup g) {
 const char* const kRankingRule =
     "candidates that lower the held-out error by 2 % or more (as explain asks of a step) come first, plausible fits before those with a value at or "
     "beyond its physical range (a parameter flagged only as not identified does not move a candidate); "
-    "within each of these groups and among the rest, lower delta BIC first";
+    "within each of these groups lower held-out error first (as explain ranks a step's candidates; held-out errors "
+    "within 2 % of each other by lower delta BIC), among the rest lower delta BIC first";
 
 std::string typed(const std::string& path) {
   bool plain = !path.empty();

@@ -295,6 +295,31 @@ TEST_CASE("diagnose: ranks the effect that made the data first; no effect is not
   CHECK(none.nominal_heldout_ratio < 1.15);
 }
 
+TEST_CASE("diagnose: a terrain change inside a held-out segment is judged placed where that segment puts it") {
+  // The training segments only say the change lies somewhere in the held-out gap; judged at the
+  // place the fit left it, the held-out segment carries the wrong terrain for part of its length.
+  SynthOptions o;
+  o.seconds = 120;
+  o.seed = 3;
+  const Dataset probe = synth(nominal().model, o);
+  const Dataset dec = decimate_for_search(probe);
+  search::Segments train, held;
+  search::split_segments(search::make_segments(dec, search::search_segment_s(dec)), train, held);
+  REQUIRE_FALSE(held.empty());
+  const auto [b, e] = held.front();
+  const double t_change_s = dec.t_s[b] + 0.3 * (dec.t_s[e - 1] - dec.t_s[b]);
+  const Model truth = make_model(RobotParams{}, kSand,
+                                 {entry("terrain_change").make({t_change_s, 0.6, 0.7})});
+  DiagnoseOptions opt;
+  opt.only = {"terrain_change", "paper_params", "coulomb_friction"};
+  const DiagnoseResult r = diagnose(synth(truth, o), nominal(), opt);
+  REQUIRE(r.significant);
+  INFO("change at " << t_change_s << " s; first " << r.candidates[0].fitted.effect << ", held-out "
+                    << r.candidates[0].heldout_ratio);
+  CHECK(r.candidates[0].fitted.effect == "terrain_change");
+  CHECK(r.candidates[0].heldout_ratio < 1.2);
+}
+
 namespace {
 
 // A gantry log (one module on the rail, eqs. (11)-(17)) made with the workbench's own gantry

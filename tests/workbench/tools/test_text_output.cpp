@@ -77,11 +77,12 @@ TEST_CASE("diagnose's text and JSON: the ranking rule, each candidate's group, f
   CHECK_THAT(t.out, Catch::Contains("  -- lower the held-out error by 2 % or more, plausible fit --"));
   const std::string best = tools_test::json_eval(dir, j.out, "d['candidates'][0]['effect']");
   CHECK_THAT(lines_of(t.out).back(), Catch::StartsWith("next: auger fit " + log + " --add " + best + " "));
-  // The ranking is the rule the text states: groups in order, delta BIC ascending inside each.
+  // The ranking is the rule the text states: groups in order, held-out error ascending inside the
+  // two that lower it (within 2 % of each other by delta BIC), delta BIC ascending among the rest.
   CHECK(tools_test::json_eval(dir, j.out,
-                              "(lambda c, g: all((g[a['rank_group']], a['delta_bic'] if g[a['rank_group']] < 2 else 0) <= "
-                              "(g[b['rank_group']], b['delta_bic'] if g[b['rank_group']] < 2 else 0) for a, b in "
-                              "zip(c, c[1:])))(d['candidates'], {'improves': 0, 'improves_implausible': 1, 'no_improvement': 2})") ==
+                              "(lambda c, g: all(g[a['rank_group']] < g[b['rank_group']] or (g[a['rank_group']] == g[b['rank_group']] and "
+                              "(a['heldout_ratio'] <= 1.02 * b['heldout_ratio'] + 1e-12 if g[a['rank_group']] < 2 else a['delta_bic'] <= b['delta_bic'])) "
+                              "for a, b in zip(c, c[1:])))(d['candidates'], {'improves': 0, 'improves_implausible': 1, 'no_improvement': 2})") ==
         "True");
   CHECK_THAT(tools_test::json_eval(dir, j.out, "d['ranking_rule']"), Catch::StartsWith("candidates that lower"));
   // A candidate's group follows from its held-out error (2 % below the nominal model's) and its flags.
