@@ -159,7 +159,7 @@ double effective_n(double n, double rho);
 double combined_ratio(const ErrorStats& e, const Dataset& d);
 ErrorStats segments_error(const Model& m, const Dataset& d, const Segments& segs, const ChannelValues& noise);
 // A terrain change of log `log` whose time falls in a segment judged but not fitted is placed
-// inside that gap where the judged segment puts it (docs/workbench.md "explain").
+// inside that gap where the judged segment puts it (explain's steps and diagnose's candidates).
 void place_changes_in_gaps(std::vector<Part>& parts, const Model& base, const Dataset& data, const Segments& fitted,
                            const Segments& judged, const ChannelValues& noise, int log);
 // Parameter values with 1-sigma uncertainties (Gauss-Newton covariance, times s2_scale).

@@ -1,6 +1,7 @@
 // The search's statistics and words (fitting.hpp): segments, the effective sample size, errors
-// over segments (and a terrain change placed in a held-out gap), flags of implausible or unidentified values, plain-words descriptions, which
-// experiment tells two effects apart, the candidates for a log; and the threads that fit them.
+// over segments (and a terrain change placed in a held-out gap), flags of implausible or
+// unidentified values, plain-words descriptions, which experiment tells two effects apart, the
+// candidates for a log; and the threads that fit them.
 #include "fitting.hpp"
 
 #include "auger/term_form.hpp"
