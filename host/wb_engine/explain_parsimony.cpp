@@ -279,7 +279,10 @@ void Explainer::parsimony(FitOutcome& o, std::vector<RemovedEffect>& removed) {
                       "median of three folds, not %.0f %% lower)",
                       removal(worst), 100 * std::fabs(worst_gain), worst_gain < 0 ? "higher" : "lower",
                       o.parts[worst].entry ? "it" : "them re-identified", 100 * kConfirm);
-      if (remove_part(worst, why, largest(contribution(o.parts, worst)), nullptr, &worst_alt)) continue;
+      if (remove_part(worst, why, largest(contribution(o.parts, worst)), nullptr, &worst_alt)) {
+        removed.back().unconfirmed = !worst_constant;
+        continue;
+      }
     }
     return;
   }

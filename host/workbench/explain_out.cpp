@@ -78,7 +78,12 @@ void print_explain_json(const ExplainResult& r, const std::vector<Dataset>& logs
   j.end_object();
   j.begin_array("removed");
   for (const auto& x : r.removed)
-    j.begin_object().str("effect", x.effect).str("why", x.why).num("contribution", x.contribution).end_object();
+    j.begin_object()
+        .str("effect", x.effect)
+        .str("why", x.why)
+        .num("contribution", x.contribution)
+        .boolean("unconfirmed", x.unconfirmed)
+        .end_object();
   j.end_array();
   j.begin_array("stand_ins");
   for (const auto& x : r.stand_ins) {

@@ -391,3 +391,19 @@ TEST_CASE("explain: beside physics the library lacks, what is not confirmed in f
     if (fe.effect == "paper_params") CHECK(fe.held);
   CHECK(r.verdict.find("possible stand-in") != std::string::npos);
 }
+
+TEST_CASE("explain's verdict names the largest effect the cross-validation took out, if it mattered") {
+  std::vector<RemovedEffect> removed{
+      {"terrain_slope", "removed: it changes the prediction by at most 0.3 times the noise floor", 0.3, false},
+      {"resistance_offset", "removed: a parameter of it is not identified", 30.0, false},
+      {"pose_time_offset", "removed: not confirmed across the log's splits", 0.8, true},
+      {"yaw_time_constant", "removed: not confirmed across the log's splits", 17.6, true},
+      {"force_lag", "removed: not confirmed across the log's splits", 3.0, true}};
+  const RemovedEffect* r = closest_unconfirmed(removed);
+  REQUIRE(r != nullptr);
+  CHECK(r->effect == "yaw_time_constant");
+  // Below the noise floor it changed nothing a reader could see: no candidate is named.
+  removed.erase(removed.begin() + 3, removed.end());
+  CHECK(closest_unconfirmed(removed) == nullptr);
+  CHECK(closest_unconfirmed({}) == nullptr);
+}
