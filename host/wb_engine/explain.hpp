@@ -49,9 +49,10 @@ struct RemovedEffect {
   double contribution = kNaN;  // what it changed in the prediction, times the noise floor (largest channel)
   bool unconfirmed = false;    // taken out (or the paper's parameters held) by the cross-validation
 };
-// Of the effects the cross-validation took out (or the paper's parameters it held), the one that changed the prediction most,
-// if by at least the noise floor: the candidate closest in size that the log does not confirm in
-// form, which the verdict names (docs/workbench.md "The stop rule"); nullptr if none.
+// Of the effects the cross-validation took out (or the paper's parameters it held), the one that
+// changed the prediction most, if by at least the noise floor: the candidate closest in size that
+// the log does not confirm in form, which the verdict names (docs/workbench.md "The stop rule");
+// nullptr if none.
 const RemovedEffect* closest_unconfirmed(const std::vector<RemovedEffect>& removed);
 // An effect the check of form took out of a model that does not fit the log (docs/workbench.md
 // "Parsimony", confirmed in form): the error with and without it, and why it is no finding.

@@ -164,13 +164,13 @@ void Explainer::verdict(const State& f, ExplainResult& res) const {
         std::snprintf(more, sizeof more,
                       "; the paper's parameters re-identified came closest in size (they changed the prediction by up "
                       "to %.1f times the noise floor) but are not a finding: %s, so what they took up is not a change "
-                      "of sigma and D (auger fit --add %s shows what they explain and what they leave)",
+                      "of sigma and D (auger fit LOG --add %s shows what they explain and what they leave)",
                       r->contribution, why.c_str(), kPaperParams);
       else
         std::snprintf(more, sizeof more,
-                      "; %s came closest in size (it changed the prediction by up to %.1f times the noise floor) but is "
-                      "not a finding: %s, so its form is not the log's (auger fit --add %s shows what it explains and "
-                      "what it leaves)",
+                      "; %s came closest in size (it changed the prediction by up to %.1f times the noise floor) "
+                      "but is not a finding: %s, so its form is not the log's (auger fit LOG --add %s shows what it "
+                      "explains and what it leaves)",
                       r->effect.c_str(), r->contribution, why.c_str(), r->effect.c_str());
       res.verdict += more;
     }
