@@ -5,6 +5,17 @@
 
 #include "explain_internal.hpp"
 
+namespace auger::wb {
+
+const RemovedEffect* closest_unconfirmed(const std::vector<RemovedEffect>& removed) {
+  const RemovedEffect* best = nullptr;
+  for (const RemovedEffect& r : removed)
+    if (r.unconfirmed && r.contribution >= 1.0 && (!best || r.contribution > best->contribution)) best = &r;
+  return best;
+}
+
+}  // namespace auger::wb
+
 namespace auger::wb::explain_internal {
 
 using namespace search;
@@ -32,21 +43,6 @@ bool Explainer::tests_pass(const State& s) {
   }
   return true;
 }
-
-}  // namespace auger::wb::explain_internal
-
-namespace auger::wb {
-
-const RemovedEffect* closest_unconfirmed(const std::vector<RemovedEffect>& removed) {
-  const RemovedEffect* best = nullptr;
-  for (const RemovedEffect& r : removed)
-    if (r.unconfirmed && r.contribution >= 1.0 && (!best || r.contribution > best->contribution)) best = &r;
-  return best;
-}
-
-}  // namespace auger::wb
-
-namespace auger::wb::explain_internal {
 
 void Explainer::verdict(const State& f, ExplainResult& res) const {
   bool noise = true;
