@@ -48,7 +48,8 @@ sim_start() {
 # ptys of sim_start, listed in another order than the ids (augerd maps modules by the id they
 # report), with the given extra lines in [control] and [log] and extra SECTIONS at the end (e.g.
 # [ros2]); its sensors socket is DIR/sensors.sock (where sim_start sends the camera and IMU)
-# unless AUGERD_SENSORS_SOCKET names another.
+# unless AUGERD_SENSORS_SOCKET names another; AUGERD_TELEMETRY_TIMEOUT_S, when set, is its
+# [serial] telemetry_timeout_s.
 augerd_config() {
   local d=$1 terrain=$2 control=$3 log=$4 sections=${5:-}
   mkdir -p "$d/logs"
@@ -56,6 +57,7 @@ augerd_config() {
 schema = 1
 [serial]
 ports = ["$d/pty/module2", "$d/pty/module0", "$d/pty/module3", "$d/pty/module1"]
+${AUGERD_TELEMETRY_TIMEOUT_S:+telemetry_timeout_s = $AUGERD_TELEMETRY_TIMEOUT_S}
 [model]
 file = "$AUGER_SRC/models/robot.toml"
 terrain = "$terrain"
