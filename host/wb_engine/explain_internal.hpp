@@ -172,11 +172,9 @@ class Explainer {
     std::fprintf(stderr, "\n");
   }
 
-  // Ranking of structures: the held-out error, an implausible fit (a value at or beyond its
-  // physical range) counted 15 % worse: a part of the answer often fits with the paper's
-  // parameters stretched, and the next step takes them back (from_scratch), so it must not be
-  // ruled out, but a plausible structure of nearly the same error goes first.
-  static double score(const State& s) { return s.h * (s.implausible ? 1.15 : 1.0); }
+  // Ranking of structures: the held-out error, an implausible fit counted kImplausibleHeldout
+  // worse (the next step takes stretched paper parameters back: from_scratch).
+  static double score(const State& s) { return ranking_heldout(s.h, s.implausible); }
 
   static bool paper_held(const std::vector<Part>& parts) {
     for (const Part& p : parts)

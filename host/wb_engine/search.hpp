@@ -44,7 +44,7 @@ struct Candidate {
   bool near_tie = false;
   std::string tell_apart;       // the experiment that separates it from its near tie
   bool flagged = false;         // a parameter (its own or a refitted one) is flagged
-  bool implausible = false;     // ... outside or at the end of its physical range (ranks after plausible fits)
+  bool implausible = false;     // ... outside or at the end of its physical range (kImplausibleHeldout)
   std::vector<FittedEffect> refitted;  // diagnose --model: the model's effects, refitted with it
 };
 
@@ -55,6 +55,17 @@ struct Candidate {
 constexpr double kHeldOutGain = 0.02;
 inline bool lowers_heldout(const Candidate& c, double nominal_heldout_ratio) {
   return c.heldout_ratio < (1.0 - kHeldOutGain) * nominal_heldout_ratio;
+}
+// An implausible fit (a value at or beyond its physical range) ranks as if its held-out error
+// were this many times higher, in explain's steps and diagnose's ranking alike: a part of the
+// answer often fits with the paper's parameters stretched (explain's next step takes them back),
+// so it must not be ruled out, but a plausible fit of nearly the same error goes first. (Ranked
+// after every plausible one, diagnose put a terrain change at 4.9 times the noise floor above
+// quadratic drag at 0.96, whose coefficient sat at its range end, on a log of the independent
+// generator where explain named the drag.)
+constexpr double kImplausibleHeldout = 1.15;
+inline double ranking_heldout(double heldout_ratio, bool implausible) {
+  return heldout_ratio * (implausible ? kImplausibleHeldout : 1.0);
 }
 
 struct DiagnoseOptions {
@@ -77,6 +88,8 @@ struct DiagnoseResult {
   std::vector<Window> where;          // worst windows of what remains after the best candidate
   bool refits_model = false;          // the model had effects: refitted jointly with each candidate
 };
+// diagnose's ranking (docs/workbench.md "diagnose", 3): the indices of c, best first.
+std::vector<std::size_t> ranking_order(const std::vector<Candidate>& c, double nominal_heldout_ratio);
 // Marks neighbours in a ranking that cannot be told apart, with the experiment that would.
 void mark_near_ties(std::vector<Candidate>& ranked);
 DiagnoseResult diagnose(const Dataset& data, ModelChoice model, const DiagnoseOptions& options = {});

@@ -28,26 +28,27 @@ constexpr const char* kStickSlip = "stick_slip_friction";
 namespace {
 
 // Ranking of candidates (docs/workbench.md "diagnose", 3): those that lower the held-out error
-// (lowers_heldout) come first; among them plausible fits before implausible ones (a value
-// outside or at the end of its physical range), each group by its held-out error as explain
-// ranks a step's candidates, so that diagnose's first is explain's first step (by delta BIC,
-// a form the library lacks was taken by the training gain of a flexible stand-in: on a log of
-// the other generator with a second-order yaw response, a terrain change at 37.5 s ranked first,
-// delta BIC -2820 but held-out 1.93 times the noise floor against 1.40 for the yaw time
-// constant); the rest by delta BIC. order_ties_by_bic then ranks held-out errors within 2 % of
+// (lowers_heldout) come first, by their held-out error (an implausible fit's counted
+// kImplausibleHeldout higher) as explain ranks a step's candidates, so that diagnose's first is
+// explain's first step (by delta BIC, a form the library lacks was taken by the training gain of
+// a flexible stand-in: on a log of the other generator with a second-order yaw response, a
+// terrain change at 37.5 s ranked first, delta BIC -2820 but held-out 1.93 times the noise floor
+// against 1.40 for the yaw time constant); the rest by delta BIC. order_ties_by_bic then ranks held-out errors within 2 % of
 // each other by delta BIC.
 bool ranks_before(const Candidate& a, const Candidate& b, double nominal_heldout) {
   const bool ga = lowers_heldout(a, nominal_heldout), gb = lowers_heldout(b, nominal_heldout);
   if (ga != gb) return ga;
-  if (ga && a.implausible != b.implausible) return !a.implausible;
-  if (ga && a.heldout_ratio != b.heldout_ratio) return a.heldout_ratio < b.heldout_ratio;
+  if (ga) {
+    const double ra = ranking_heldout(a.heldout_ratio, a.implausible), rb = ranking_heldout(b.heldout_ratio, b.implausible);
+    if (ra != rb) return ra < rb;
+  }
   return a.delta_bic < b.delta_bic;
 }
 
 // Held-out errors within kHeldOutSame of each other cannot be told apart on new data (a gantry
 // dead band at 1.073 against Coulomb friction at 1.058, delta BIC -24 870 against -18 943): from
-// the best held-out error of a group down, the candidates within that share of it are one tier,
-// ranked by delta BIC.
+// the best held-out error (as ranked) of those that lower it down, the candidates within that
+// share of it are one tier, ranked by delta BIC.
 void order_ties_by_bic(std::vector<std::size_t>& order, const std::vector<Candidate>& c, double nominal_heldout) {
   std::size_t i = 0;
   while (i < order.size()) {
@@ -55,8 +56,8 @@ void order_ties_by_bic(std::vector<std::size_t>& order, const std::vector<Candid
     std::size_t j = i + 1;
     if (lowers_heldout(first, nominal_heldout))
       while (j < order.size() && lowers_heldout(c[order[j]], nominal_heldout) &&
-             c[order[j]].implausible == first.implausible &&
-             c[order[j]].heldout_ratio <= first.heldout_ratio * (1.0 + kHeldOutSame))
+             ranking_heldout(c[order[j]].heldout_ratio, c[order[j]].implausible) <=
+                 ranking_heldout(first.heldout_ratio, first.implausible) * (1.0 + kHeldOutSame))
         ++j;
     std::stable_sort(order.begin() + static_cast<std::ptrdiff_t>(i), order.begin() + static_cast<std::ptrdiff_t>(j),
                      [&](std::size_t a, std::size_t b) { return c[a].delta_bic < c[b].delta_bic; });
@@ -65,6 +66,15 @@ void order_ties_by_bic(std::vector<std::size_t>& order, const std::vector<Candid
 }
 
 }  // namespace
+
+std::vector<std::size_t> ranking_order(const std::vector<Candidate>& c, double nominal_heldout_ratio) {
+  std::vector<std::size_t> order(c.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return ranks_before(c[a], c[b], nominal_heldout_ratio); });
+  order_ties_by_bic(order, c, nominal_heldout_ratio);
+  return order;
+}
 
 void mark_near_ties(std::vector<Candidate>& cands) {
   // Near ties: neighbours whose held-out errors are within 10 % and BIC gains within 10 %, or
@@ -200,12 +210,7 @@ DiagnoseResult diagnose(const Dataset& full, ModelChoice mc, const DiagnoseOptio
     best_parts.push_back(o.parts);
   }
   {
-    std::vector<std::size_t> order(res.candidates.size());
-    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-      return ranks_before(res.candidates[a], res.candidates[b], res.nominal_heldout_ratio);
-    });
-    order_ties_by_bic(order, res.candidates, res.nominal_heldout_ratio);
+    const std::vector<std::size_t> order = ranking_order(res.candidates, res.nominal_heldout_ratio);
     std::vector<Candidate> sorted;
     std::vector<std::vector<Part>> parts_sorted;
     for (std::size_t i : order) {

@@ -39,11 +39,16 @@ bool any_flagged(const FittedEffect& e);
 void json_fitted(Json& j, const char* key, const std::vector<FittedEffect>& effects);
 
 // diagnose's ranking (search_diagnose.cpp ranks_before), in words: the group a candidate falls
-// in, its name in the JSON, and the rule.
+// in, its name in the JSON, and the rule. The text and the report head the candidates that
+// lower the held-out error once (plausible and implausible fits rank together: heading_group).
 enum class RankGroup { kImproves, kImprovesImplausible, kNoImprovement };
 RankGroup rank_group(const Candidate& c, double nominal_heldout_ratio);
 const char* rank_group_id(RankGroup g);     // "improves", "improves_implausible", "no_improvement"
 const char* rank_group_words(RankGroup g);  // a heading for the group's rows
+// The group a heading covers: kImproves for every candidate that lowers the held-out error.
+inline RankGroup heading_group(RankGroup g) {
+  return g == RankGroup::kImprovesImplausible ? RankGroup::kImproves : g;
+}
 extern const char* const kRankingRule;
 
 // "a,b,,c" -> {"a", "b", "c"}: the effect ids of --add and --only.

@@ -151,13 +151,13 @@ int run_diagnose(int argc, char** argv) {
     bool first_group = true;
     RankGroup group = RankGroup::kImproves;
     for (const auto& c : r.candidates) {
-      const RankGroup g = rank_group(c, r.nominal_heldout_ratio);
+      const RankGroup g = heading_group(rank_group(c, r.nominal_heldout_ratio));
       if (first_group || g != group) std::printf("  -- %s --\n", rank_group_words(g));
       first_group = false;
       group = g;
       ++rank;
-      std::printf("%4d  %-22s %10.1f   %8.3f%s\n", rank, c.fitted.effect.c_str(), c.delta_bic, c.heldout_ratio,
-                  c.near_tie ? "   near tie" : "");
+      std::printf("%4d  %-22s %10.1f   %8.3f%s%s\n", rank, c.fitted.effect.c_str(), c.delta_bic, c.heldout_ratio,
+                  c.implausible && g == RankGroup::kImproves ? "   implausible" : "", c.near_tie ? "   near tie" : "");
       if (rank <= 3 || c.flagged || c.near_tie) {
         if (rank <= 3) std::printf("      %s\n", c.fitted.description.c_str());
         if (rank <= 3 || c.flagged) print_fitted(stdout, c.fitted, "      ");

@@ -328,9 +328,10 @@ Section ranking_section(const Findings& f, Gnuplot& gp) {
   for (const auto& c : dg.candidates) {
     ++rank;
     const RankGroup g = rank_group(c, dg.nominal_heldout_ratio);
-    if (first || g != group) h << "<tr class=group><td colspan=6 class=l>" << esc(rank_group_words(g)) << "</td></tr>\n";
+    if (first || heading_group(g) != group)
+      h << "<tr class=group><td colspan=6 class=l>" << esc(rank_group_words(g)) << "</td></tr>\n";
     first = false;
-    group = g;
+    group = heading_group(g);
     h << "<tr><td>" << rank << "</td><td class=l id=\"candidate-" << rank << "\">" << esc(c.fitted.effect)
       << "</td><td class=l>" << esc(c.fitted.description) << params_html(c.fitted);
     for (const auto& r : c.refitted) h << "<br><i>refitted with it: " << esc(r.effect) << "</i>" << params_html(r);

@@ -72,17 +72,20 @@ TEST_CASE("diagnose's text and JSON: the ranking rule, each candidate's group, f
   REQUIRE(j.code == 0);
   CHECK_FALSE(has_bare_times_x(t.out));
   CHECK_THAT(t.out, Catch::Contains("ranking: candidates that lower the held-out error by 2 % or more (as explain "
-                                    "asks of a step) come first, plausible fits before those with a value at or "
-                                    "beyond its physical range"));
-  CHECK_THAT(t.out, Catch::Contains("  -- lower the held-out error by 2 % or more, plausible fit --"));
+                                    "asks of a step) come first, lower held-out error first, that of an implausible "
+                                    "fit"));
+  CHECK_THAT(t.out, Catch::Contains("  -- lower the held-out error by 2 % or more (an implausible fit's counted 15 % "
+                                    "higher) --"));
   const std::string best = tools_test::json_eval(dir, j.out, "d['candidates'][0]['effect']");
   CHECK_THAT(lines_of(t.out).back(), Catch::StartsWith("next: auger fit " + log + " --add " + best + " "));
-  // The ranking is the rule the text states: groups in order, held-out error ascending inside the
-  // two that lower it (within 2 % of each other by delta BIC), delta BIC ascending among the rest.
+  // The ranking is the rule the text states: those that lower the held-out error first, by it
+  // ascending (an implausible fit's times 1.15; within 2 % of each other by delta BIC), delta BIC
+  // ascending among the rest.
   CHECK(tools_test::json_eval(dir, j.out,
-                              "(lambda c, g: all(g[a['rank_group']] < g[b['rank_group']] or (g[a['rank_group']] == g[b['rank_group']] and "
-                              "(a['heldout_ratio'] <= 1.02 * b['heldout_ratio'] + 1e-12 if g[a['rank_group']] < 2 else a['delta_bic'] <= b['delta_bic'])) "
-                              "for a, b in zip(c, c[1:])))(d['candidates'], {'improves': 0, 'improves_implausible': 1, 'no_improvement': 2})") ==
+                              "(lambda c, g, h: all(g[a['rank_group']] < g[b['rank_group']] or (g[a['rank_group']] == g[b['rank_group']] and "
+                              "(h(a) <= 1.02 * h(b) + 1e-12 if g[a['rank_group']] == 0 else a['delta_bic'] <= b['delta_bic'])) "
+                              "for a, b in zip(c, c[1:])))(d['candidates'], {'improves': 0, 'improves_implausible': 0, 'no_improvement': 1}, "
+                              "lambda x: x['heldout_ratio'] * (1.15 if x['implausible'] else 1))") ==
         "True");
   CHECK_THAT(tools_test::json_eval(dir, j.out, "d['ranking_rule']"), Catch::StartsWith("candidates that lower"));
   // A candidate's group follows from its held-out error (2 % below the nominal model's) and its flags.
