@@ -307,6 +307,66 @@ TEST_CASE("force lag: a first-order lag after a dead time, the same for any step
   }
 }
 
+namespace {
+// The yaw torque of a yaw-only screw pattern through yaw_time_constant's soil spring, at the end
+// of every step of h_s from a standstill (0 rpm) to w_rpm; and that pattern's steady torque.
+std::vector<Vec3> spring_step_response(double spring_s, double damping, double h_s, double t_end_s, Vec4 w,
+                                       Vec3* steady) {
+  const Model m = make_model(RobotParams{}, kSand,
+                             {EffectRegistry::builtin().entries().at("yaw_time_constant").make({0.3, spring_s, damping})});
+  *steady = make_model(RobotParams{}, kSand, {}).SB * w;
+  DynamicsData data(m);
+  Vec3 tau;
+  drive_force(m, data, Vec4::Zero(), 0.0, tau);
+  std::vector<Vec3> out;
+  for (double t = 0; t < t_end_s - 1e-9; t += h_s) {
+    drive_force(m, data, w, h_s, tau);
+    out.push_back(tau);
+  }
+  return out;
+}
+}  // namespace
+
+TEST_CASE("yaw time constant's soil spring: the yaw torque through a second-order filter, the same for any step "
+          "length") {
+  const Vec4 w(10, 10, 10, 10);  // eq. (10): every screw the same yaw lever
+  Vec3 steady;
+  spring_step_response(0.5, 0.3, 0.01, 0.01, w, &steady);
+  REQUIRE(std::fabs(steady.z()) > 1e-3);
+  const double spring_s = 0.5, wn = 1 / spring_s;
+  SECTION("below critical damping the turn's torque overshoots: the closed form within 1 % of the step") {
+    const double z = 0.3, wd = wn * std::sqrt(1 - z * z);
+    for (double h : {0.01, 0.004, 0.0125}) {
+      double peak = 0;
+      const auto r = spring_step_response(spring_s, z, h, 4.0, w, &steady);
+      for (std::size_t n = 0; n < r.size(); ++n) {
+        const double t = h * static_cast<double>(n + 1);
+        const double exact =
+            steady.z() * (1 - std::exp(-z * wn * t) * (std::cos(wd * t) + z / std::sqrt(1 - z * z) * std::sin(wd * t)));
+        CHECK(std::fabs(r[n].z() - exact) < 0.01 * std::fabs(steady.z()));
+        CHECK(r[n].x() == Approx(steady.x()).margin(1e-9));  // x and y pass untouched
+        CHECK(r[n].y() == Approx(steady.y()).margin(1e-9));
+        peak = std::max(peak, r[n].z() / steady.z());
+      }
+      CHECK(peak == Approx(1 + std::exp(-kPi * z / std::sqrt(1 - z * z))).epsilon(0.01));  // 1.37
+    }
+  }
+  SECTION("above it, two lags: no overshoot, the closed form within 1 %") {
+    const double z = 2, p1 = wn * (-z + std::sqrt(z * z - 1)), p2 = wn * (-z - std::sqrt(z * z - 1));
+    const auto r = spring_step_response(spring_s, z, 0.01, 6.0, w, &steady);
+    for (std::size_t n = 0; n < r.size(); ++n) {
+      const double t = 0.01 * static_cast<double>(n + 1);
+      const double exact = steady.z() * (1 + (p2 * std::exp(p1 * t) - p1 * std::exp(p2 * t)) / (p1 - p2));
+      CHECK(std::fabs(r[n].z() - exact) < 0.01 * std::fabs(steady.z()));
+      CHECK(r[n].z() / steady.z() <= 1.0 + 1e-9);
+    }
+  }
+  SECTION("without a spring (its default) the torque passes as it is") {
+    const auto r = spring_step_response(0, 0.3, 0.01, 0.5, w, &steady);
+    for (const Vec3& t : r) CHECK(t.z() == Approx(steady.z()).margin(1e-12));
+  }
+}
+
 TEST_CASE("rigid-body coupling: the rigid body's Coriolis terms; added mass adds inertia and, heavier sideways, a "
           "Munk moment that turns the robot broadside") {
   const EffectRegistry& reg = EffectRegistry::builtin();
