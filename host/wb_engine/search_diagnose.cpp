@@ -187,18 +187,23 @@ DiagnoseResult diagnose(const Dataset& full, ModelChoice mc, const DiagnoseOptio
     if (!std::isfinite(o.cost)) continue;
     Candidate c;
     const double s2 = o.cost / std::max(1.0, n - o.n_params);
-    const std::vector<FitParam> all = fit_params(o, s2 * scale);
+    // A change of terrain is judged, reported and looked at ("where") at the place the held-out
+    // segment puts it in its gap, as explain does: not at the place the training fit left it.
+    std::vector<Part> judged_parts = o.parts;
+    place_changes_in_gaps(judged_parts, base, data, train, held, res.segment_floor, 0);
+    std::vector<FitParam> all = fit_params(o, s2 * scale);
+    for (std::size_t p = 0, at = 0; p < judged_parts.size(); ++p)
+      for (std::size_t j = 0; j < judged_parts[p].values.size() && at < all.size(); ++j, ++at)
+        all[at].value = judged_parts[p].values[j];
     std::size_t k = 0;
     for (std::size_t p = 0; p < o.parts.size(); ++p) {
-      const FittedEffect fe = fitted_effect(o.parts[p], base, all, k);
+      const FittedEffect fe = fitted_effect(judged_parts[p], base, all, k);
       c.flagged = c.flagged || any_flag(fe.params);
       c.implausible = c.implausible || any_implausible(fe.params);
       if (p + 1 == o.parts.size()) c.fitted = fe;
       else c.refitted.push_back(fe);
     }
     c.train_cost = o.cost;
-    std::vector<Part> judged_parts = o.parts;
-    place_changes_in_gaps(judged_parts, base, data, train, held, res.segment_floor, 0);
     // BIC with the effective sample size: n_eff ln(RSS / n) + k ln(n_eff), against the nominal.
     c.delta_bic = res.n_eff * std::log(std::max(o.cost, 1e-300) / std::max(cost0, 1e-300)) +
                   std::max(0, o.n_params - state_free) * std::log(res.n_eff);
@@ -207,7 +212,7 @@ DiagnoseResult diagnose(const Dataset& full, ModelChoice mc, const DiagnoseOptio
     c.heldout_rms = he.rms;
     c.heldout_ratio = combined_ratio(he, data);
     res.candidates.push_back(std::move(c));
-    best_parts.push_back(o.parts);
+    best_parts.push_back(judged_parts);
   }
   {
     const std::vector<std::size_t> order = ranking_order(res.candidates, res.nominal_heldout_ratio);

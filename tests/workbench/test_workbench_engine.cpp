@@ -318,6 +318,8 @@ TEST_CASE("diagnose: a terrain change inside a held-out segment is judged placed
                     << r.candidates[0].heldout_ratio);
   CHECK(r.candidates[0].fitted.effect == "terrain_change");
   CHECK(r.candidates[0].heldout_ratio < 1.2);
+  // ... and reported there: the time it states is the one judged, within a second of the truth.
+  CHECK(value_of(r.candidates[0].fitted, "t_change_s") == Approx(t_change_s).margin(1.0));
 }
 
 namespace {
