@@ -7,22 +7,40 @@
 namespace auger {
 
 double first_order_step(double m, double d, double v, double f, double dt, double* gain) {
+  return first_order_step(m, d, v, f, dt, d <= 0 ? 0.0 : std::exp(-d * dt / m), gain);
+}
+
+double first_order_step(double m, double d, double v, double f, double dt, double e, double* gain) {
   // eq. (6) per DOF: v(t) = v_inf + (v0 - v_inf) exp(-d t / m), v_inf = f / d.
   if (d <= 0) {
     if (gain) *gain = dt / m;
     return v + f * dt / m;
   }
-  const double e = std::exp(-d * dt / m);
   const double g = (1.0 - e) / d;
   if (gain) *gain = g;
   return v * e + f * g;
 }
 
-double first_order_displacement(double m, double d, double v, double f, double dt) {
+void StepDecay::update(const Vec3& m_diag, const Vec3& d_diag, double dt) {
+  if (dt == dt_s && m_diag == m && d_diag == d) return;
+  dt_s = dt;
+  m = m_diag;
+  d = d_diag;
+  for (int k = 0; k < 3; ++k) e[k] = d[k] <= 0 ? 0.0 : std::exp(-d[k] * dt / m[k]);
+  e_psi_displacement = d[2] <= 0 ? 0.0 : std::exp(-dt / (m[2] / d[2]));
+}
+
+namespace {
+double first_order_displacement(double m, double d, double v, double f, double dt, double e) {
   if (d <= 0) return v * dt + 0.5 * f * dt * dt / m;
   const double v_inf = f / d;
   const double T = m / d;
-  return v_inf * dt + (v - v_inf) * T * (1.0 - std::exp(-dt / T));
+  return v_inf * dt + (v - v_inf) * T * (1.0 - e);
+}
+}  // namespace
+
+double first_order_displacement(double m, double d, double v, double f, double dt) {
+  return first_order_displacement(m, d, v, f, dt, d <= 0 ? 0.0 : std::exp(-dt / (m / d)));
 }
 
 DynamicsData::DynamicsData(const Model& model) : effect_state(model.effect_state_size, 0.0) {
@@ -55,9 +73,10 @@ void effect_body_force(const Model& model, DynamicsData& data, double t_s, const
   c.omega_rpm = omega_rpm;
   c.tau_drive_n = data.tau_drive_n;
   c.dt_s = dt_s;
+  data.step.update(model.M_diag, model.D_diag, dt_s);
   for (int k = 0; k < 3; ++k)
     c.zeta_free[k] = first_order_step(model.M_diag[k], model.D_diag[k], zeta[k], data.tau_drive_n[k], dt_s,
-                                      &c.gain[k]);
+                                      data.step.e[k], &c.gain[k]);
   // Each effect sees the velocity the forces before it leave, so effects compose in order.
   Vec3 force = Vec3::Zero();
   data.tau_effect_n.setZero();
@@ -89,21 +108,23 @@ void dynamics_step(const Model& model, DynamicsData& data, Vec3& eta, Vec3& zeta
     drive_force(model, data, omega_rpm, h, data.tau_drive_n, data.t_s + s * h);
     effect_body_force(model, data, data.t_s + s * h, eta, zeta, omega_rpm, h);
     const Vec3 tau = data.tau_drive_n + data.tau_effect_n;
-    // Closed-form velocity at any time inside the sub-step, for the pose integration.
-    auto zeta_at = [&](double t) {
+    // Closed-form velocity at the sub-step's middle, for the pose integration.
+    data.half_step.update(model.M_diag, model.D_diag, 0.5 * h);
+    auto zeta_half = [&]() {
       Vec3 z;
-      for (int k = 0; k < 3; ++k) z[k] = first_order_step(model.M_diag[k], model.D_diag[k], zeta[k], tau[k], t);
+      for (int k = 0; k < 3; ++k)
+        z[k] = first_order_step(model.M_diag[k], model.D_diag[k], zeta[k], tau[k], 0.5 * h, data.half_step.e[k], nullptr);
       return z;
     };
     // eq. (5) with RK4; psi itself is integrated exactly (r is known in closed form).
     auto f = [&](const Vec3& e, const Vec3& z) { return Vec3(rotation_J(e.z()) * z); };
-    const Vec3 z0 = zeta, zm = zeta_at(0.5 * h), z1 = c.zeta_free;
+    const Vec3 z0 = zeta, zm = zeta_half(), z1 = c.zeta_free;
     const Vec3 k1 = f(eta, z0);
     const Vec3 k2 = f(eta + 0.5 * h * k1, zm);
     const Vec3 k3 = f(eta + 0.5 * h * k2, zm);
     const Vec3 k4 = f(eta + h * k3, z1);
-    const double psi_exact =
-        eta.z() + first_order_displacement(model.M_diag[2], model.D_diag[2], zeta[2], tau[2], h);
+    const double psi_exact = eta.z() + first_order_displacement(model.M_diag[2], model.D_diag[2], zeta[2], tau[2], h,
+                                                                data.step.e_psi_displacement);
     eta += (h / 6.0) * (k1 + 2 * k2 + 2 * k3 + k4);
     eta.z() = wrap_angle(psi_exact);
     zeta = z1;

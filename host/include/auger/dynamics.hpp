@@ -18,6 +18,19 @@ double first_order_step(double m, double d, double v, double f, double dt_s, dou
 // Displacement over that step (exact integral of v).
 double first_order_displacement(double m, double d, double v, double f, double dt_s);
 
+// The exponentials of those steps for one step length: a simulation takes the same length step
+// after step, and the exponentials were a tenth of a workbench fit's time. decay(m, d, dt) is
+// first_order_step's exp(-d dt / m) per DOF, to the bit (NaN where d <= 0: no decay).
+struct StepDecay {
+  double dt_s = std::numeric_limits<double>::quiet_NaN();
+  Vec3 m = Vec3::Zero(), d = Vec3::Zero();
+  Vec3 e = Vec3::Zero();  // exp(-d dt / m)
+  double e_psi_displacement = 0;  // first_order_displacement's exp(-dt / (m / d)) in yaw
+  void update(const Vec3& m_diag, const Vec3& d_diag, double dt);
+};
+// first_order_step with its exponential given (StepDecay::e).
+double first_order_step(double m, double d, double v, double f, double dt_s, double e, double* gain);
+
 // Preallocated workspace of the dynamics step.
 struct DynamicsData {
   explicit DynamicsData(const Model& model);
@@ -27,6 +40,7 @@ struct DynamicsData {
   EffectContext ctx;
   Vec3 tau_drive_n = Vec3::Zero();   // last sub-step's drive force (after drive effects)
   Vec3 tau_effect_n = Vec3::Zero();  // last sub-step's effect body forces
+  StepDecay step, half_step;         // dynamics_step's sub-step and its half
 };
 
 // eq. (7) with the drive effects: the body force of the screw speeds over a step starting at t_s

@@ -1,6 +1,7 @@
 // Drive effects: changes of how the screw speeds become the body force, eq. (7).
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "effects.hpp"
 
@@ -69,7 +70,11 @@ class TractionSaturation final : public Effect {
 
  private:
   // What is left of a force f saturated towards +-f_max: 1 / (1 + |f / f_max|^p)^(1/p).
-  double share(double f, double f_max) const { return 1.0 / std::pow(1.0 + std::pow(std::fabs(f / f_max), p_), 1.0 / p_); }
+  // (Far below the limit 1 + |f / f_max|^p is 1 to the bit: the second pow is skipped.)
+  double share(double f, double f_max) const {
+    const double s = 1.0 + std::pow(std::fabs(f / f_max), p_);
+    return s == 1.0 ? 1.0 : 1.0 / std::pow(s, 1.0 / p_);
+  }
   double long_max_, lat_max_, p_, pooling_;
 };
 
@@ -95,7 +100,10 @@ class ForceLag final : public Effect {
     return {{"tau_s", tau_s_}, {"delay_s", delay_s_}};
   }
   std::size_t state_size() const override { return kHeader + 4 * kSlots; }
-  void reset_state(double* state) const override { std::fill(state, state + state_size(), 0.0); }
+  void reset_state(double* state) const override {
+    std::fill(state, state + state_size(), 0.0);
+    state[6] = std::numeric_limits<double>::quiet_NaN();  // no step length seen yet
+  }
   void drive_force(const Model&, const Vec4&, double, double dt_s, Vec3& tau_n, double* state) const override {
     double* ring = state + kHeader;
     if (state[0] == 0) {
@@ -116,7 +124,12 @@ class ForceLag final : public Effect {
     ring[4 * head] = now_s;
     for (int k = 0; k < 3; ++k) ring[4 * head + 1 + k] = tau_n[k];
     state[1] = now_s + dt_s;
-    const double a = tau_s_ > 0 ? std::exp(-dt_s / tau_s_) : 0.0;
+    // The lag's decay over the step, computed again only when the step's length changes.
+    if (!(dt_s == state[6])) {
+      state[6] = dt_s;
+      state[7] = tau_s_ > 0 ? std::exp(-dt_s / tau_s_) : 0.0;
+    }
+    const double a = state[7];
     for (int k = 0; k < 3; ++k) {
       state[3 + k] = a * state[3 + k] + (1.0 - a) * input[k];
       tau_n[k] = state[3 + k];
@@ -124,7 +137,8 @@ class ForceLag final : public Effect {
   }
 
  private:
-  static constexpr int kHeader = 6;
+  // [started, now_s, ring head, 3 lagged forces, the last step's length, its decay]
+  static constexpr int kHeader = 8;
 
   // Mean of the input over [now - delay, now + dt - delay): stored steps, newest first, and the
   // current step (which starts at now) when the delay is shorter than the step.
