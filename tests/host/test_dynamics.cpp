@@ -95,3 +95,27 @@ TEST_CASE("first-order step handles no damping and gives the exact gain") {
   const double v2 = first_order_step(29, 560, 0.1, 10.001, 0.01);
   CHECK((v2 - v1) / 0.001 == Approx(gain).epsilon(1e-6));
 }
+
+TEST_CASE("the step's exponentials kept per step length follow the step length and the model, to the bit") {
+  // dynamics_step keeps exp(-D dt / M) per step length (StepDecay): a step of another length, or
+  // the same workspace used with another model's M and D, must not reuse them.
+  const Model sand = sand_model();
+  const Model grass = make_model(RobotParams{}, TerrainParams{"frozen_grass", 0.4, 0.16, 509.8, 210.5, 4.52});
+  DynamicsData data(sand);
+  const Vec4 omega(-10, 7, 15, -3);
+  Vec3 eta = Vec3::Zero(), zeta(0.01, -0.02, 0.05);
+  const double steps[] = {0.01, 0.01, 0.013, 0.013, 0.01, 0.002, 0.01};
+  for (int pass = 0; pass < 2; ++pass) {
+    const Model& m = pass == 0 ? sand : grass;
+    for (double dt : steps) {
+      Vec3 expect, tau;
+      DynamicsData fresh(m);
+      drive_force(m, fresh, omega, dt, tau);  // eq. (7) as dynamics_step sums it
+      for (int k = 0; k < 3; ++k) expect[k] = first_order_step(m.M_diag[k], m.D_diag[k], zeta[k], tau[k], dt);
+      const double psi = wrap_angle(eta.z() + first_order_displacement(m.M_diag[2], m.D_diag[2], zeta[2], tau[2], dt));
+      dynamics_step(m, data, eta, zeta, omega, dt, 1);  // one sub-step: the step itself
+      for (int k = 0; k < 3; ++k) CHECK(zeta[k] == expect[k]);
+      CHECK(eta.z() == psi);
+    }
+  }
+}
