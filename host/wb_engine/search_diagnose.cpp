@@ -33,8 +33,8 @@ namespace {
 // explain's first step (by delta BIC, a form the library lacks was taken by the training gain of
 // a flexible stand-in: on a log of the other generator with a second-order yaw response, a
 // terrain change at 37.5 s ranked first, delta BIC -2820 but held-out 1.93 times the noise floor
-// against 1.40 for the yaw time constant); the rest by delta BIC. order_ties_by_bic then ranks held-out errors within 2 % of
-// each other by delta BIC.
+// against 1.40 for the yaw time constant); the rest by delta BIC. order_ties_by_bic then ranks
+// held-out errors within 2 % of each other by delta BIC.
 bool ranks_before(const Candidate& a, const Candidate& b, double nominal_heldout) {
   const bool ga = lowers_heldout(a, nominal_heldout), gb = lowers_heldout(b, nominal_heldout);
   if (ga != gb) return ga;

@@ -1,7 +1,6 @@
 // Drive effects: changes of how the screw speeds become the body force, eq. (7).
 #include <algorithm>
 #include <cmath>
-#include <limits>
 
 #include "effects.hpp"
 
@@ -100,10 +99,7 @@ class ForceLag final : public Effect {
     return {{"tau_s", tau_s_}, {"delay_s", delay_s_}};
   }
   std::size_t state_size() const override { return kHeader + 4 * kSlots; }
-  void reset_state(double* state) const override {
-    std::fill(state, state + state_size(), 0.0);
-    state[6] = std::numeric_limits<double>::quiet_NaN();  // no step length seen yet
-  }
+  void reset_state(double* state) const override { std::fill(state, state + state_size(), 0.0); }
   void drive_force(const Model&, const Vec4&, double, double dt_s, Vec3& tau_n, double* state) const override {
     double* ring = state + kHeader;
     if (state[0] == 0) {
@@ -124,8 +120,9 @@ class ForceLag final : public Effect {
     ring[4 * head] = now_s;
     for (int k = 0; k < 3; ++k) ring[4 * head + 1 + k] = tau_n[k];
     state[1] = now_s + dt_s;
-    // The lag's decay over the step, computed again only when the step's length changes.
-    if (!(dt_s == state[6])) {
+    // The lag's decay over the step, computed again only when the step's length changes (a
+    // state of zeros has seen none).
+    if (!(dt_s > 0 && dt_s == state[6])) {
       state[6] = dt_s;
       state[7] = tau_s_ > 0 ? std::exp(-dt_s / tau_s_) : 0.0;
     }
