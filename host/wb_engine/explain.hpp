@@ -48,6 +48,7 @@ struct RemovedEffect {
   std::string why;             // plain words
   double contribution = kNaN;  // what it changed in the prediction, times the noise floor (largest channel)
   bool unconfirmed = false;    // taken out (or the paper's parameters held) by the cross-validation
+  std::string reason{};        // why without what was done ("removed: ", ...): the verdict quotes it
 };
 // Of the effects the cross-validation took out (or the paper's parameters it held), the one that
 // changed the prediction most, if by at least the noise floor: the candidate closest in size that

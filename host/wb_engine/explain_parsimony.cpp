@@ -267,21 +267,26 @@ void Explainer::parsimony(FitOutcome& o, std::vector<RemovedEffect>& removed) {
       }
     }
     if (worst < o.parts.size() && worst_gain < kConfirm) {
-      char why[300];
-      if (worst_constant)
-        std::snprintf(why, sizeof why,
-                      "replaced by paper_params: its time profile is not confirmed across the log's splits (the same "
-                      "terrain from the log's start predicts as well: cross-validated error %.1f %% %s with the "
-                      "change in the median of three folds, not %.0f %% lower)",
+      char reason[300];
+      std::string why;
+      if (worst_constant) {
+        std::snprintf(reason, sizeof reason,
+                      "its time profile is not confirmed across the log's splits (the same terrain from the log's "
+                      "start predicts as well: cross-validated error %.1f %% %s with the change in the median of "
+                      "three folds, not %.0f %% lower)",
                       100 * std::fabs(worst_gain), worst_gain < 0 ? "higher" : "lower", 100 * kConfirm);
-      else
-        std::snprintf(why, sizeof why,
-                      "%s: not confirmed across the log's splits (cross-validated error %.1f %% %s with %s in the "
-                      "median of three folds, not %.0f %% lower)",
-                      removal(worst), 100 * std::fabs(worst_gain), worst_gain < 0 ? "higher" : "lower",
+        why = std::string("replaced by paper_params: ") + reason;
+      } else {
+        std::snprintf(reason, sizeof reason,
+                      "not confirmed across the log's splits (cross-validated error %.1f %% %s with %s in the median "
+                      "of three folds, not %.0f %% lower)",
+                      100 * std::fabs(worst_gain), worst_gain < 0 ? "higher" : "lower",
                       o.parts[worst].entry ? "it" : "them re-identified", 100 * kConfirm);
+        why = std::string(removal(worst)) + ": " + reason;
+      }
       if (remove_part(worst, why, largest(contribution(o.parts, worst)), nullptr, &worst_alt)) {
         removed.back().unconfirmed = !worst_constant;
+        removed.back().reason = reason;
         continue;
       }
     }

@@ -152,9 +152,7 @@ void Explainer::verdict(const State& f, ExplainResult& res) const {
     // on one fold and raised it by 39 % on another) fits the log in size but not in form.
     if (const RemovedEffect* r = closest_unconfirmed(res.removed)) {
       const bool paper = r->effect.rfind(kPaperParams, 0) == 0;
-      std::string why = r->why;
-      for (const char* lead : {"removed: ", "held at the paper's values: "})
-        if (why.rfind(lead, 0) == 0) why.erase(0, std::string(lead).size());
+      const std::string& why = r->reason;
       char more[900];
       if (paper)
         std::snprintf(more, sizeof more,
