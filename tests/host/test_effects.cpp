@@ -88,21 +88,28 @@ TEST_CASE("dead band removes the force of slow screws only") {
   CHECK((tau - m.SB * Vec4(0, -10, 0, 12)).norm() < 1e-12);
 }
 
+namespace {
+// The drive force of eq. (7) through a traction saturation of the given parameters, and its model.
+std::pair<Model, Vec3> saturated_drive(double long_n, double lat_n, double p, double pooling, double ellipse,
+                                       const Vec4& omega) {
+  const Model m = make_model(RobotParams{}, kSand,
+                             {EffectRegistry::builtin().create(config("traction_saturation", {{"force_max_long_n", long_n},
+                                                                                             {"force_max_lat_n", lat_n},
+                                                                                             {"sharpness", p},
+                                                                                             {"pooling", pooling},
+                                                                                             {"ellipse", ellipse}}))});
+  DynamicsData data(m);
+  Vec3 tau;
+  drive_force(m, data, omega, 0.01, tau);
+  return {m, tau};
+}
+}  // namespace
+
 TEST_CASE("traction saturation: each screw's own force, or pooled, the footprint's total saturating per axis") {
   const EffectRegistry& reg = EffectRegistry::builtin();
   const double L = 6, Ly = 2, p = 4;
   auto sat = [&](double f, double limit) { return f / std::pow(1 + std::pow(std::fabs(f / limit), p), 1 / p); };
-  auto tau_with = [&](double pooling, const Vec4& omega) {
-    const Model m = make_model(RobotParams{}, kSand,
-                               {reg.create(config("traction_saturation", {{"force_max_long_n", L},
-                                                                          {"force_max_lat_n", Ly},
-                                                                          {"sharpness", p},
-                                                                          {"pooling", pooling}}))});
-    DynamicsData data(m);
-    Vec3 tau;
-    drive_force(m, data, omega, 0.01, tau);
-    return std::make_pair(m, tau);
-  };
+  auto tau_with = [&](double pooling, const Vec4& omega) { return saturated_drive(L, Ly, p, pooling, 0, omega); };
   const Vec4 omega(-20, -4, 6, 18);  // unequal screws: the two forms differ
   {  // Each screw's own: x and y of each column saturated apart.
     const auto [m, tau] = tau_with(0, omega);
@@ -130,12 +137,53 @@ TEST_CASE("traction saturation: each screw's own force, or pooled, the footprint
   // A caller that gives the values of before the form parameter gets its default.
   const auto& entry = reg.entries().at("traction_saturation");
   const auto before = entry.make({L, Ly, p});
-  CHECK(before->params().size() == 4);
+  CHECK(before->params().size() == 5);
   CHECK(before->params()[3].second == 0.0);
+  CHECK(before->params()[4].second == 0.0);
   CHECK(entry.describe({L, Ly, p}).find("each screw's thrust") == 0);
-  CHECK_THROWS_AS(entry.make({L, Ly, p, 0, 1}), std::invalid_argument);
+  CHECK_THROWS_AS(entry.make({L, Ly, p, 0, 0, 1}), std::invalid_argument);
 }
 
+
+TEST_CASE("traction saturation's friction ellipse: the axes share one limit on the norm of their loads") {
+  const EffectRegistry& reg = EffectRegistry::builtin();
+  const double L = 6, Ly = 2, p = 20;  // nearly a clip
+  auto tau_with = [&](double pooling, double ellipse, const Vec4& omega) {
+    return saturated_drive(L, Ly, p, pooling, ellipse, omega);
+  };
+  auto sat = [&](double n) { return 1 / std::pow(1 + std::pow(n, p), 1 / p); };
+  {  // One screw's own force: (x / L, y / Ly) on an ellipse, both axes scaled by the same share.
+    const Vec4 omega(0, 0, 0, 20);
+    const auto [m, tau] = tau_with(0, 1, omega);
+    const Vec3 f = m.SB.col(3) * omega[3];
+    const double n = std::hypot(f.x() / L, f.y() / Ly);
+    REQUIRE(n > 1.5);  // well beyond the limit: the ellipse and the box differ
+    CHECK(tau.x() == Approx(f.x() * sat(n)));
+    CHECK(tau.y() == Approx(f.y() * sat(n)));
+    CHECK(tau.z() == Approx(f.z() * sat(n)));
+    // Per axis, each saturates apart and keeps more.
+    const Vec3 box = tau_with(0, 0, omega).second;
+    CHECK(std::fabs(box.x()) > 1.2 * std::fabs(tau.x()));
+    // The resulting force lies on the ellipse (a near-clip): (x / L)^2 + (y / Ly)^2 = 1.
+    CHECK(std::hypot(tau.x() / L, tau.y() / Ly) == Approx(1).epsilon(0.05));
+  }
+  {  // The footprint's total, clipped as one: the norm of (x, y, yaw over the lever arm) shared.
+    const Vec4 omega(-20, -4, 6, 18);
+    const auto [m, tau] = tau_with(1, 1, omega);
+    const Vec3 total = m.SB * omega;
+    const double lever_m = std::fabs(m.SB(2, 0) / m.SB(1, 0));
+    const double n = std::sqrt(std::pow(total.x() / 4 / L, 2) + std::pow(total.y() / 4 / Ly, 2) +
+                               std::pow(total.z() / 4 / lever_m / Ly, 2));
+    CHECK(tau.x() == Approx(total.x() * sat(n)));
+    CHECK(tau.y() == Approx(total.y() * sat(n)));
+    CHECK(tau.z() == Approx(total.z() * sat(n)));
+  }
+  // Below every limit, nothing changes, whatever the form.
+  const Vec4 slow(0.1, -0.1, 0.1, 0.1);
+  const auto [m0, tau0] = tau_with(0.5, 0.7, slow);
+  CHECK((tau0 - m0.SB * slow).norm() < 1e-9 * (m0.SB * slow).norm());
+  CHECK_THROWS_AS(reg.create(config("traction_saturation", {{"ellipse", -0.1}})), ConfigError);
+}
 TEST_CASE("dead band: other widths forward and backward, a gate, a dead zone or a ramp back to the nominal") {
   // Written from the band's physics: below the band no thrust; above it the thrust speed ramps
   // from 0 at the band with slope 1 / shift until it meets the nominal line (at band / (1 - shift)).

@@ -102,11 +102,13 @@ TEST_CASE("online effects: a parameter the driving does not excite keeps its pri
   const OnlineEstimator est = run(configured, with_effects(drag), 30, o);
   CHECK(est.estimate().effect_value[1] == 200);
   CHECK(est.estimate().effect_sd[1] == fresh.estimate().effect_sd[1]);
-  CHECK(fresh.estimate().effect_sd[1] == 0.25 * 5000);  // a quarter of the physical range 0-5000
+  const ParamSpec& c_y = EffectRegistry::builtin().entries().at("quadratic_drag").params[1];
+  REQUIRE(c_y.name == "c_y_nspm2");
+  CHECK(fresh.estimate().effect_sd[1] == 0.25 * (c_y.physical_upper - c_y.physical_lower));  // a quarter of its range
   CHECK(est.estimate().effect_informed[1] == 0);
   CHECK(est.estimate().effect_informed[0] == 1);
   CHECK(est.estimate().effect_sd[0] < fresh.estimate().effect_sd[0]);
-  CHECK(est.estimate().effect_value[0] >= 0);  // clamped to the physical range 0-5000
+  CHECK(est.estimate().effect_value[0] >= 0);  // clamped to the physical range, from 0
 }
 
 TEST_CASE("online effects: the estimate is clamped to the physical range, without a fallback") {

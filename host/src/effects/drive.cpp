@@ -38,16 +38,23 @@ class ScrewTractionLoss final : public Effect {
 // force per axis, four times a screw's: the form parameter pooling blends what each screw's
 // saturation sees, its own force (0) or the footprint's mean (1), and at 1 the total along each
 // axis is 4 f_max sat(mean / f_max); its yaw against the lateral limit at the screws' lever arm.
+// The form parameter ellipse couples the axes: at 0 each saturates against its own limit, at 1
+// all against the norm of their loads (the friction ellipse of a soil whose shear strength bounds
+// the shear stress vector).
 class TractionSaturation final : public Effect {
  public:
-  TractionSaturation(double long_max, double lat_max, double p, double pooling)
-      : long_max_(long_max), lat_max_(lat_max), p_(p), pooling_(pooling) {}
+  TractionSaturation(double long_max, double lat_max, double p, double pooling, double ellipse)
+      : long_max_(long_max), lat_max_(lat_max), p_(p), pooling_(pooling), ellipse_(ellipse) {}
   const std::string& id() const override {
     static const std::string s = "traction_saturation";
     return s;
   }
   std::vector<std::pair<std::string, double>> params() const override {
-    return {{"force_max_long_n", long_max_}, {"force_max_lat_n", lat_max_}, {"sharpness", p_}, {"pooling", pooling_}};
+    return {{"force_max_long_n", long_max_},
+            {"force_max_lat_n", lat_max_},
+            {"sharpness", p_},
+            {"pooling", pooling_},
+            {"ellipse", ellipse_}};
   }
   void drive_force(const Model& model, const Vec4& omega_rpm, double sigma_scale, double, Vec3& tau_n,
                    double*) const override {
@@ -61,20 +68,31 @@ class TractionSaturation final : public Effect {
       const Vec3 g = (1 - pooling_) * f[i] + pooling_ * mean;
       // The yaw torque in lateral force at this screw's lever arm (B's yaw over its lateral row).
       const double lever_m = model.SB(1, i) != 0 ? std::fabs(model.SB(2, i) / model.SB(1, i)) : 0.0;
-      const double share_z = lever_m > 0 ? share(g.z() / lever_m, lat_max_) : share(g.y(), lat_max_);
-      tau_n += Vec3(f[i].x() * (share(g.x(), long_max_) - 1), f[i].y() * (share(g.y(), lat_max_) - 1),
-                    f[i].z() * (share_z - 1));
+      // Each axis's load as a share of its limit.
+      const Vec3 a(g.x() / long_max_, g.y() / lat_max_, (lever_m > 0 ? g.z() / lever_m : g.y()) / lat_max_);
+      Vec3 n = a.cwiseAbs();
+      if (ellipse_ > 0) {
+        // The soil's strength is shared by the axes (Mohr-Coulomb: a limit on the shear stress
+        // vector, not on each component): each axis sees the ellipse's norm, the others weighted by
+        // ellipse. One screw's yaw is its lateral force again, so y and yaw count each other only
+        // as far as the forces are pooled.
+        const Vec3 q = a.cwiseAbs2();
+        n = Vec3(q.x() + ellipse_ * (q.y() + pooling_ * q.z()), q.y() + ellipse_ * (q.x() + pooling_ * q.z()),
+                 q.z() + ellipse_ * (q.x() + pooling_ * q.y()))
+                .cwiseSqrt();
+      }
+      tau_n += Vec3(f[i].x() * (share(n.x()) - 1), f[i].y() * (share(n.y()) - 1), f[i].z() * (share(n.z()) - 1));
     }
   }
 
  private:
-  // What is left of a force f saturated towards +-f_max: 1 / (1 + |f / f_max|^p)^(1/p).
-  // (Far below the limit 1 + |f / f_max|^p is 1 to the bit: the second pow is skipped.)
-  double share(double f, double f_max) const {
-    const double s = 1.0 + std::pow(std::fabs(f / f_max), p_);
+  // What is left of a force at n times its limit f_max, saturated towards +-f_max:
+  // 1 / (1 + n^p)^(1/p). (Far below the limit 1 + n^p is 1 to the bit: the second pow is skipped.)
+  double share(double n) const {
+    const double s = 1.0 + std::pow(n, p_);
     return s == 1.0 ? 1.0 : 1.0 / std::pow(s, 1.0 / p_);
   }
-  double long_max_, lat_max_, p_, pooling_;
+  double long_max_, lat_max_, p_, pooling_, ellipse_;
 };
 
 // The drive force builds up after a dead time delay_s with a first-order lag of time constant
@@ -220,20 +238,29 @@ void register_drive(EffectRegistry& r) {
           ParamSpec{"sharpness", 4, false, "p of f / (1 + |f / f_max|^p)^(1/p): 2 gradual, 20 a clip", "", 1, 30, 4, false, true, true}.physical(1, 30),
           ParamSpec{"pooling", 0, false, "what saturates: 0 each screw's own force, 1 the footprint's total (4 f_max)", "", 0, 1, 1}
               .physical(0, 1)
+              .form_param(),
+          ParamSpec{"ellipse", 0, false,
+                    "how the axes share the soil's strength: 0 each its own limit, 1 one limit on the force's norm", "",
+                    0, 1, 1}
+              .physical(0, 1)
               .form_param()},
          [](const std::vector<double>& v) {
            if (!(v[0] > 0 && v[1] > 0)) throw std::invalid_argument("force limits must be > 0");
            if (!(v[2] >= 1 && v[2] <= 100)) throw std::invalid_argument("sharpness must be in [1, 100]");
            if (!(v[3] >= 0 && v[3] <= 1)) throw std::invalid_argument("pooling must be in [0, 1]");
-           return std::make_shared<TractionSaturation>(v[0], v[1], v[2], v[3]);
+           if (!(v[4] >= 0 && v[4] <= 1)) throw std::invalid_argument("ellipse must be in [0, 1]");
+           return std::make_shared<TractionSaturation>(v[0], v[1], v[2], v[3], v[4]);
          },
          [](const std::vector<double>& v) {
+           const std::string shared =
+               v[4] > 0 ? ", the axes sharing one limit (friction ellipse " + fmt(v[4]) + ")" : std::string();
            if (v[3] >= 0.5)
              return "the robot's total thrust saturates at " + fmt(4 * v[0]) + " N along and " + fmt(4 * v[1]) +
-                    " N across (four screws' " + fmt(v[0]) + " and " + fmt(v[1]) + " N; pooling " + fmt(v[3]) +
-                    "): saturation of the traction force under the whole footprint";
+                    " N across (four screws' " + fmt(v[0]) + " and " + fmt(v[1]) + " N; pooling " + fmt(v[3]) + ")" +
+                    shared + ": saturation of the traction force under the whole footprint";
            return "each screw's thrust saturates at " + fmt(v[0]) + " N along and " + fmt(v[1]) + " N across the robot" +
-                  (v[3] > 0 ? " (pooling " + fmt(v[3]) + ")" : std::string()) + ": saturation of the traction force";
+                  (v[3] > 0 ? " (pooling " + fmt(v[3]) + ")" : std::string()) + shared +
+                  ": saturation of the traction force";
          }});
   r.add({"force_lag", "the drive force follows S B omega after a dead time delay_s with a first-order lag tau_s",
          {ParamSpec{"tau_s", 0, true, "time constant", "s", 0, 3, 0.1}.physical(0.005, 1.0),

@@ -162,10 +162,14 @@ void register_friction(EffectRegistry& r) {
            return dry_words(v, "stick-slip friction, breaking away at " + fmt(v[3]) + " times that, decaying over " +
                                    fmt(v[4] * 1000) + " mm/s");
          }});
+  // Physical ranges: about twice the largest linear drag of the paper's terrains (eq. (6)'s D) at
+  // the robot's cruising speeds, 0.1 m/s and 0.15 rad/s (soil pushed aside faster than it flows
+  // back can dominate near top speed; at 5000 N/(m/s)^2, once the bound, drags of 1.2-1.5 times
+  // the linear one at 0.1 m/s were fitted at the bound and flagged).
   r.add({"quadratic_drag", "a resistance -c v |v| per DOF, or along x and y with the speed over ground (isotropy), on top of the linear D of eq. (6)",
-         {ParamSpec{"c_x_nspm2", 0, false, "longitudinal coefficient", "N/(m/s)^2", 0, 1e5, 500}.physical(0, 5000).estimable_online(),
-          ParamSpec{"c_y_nspm2", 0, false, "lateral coefficient", "N/(m/s)^2", 0, 1e5, 500}.physical(0, 5000).estimable_online(),
-          ParamSpec{"c_psi_nmspr2", 0, false, "yaw coefficient", "N m/(rad/s)^2", 0, 1e4, 10}.physical(0, 20).estimable_online(),
+         {ParamSpec{"c_x_nspm2", 0, false, "longitudinal coefficient", "N/(m/s)^2", 0, 1e5, 500}.physical(0, 12000).estimable_online(),
+          ParamSpec{"c_y_nspm2", 0, false, "lateral coefficient", "N/(m/s)^2", 0, 1e5, 500}.physical(0, 12000).estimable_online(),
+          ParamSpec{"c_psi_nmspr2", 0, false, "yaw coefficient", "N m/(rad/s)^2", 0, 1e4, 10}.physical(0, 150).estimable_online(),
           ParamSpec{"isotropy", 0, false,
                     "what the x and y resistance grows with: 0 each axis's own speed (-c v |v|), 1 the speed over ground "
                     "(-c v |V|)",
