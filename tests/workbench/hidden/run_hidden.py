@@ -64,6 +64,11 @@ CONFUSABLE = {
     frozenset({"paper_params", "quadratic_drag"}),           # at few speeds, more drag ~ other D
     frozenset({"paper_params", "traction_saturation"}),      # at few speeds, saturation ~ other sigma
     frozenset({"paper_params", "screw_traction_loss"}),      # gantry: both screws always turn alike
+    # The rest of docs/workbench.md's table "Confusable pairs": all change the steady speed, ...
+    frozenset({"quadratic_drag", "traction_saturation"}),    # ... both flatten the fast end
+    frozenset({"quadratic_drag", "terrain_change"}),
+    frozenset({"traction_saturation", "terrain_change"}),
+    frozenset({"terrain_slope", "resistance_offset"}),       # both push sideways on straight runs
 }
 
 
