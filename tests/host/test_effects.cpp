@@ -144,7 +144,6 @@ TEST_CASE("traction saturation: each screw's own force, or pooled, the footprint
   CHECK_THROWS_AS(entry.make({L, Ly, p, 0, 0, 1}), std::invalid_argument);
 }
 
-
 TEST_CASE("traction saturation's friction ellipse: the axes share one limit on the norm of their loads") {
   const EffectRegistry& reg = EffectRegistry::builtin();
   const double L = 6, Ly = 2, p = 20;  // nearly a clip
@@ -184,6 +183,7 @@ TEST_CASE("traction saturation's friction ellipse: the axes share one limit on t
   CHECK((tau0 - m0.SB * slow).norm() < 1e-9 * (m0.SB * slow).norm());
   CHECK_THROWS_AS(reg.create(config("traction_saturation", {{"ellipse", -0.1}})), ConfigError);
 }
+
 TEST_CASE("dead band: other widths forward and backward, a gate, a dead zone or a ramp back to the nominal") {
   // Written from the band's physics: below the band no thrust; above it the thrust speed ramps
   // from 0 at the band with slope 1 / shift until it meets the nominal line (at band / (1 - shift)).
