@@ -102,7 +102,8 @@ class TractionSaturation final : public Effect {
 // The input S B omega is piecewise constant over the steps it is given for; the lag sees its
 // mean over the step delayed by delay_s (exact for any step length; delay_s 0 is the plain lag),
 // then follows it exactly as for a held input. State: [0] initialised, [1] time, [2] the newest
-// stored step, [3..5] the lagged force, then a ring of kSlots steps (start time, force (3)).
+// stored step, [3..5] the lagged force, [6..7] the last step's length and the lag's decay over it,
+// then a ring of kSlots steps (start time, force (3)).
 // A run starts at the steady force of its first screw speeds, and before the first step the
 // input is taken to have been that force.
 class ForceLag final : public Effect {
