@@ -18,7 +18,7 @@ using namespace search;
 // form parameters (ParamSpec::form) off their defaults to its default form (a settling IMU drift
 // to the linear one, saturation pooled over the footprint to each screw's own, a dead band of any
 // form to the symmetric dead zone, drag on the speed over ground to each axis's own, a yaw time
-// constant's soil spring to none); stick-slip friction to Coulomb friction at its sliding level, a
+// constant's soil spring to none, tanh dry friction to the hard sign); stick-slip friction to Coulomb friction at its sliding level, a
 // linear drift to a bias, a force lag with a dead time to the plain lag. False: none.
 bool simpler_form(const Part& p, const Dataset& d, Part& out) {
   bool off_default = false;
@@ -62,6 +62,7 @@ std::string simpler_form_name(const Part& from, const Part& to) {
   if (to.id == "rigid_body_coupling") return to.id + " of the rigid body alone (no added mass)";
   if (to.id == "screw_dead_band") return to.id + " as a symmetric dead zone";
   if (to.id == "quadratic_drag") return to.id + " per axis";
+  if (to.id == "coulomb_friction") return to.id + " as a hard sign (sticking below its level)";
   if (to.id == "yaw_time_constant") return to.id + " of first order (no soil spring)";
   return to.id + " in its default form";
 }

@@ -175,11 +175,31 @@ FitOutcome levenberg_marquardt(const Problem& pr, std::vector<Part> parts, int m
     staged = true;
   }
   if (!staged) return lm_free(pr, std::move(parts), max_iter);
+  std::vector<std::vector<int>> sized_free(sized.size());
+  for (std::size_t p = 0; p < sized.size(); ++p) sized_free[p] = sized[p].free;
   FitOutcome first = lm_free(pr, std::move(sized), max_iter);
   if (!std::isfinite(first.cost)) return lm_free(pr, std::move(parts), max_iter);
   for (std::size_t p = 0; p < parts.size(); ++p) first.parts[p].free = parts[p].free;
-  FitOutcome out = lm_free(pr, std::move(first.parts), max_iter);
+  FitOutcome out = lm_free(pr, first.parts, max_iter);
   out.sims += first.sims;
+  // Forms that end within 5 % of their typical size from their defaults are the default forms,
+  // and the sized fit, which holds them there exactly, is kept: a dry friction's tanh reached over
+  // 0.1 mm/s is its hard sign, but creeps, so a level the stalled robot bounds only from below
+  // (settle_stalls) ran to the end of its range instead.
+  bool near_default = std::isfinite(out.cost);
+  for (std::size_t p = 0; p < parts.size() && near_default; ++p)
+    for (int i : parts[p].free) {
+      const ParamSpec& s = parts[p].specs[static_cast<std::size_t>(i)];
+      if (!s.form || std::find(sized_free[p].begin(), sized_free[p].end(), i) != sized_free[p].end()) continue;
+      near_default = near_default && std::fabs(out.parts[p].values[static_cast<std::size_t>(i)] - s.default_value) <=
+                                        0.05 * std::fabs(s.typical);
+    }
+  if (near_default || !(out.cost < first.cost)) {
+    // Its parts as fitted: the form held (its JtJ has no column for it).
+    for (std::size_t p = 0; p < parts.size(); ++p) first.parts[p].free = sized_free[p];
+    first.sims = out.sims;
+    return first;
+  }
   return out;
 }
 

@@ -79,6 +79,49 @@ TEST_CASE("Coulomb friction: holds below the level, sliding at (tau - F) / D abo
   CHECK(zeta.x() == 0.0);
 }
 
+TEST_CASE("Coulomb friction's tanh form: creeps below the level, slides above, tends to the hard sign") {
+  const Vec3 F(20, 6, 0.5);
+  const double smooth_mps = 0.01;
+  const Model m = make_model(RobotParams{}, kSand, {std::make_shared<CoulombFriction>(F, smooth_mps)});
+  // The steady speed of tau - F tanh(u / smooth) - D u = 0, by bisection (the test's own solve).
+  auto steady = [&](double tau_n) {
+    double lo = 0, hi = tau_n / m.D_diag.x();
+    for (int i = 0; i < 200; ++i) {
+      const double u = 0.5 * (lo + hi);
+      (tau_n - F.x() * std::tanh(u / smooth_mps) - m.D_diag.x() * u > 0 ? lo : hi) = u;
+    }
+    return 0.5 * (lo + hi);
+  };
+  for (const Vec4& drive : {Vec4(-5, -5, 5, 5), Vec4(-15, -15, 15, 15)}) {
+    DynamicsData data(m);
+    Vec3 eta = Vec3::Zero(), zeta = Vec3::Zero();
+    for (int k = 0; k < 400; ++k) dynamics_step(m, data, eta, zeta, drive, 0.01);
+    const double tau_n = m.SB.row(0).dot(drive);
+    CAPTURE(tau_n);
+    // Below the level (16.2 N against 20 N) the hard sign sticks; the tanh form creeps, slower
+    // than without friction by far.
+    CHECK(zeta.x() == Approx(steady(tau_n)).epsilon(1e-6));
+    CHECK(zeta.x() > 0);
+    CHECK(zeta.x() < tau_n / m.D_diag.x());
+    // Stopped, it decelerates to rest without reversing.
+    bool reversed = false;
+    for (int k = 0; k < 300; ++k) {
+      dynamics_step(m, data, eta, zeta, Vec4::Zero(), 0.01);
+      reversed = reversed || zeta.x() < 0;
+    }
+    CHECK_FALSE(reversed);
+    CHECK(std::fabs(zeta.x()) < 1e-6);
+  }
+  // A sliding speed of 0.1 micrometre per second is the hard sign: the slow drive holds (it
+  // creeps at atanh(16.2 / 20) times that).
+  const Model hard = make_model(RobotParams{}, kSand, {std::make_shared<CoulombFriction>(F, 1e-7)});
+  DynamicsData data(hard);
+  Vec3 eta = Vec3::Zero(), zeta = Vec3::Zero();
+  for (int k = 0; k < 100; ++k) dynamics_step(hard, data, eta, zeta, Vec4(-5, -5, 5, 5), 0.01);
+  CHECK(std::fabs(zeta.x()) < 1e-6);
+  CHECK_THROWS_AS(EffectRegistry::builtin().entries().at("coulomb_friction").make({1, 1, 0, -0.01}), std::invalid_argument);
+}
+
 TEST_CASE("dead band removes the force of slow screws only") {
   const Model m = make_model(RobotParams{}, kSand, {std::make_shared<ScrewDeadBand>(2.0)});
   DynamicsData data(m);

@@ -230,12 +230,15 @@ std::string online_parameter_list(const EffectRegistry& registry);
 
 // ---- the shipped effects ----
 
-// Coulomb dry friction per DOF, hard sign form: a force of at most (force_x_n, force_y_n,
-// torque_psi_nm) opposing the motion; at rest it holds the body while the drive force is
-// below it (stiction equal to the sliding level). Applied implicitly over a step.
+// Coulomb dry friction per DOF: a force of at most (force_x_n, force_y_n, torque_psi_nm)
+// opposing the motion. smooth_mps 0 is the hard sign form: at rest it holds the body while the
+// drive force is below it (stiction equal to the sliding level). smooth_mps > 0 is the level
+// times tanh(v / smooth_mps), v the sliding speed (in yaw at the contacts): reached only once
+// sliding, so a drive below it creeps instead of sticking (soil sheared slowly resists less).
+// Applied implicitly over a step.
 class CoulombFriction final : public Effect {
  public:
-  explicit CoulombFriction(const Vec3& limit);
+  explicit CoulombFriction(const Vec3& limit, double smooth_mps = 0.0);
   const std::string& id() const override;
   std::vector<std::pair<std::string, double>> params() const override;
   void body_force(const Model& model, const EffectContext& ctx, Vec3& force_n,
@@ -244,6 +247,7 @@ class CoulombFriction final : public Effect {
 
  private:
   Vec3 limit_;
+  double smooth_mps_;
 };
 
 // Dead band: a screw turning slower than its band produces no force. The band is

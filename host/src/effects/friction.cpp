@@ -24,6 +24,13 @@ void check_non_negative(double v, const char* name) {
   if (!(v >= 0) || !std::isfinite(v)) throw std::invalid_argument(std::string(name) + " must be >= 0");
 }
 
+// The three levels of a dry friction (force_x_n, force_y_n, torque_psi_nm).
+void check_levels(const std::vector<double>& v) {
+  check_non_negative(v[0], "force_x_n");
+  check_non_negative(v[1], "force_y_n");
+  check_non_negative(v[2], "torque_psi_nm");
+}
+
 std::string dry_words(const std::vector<double>& v, const std::string& what) {
   std::string s;
   for (int k = 0; k < 3; ++k) {
@@ -131,17 +138,29 @@ class QuadraticDrag final : public Effect {
 }  // namespace
 
 void register_friction(EffectRegistry& r) {
-  r.add({"coulomb_friction", "dry friction per DOF, hard sign form, stiction = sliding level",
+  // smooth_mps's physical range: granular soil reaches its sliding resistance within a slip of a
+  // centimetre or two per second; beyond that a tanh is the paper's linear D (eq. (6)) in another
+  // name (a level over a speed).
+  r.add({"coulomb_friction", "dry friction per DOF, hard sign form (stiction = sliding level), or tanh(v / smooth_mps)",
          {ParamSpec{"force_x_n", 0, false, "longitudinal level", "N", 0, 500, 10}.physical(0, 60),
           ParamSpec{"force_y_n", 0, false, "lateral level", "N", 0, 500, 10}.physical(0, 30),
-          ParamSpec{"torque_psi_nm", 0, false, "yaw level", "N m", 0, 50, 0.5}.physical(0, 1.5)},
+          ParamSpec{"torque_psi_nm", 0, false, "yaw level", "N m", 0, 50, 0.5}.physical(0, 1.5),
+          ParamSpec{"smooth_mps", 0, false,
+                    "sliding speed over which the level is reached, level tanh(v / smooth_mps) (in yaw at the "
+                    "contacts, r hypot(l_x, l_y)); 0: hard sign, sticking below the level",
+                    "m/s", 0, 0.03, 0.005}
+              .physical(0, 0.02)
+              .form_param()},
          [](const std::vector<double>& v) {
-           check_non_negative(v[0], "force_x_n");
-           check_non_negative(v[1], "force_y_n");
-           check_non_negative(v[2], "torque_psi_nm");
-           return std::make_shared<CoulombFriction>(Vec3(v[0], v[1], v[2]));
+           check_levels(v);
+           check_non_negative(v[3], "smooth_mps");
+           return std::make_shared<CoulombFriction>(Vec3(v[0], v[1], v[2]), v[3]);
          },
-         [](const std::vector<double>& v) { return dry_words(v, "dry (Coulomb) friction"); }});
+         [](const std::vector<double>& v) {
+           return dry_words(v, v[3] > 0 ? "dry (Coulomb) friction, reached over a sliding speed of " +
+                                              fmt(v[3] * 1000) + " mm/s (tanh)"
+                                        : "dry (Coulomb) friction");
+         }});
   r.add({"stick_slip_friction",
          "dry friction per DOF with a Stribeck breakaway: breakaway_ratio times the sliding level at rest",
          {ParamSpec{"force_x_n", 0, false, "sliding level, longitudinal", "N", 0, 500, 10}.physical(0, 60),
@@ -151,9 +170,7 @@ void register_friction(EffectRegistry& r) {
           ParamSpec{"stribeck_mps", 0.005, false, "sliding speed over which the breakaway excess decays (m/s; in yaw at the contacts, r hypot(l_x, l_y))", "m/s",
            1e-4, 0.2, 0.005, false, true, true}.physical(1e-4, 0.05)},
          [](const std::vector<double>& v) {
-           check_non_negative(v[0], "force_x_n");
-           check_non_negative(v[1], "force_y_n");
-           check_non_negative(v[2], "torque_psi_nm");
+           check_levels(v);
            if (!(v[3] >= 1) || !std::isfinite(v[3])) throw std::invalid_argument("breakaway_ratio must be >= 1");
            if (!(v[4] > 0) || !std::isfinite(v[4])) throw std::invalid_argument("stribeck_mps must be > 0");
            return std::make_shared<StickSlipFriction>(Vec3(v[0], v[1], v[2]), v[3], v[4]);
