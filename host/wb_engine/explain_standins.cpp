@@ -142,6 +142,30 @@ bool Explainer::hold_one_paper_param(FitOutcome& o, std::size_t i, int k, const 
 }
 
 void Explainer::confirm_in_form(FitOutcome& o, ExplainResult& res) {
+  // Where the model leaves more than the noise floor in size, the paper's parameters re-identified
+  // are no finding: something is missing, and sigma and D take up part of it alike on every fold
+  // (on the independent generator's 100 logs of 120 s, 7 of their 10 false re-identifications, by
+  // 12-99 %, beside a friction of another form, a stick-slip, a force lag; none of the logs whose
+  // terrain was not the paper's ended above the floor). Holding them can only raise the error, so
+  // the size is judged once, on the model as it comes.
+  std::string leaves;
+  {
+    ChannelValues v{kNaN, kNaN, kNaN, kNaN};
+    compare_error(o.parts, &v);
+    int worst = -1;
+    for (int c = 0; c < kChannels; ++c) {
+      const double x = v[static_cast<std::size_t>(c)];
+      if (std::isfinite(x) && x > kVerdictNoise && (worst < 0 || x > v[static_cast<std::size_t>(worst)])) worst = c;
+    }
+    if (worst >= 0) {
+      char buf[300];
+      std::snprintf(buf, sizeof buf,
+                    "the library's model leaves %.2f times the noise floor in %s: something is missing, and "
+                    "re-identified, the paper's parameters take up part of it",
+                    v[static_cast<std::size_t>(worst)], channel_name(worst));
+      leaves = buf;
+    }
+  }
   for (int round = 0; round < 8; ++round) {
     std::vector<std::size_t> effects;
     for (std::size_t i = 0; i < o.parts.size(); ++i)
@@ -173,6 +197,7 @@ void Explainer::confirm_in_form(FitOutcome& o, ExplainResult& res) {
             end_k = static_cast<int>(k);
           }
         }
+      if (reason.empty() && paper_free(p)) reason = leaves;
       if (reason.empty()) {
         std::array<const Part*, kFolds> folds{};
         for (int f = 0; f < kFolds; ++f) {
