@@ -156,48 +156,26 @@ std::vector<std::pair<std::string, double>> CoulombFriction::params() const {
   return {{"force_x_n", limit_.x()}, {"force_y_n", limit_.y()}, {"torque_psi_nm", limit_.z()}, {"smooth_mps", smooth_mps_}};
 }
 
-namespace {
-
-// The speed a at the step's end of  a = a_free - gain level tanh(a / smooth), 0 <= a <= a_free:
-// the tanh friction applied implicitly. The left side minus the right is increasing and concave
-// on [0, a_free], negative at 0 and positive at a_free: Newton's steps, kept inside the bracket
-// (bisection where one leaves it), converge from below.
-double smooth_friction_speed(double a_free, double gain_level, double smooth) {
-  double lo = 0, hi = a_free;
-  double a = a_free / (1.0 + gain_level / smooth);  // exact where tanh is linear
-  for (int it = 0; it < 60; ++it) {
-    const double t = std::tanh(a / smooth);
-    const double h = a - a_free + gain_level * t;
-    if (h < 0) lo = a;
-    else hi = a;
-    const double dh = 1.0 + gain_level * (1.0 - t * t) / smooth;
-    double next = a - h / dh;
-    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
-    if (std::fabs(next - a) <= 1e-13 * a_free) return next;
-    a = next;
-  }
-  return a;
-}
-
-}  // namespace
-
 void CoulombFriction::body_force(const Model& m, const EffectContext& ctx, Vec3& force_n, double*) const {
   // Implicit (time-stepping) friction: the hard sign is the force that would bring the DOF to
   // rest at the step's end, clamped to the friction level. Moving fast: -limit sign(v); at rest
   // with a weak drive: exactly cancels it (sticks); never reverses the motion within a step. The
-  // tanh form is solved at the step's end speed, which also never reverses it.
+  // tanh form is linearly implicit: -L tanh(v / s) linearized at the step's start speed v0 and
+  // solved at its end (one tanh per DOF; exact at a steady speed, stable however steep the tanh:
+  // its slope only damps), never beyond the stop either.
   const double contact_radius_m = std::hypot(m.robot.l_x_m, m.robot.l_y_m);
   for (int k = 0; k < 3; ++k) {
     const double stop = -ctx.zeta_free[k] / ctx.gain[k];
-    if (!(smooth_mps_ > 0) || !(limit_[k] > 0) || ctx.zeta_free[k] == 0) {
+    if (!(smooth_mps_ > 0)) {
       force_n[k] = std::clamp(stop, -limit_[k], limit_[k]);
       continue;
     }
     // In yaw the contacts slide at r hypot(l_x, l_y) (eq. (1)'s mounts), as for stick-slip.
     const double smooth = smooth_mps_ / (k == 2 && contact_radius_m > 0 ? contact_radius_m : 1.0);
-    const double a_free = std::fabs(ctx.zeta_free[k]);
-    const double a = smooth_friction_speed(a_free, ctx.gain[k] * limit_[k], smooth);
-    force_n[k] = (ctx.zeta_free[k] > 0 ? a - a_free : a_free - a) / ctx.gain[k];
+    const double v0 = ctx.zeta[k], t = std::tanh(v0 / smooth);
+    const double slope = limit_[k] * (1.0 - t * t) / smooth;  // -df/dv >= 0
+    const double f = (-limit_[k] * t - slope * (ctx.zeta_free[k] - v0)) / (1.0 + ctx.gain[k] * slope);
+    force_n[k] = stop > 0 ? std::clamp(f, -limit_[k], stop) : std::clamp(f, stop, limit_[k]);
   }
 }
 
