@@ -153,7 +153,8 @@ const std::string& CoulombFriction::id() const {
   return s;
 }
 std::vector<std::pair<std::string, double>> CoulombFriction::params() const {
-  return {{"force_x_n", limit_.x()}, {"force_y_n", limit_.y()}, {"torque_psi_nm", limit_.z()}, {"smooth_mps", smooth_mps_}};
+  return {{"force_x_n", limit_.x()}, {"force_y_n", limit_.y()}, {"torque_psi_nm", limit_.z()},
+          {"smooth_mps", smooth_mps_}};
 }
 
 void CoulombFriction::body_force(const Model& m, const EffectContext& ctx, Vec3& force_n, double*) const {

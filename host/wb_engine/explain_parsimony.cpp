@@ -18,8 +18,9 @@ using namespace search;
 // form parameters (ParamSpec::form) off their defaults to its default form (a settling IMU drift
 // to the linear one, saturation pooled over the footprint to each screw's own, a dead band of any
 // form to the symmetric dead zone, drag on the speed over ground to each axis's own, a yaw time
-// constant's soil spring to none, tanh dry friction to the hard sign); stick-slip friction to Coulomb friction at its sliding level, a
-// linear drift to a bias, a force lag with a dead time to the plain lag. False: none.
+// constant's soil spring to none, tanh dry friction to the hard sign); stick-slip friction to
+// Coulomb friction at its sliding level, a linear drift to a bias, a force lag with a dead time
+// to the plain lag. False: none.
 bool simpler_form(const Part& p, const Dataset& d, Part& out) {
   bool off_default = false;
   for (std::size_t k = 0; k < p.specs.size() && k < p.values.size(); ++k)

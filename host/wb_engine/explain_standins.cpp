@@ -145,9 +145,9 @@ void Explainer::confirm_in_form(FitOutcome& o, ExplainResult& res) {
   // Where the model leaves more than the noise floor in size, the paper's parameters re-identified
   // are no finding: something is missing, and sigma and D take up part of it alike on every fold
   // (on the independent generator's 100 logs of 120 s, 7 of their 10 false re-identifications, by
-  // 12-99 %, beside a friction of another form, a stick-slip, a force lag; none of the logs whose
-  // terrain was not the paper's ended above the floor). Holding them can only raise the error, so
-  // the size is judged once, on the model as it comes.
+  // 12-99 %, beside a dry friction or a stick-slip of another form, added mass, a saturation; none
+  // of the logs whose terrain was not the paper's ended above the floor). Holding them can only
+  // raise the error, so the size is judged once, on the model as it comes.
   std::string leaves;
   {
     ChannelValues v{kNaN, kNaN, kNaN, kNaN};
