@@ -164,15 +164,14 @@ void CoulombFriction::body_force(const Model& m, const EffectContext& ctx, Vec3&
   // tanh form is linearly implicit: -L tanh(v / s) linearized at the step's start speed v0 and
   // solved at its end (one tanh per DOF; exact at a steady speed, stable however steep the tanh:
   // its slope only damps), never beyond the stop either.
-  const double contact_radius_m = std::hypot(m.robot.l_x_m, m.robot.l_y_m);
   for (int k = 0; k < 3; ++k) {
     const double stop = -ctx.zeta_free[k] / ctx.gain[k];
     if (!(smooth_mps_ > 0)) {
       force_n[k] = std::clamp(stop, -limit_[k], limit_[k]);
       continue;
     }
-    // In yaw the contacts slide at r hypot(l_x, l_y) (eq. (1)'s mounts), as for stick-slip.
-    const double smooth = smooth_mps_ / (k == 2 && contact_radius_m > 0 ? contact_radius_m : 1.0);
+    // In yaw the contacts slide at r hypot(l_x, l_y), as for stick-slip.
+    const double smooth = smooth_mps_ / effects::contact_speed_per_unit(m, k);
     const double v0 = ctx.zeta[k], t = std::tanh(v0 / smooth);
     const double slope = limit_[k] * (1.0 - t * t) / smooth;  // -df/dv >= 0
     const double f = (-limit_[k] * t - slope * (ctx.zeta_free[k] - v0)) / (1.0 + ctx.gain[k] * slope);

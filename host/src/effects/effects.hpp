@@ -4,6 +4,7 @@
 // below, one line in host/CMakeLists.txt's auger_core list.
 #pragma once
 
+#include <cmath>
 #include <string>
 
 #include "auger/effect.hpp"
@@ -19,5 +20,14 @@ void register_term(EffectRegistry& r);          // term.cpp: term (a discovered 
 
 // Number formatting for describe() texts: "15", "0.12", "3.4e-05".
 std::string fmt(double value);
+
+// How fast the screws' contacts slide per unit of DOF k's speed (eq. (1)'s mounts): 1 along x and
+// y (m/s per m/s), r hypot(l_x, l_y) in yaw (m/s per rad/s); the dry frictions' sliding speeds
+// are speeds at the contacts.
+inline double contact_speed_per_unit(const Model& m, int k) {
+  if (k != 2) return 1.0;
+  const double r_m = std::hypot(m.robot.l_x_m, m.robot.l_y_m);
+  return r_m > 0 ? r_m : 1.0;
+}
 
 }  // namespace auger::effects

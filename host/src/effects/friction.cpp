@@ -62,10 +62,9 @@ class StickSlipFriction final : public Effect {
             {"breakaway_ratio", breakaway_}, {"stribeck_mps", v_s_}};
   }
   void body_force(const Model& m, const EffectContext& ctx, Vec3& force_n, double*) const override {
-    const double contact_radius_m = std::hypot(m.robot.l_x_m, m.robot.l_y_m);
     for (int k = 0; k < 3; ++k) {
       const double stop = -ctx.zeta_free[k] / ctx.gain[k];
-      const double slide_mps = std::fabs(ctx.zeta[k]) * (k == 2 && contact_radius_m > 0 ? contact_radius_m : 1.0);
+      const double slide_mps = std::fabs(ctx.zeta[k]) * contact_speed_per_unit(m, k);
       const double level = kinetic_[k] * (1.0 + (breakaway_ - 1.0) * std::exp(-slide_mps / v_s_));
       force_n[k] = std::clamp(stop, -level, level);
     }
