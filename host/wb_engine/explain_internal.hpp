@@ -371,7 +371,8 @@ class Explainer {
   // ---- the check of form (explain_standins.cpp, docs/workbench.md "Parsimony", confirmed in form)
   // Where the model leaves structure, each library effect and the paper's parameters re-identified
   // must say the same fitted on each two thirds of the segments (and the paper's parameters must
-  // not sit at the end of their range); those that do not leave the model, the largest first,
+  // not sit at the end of their range, nor be re-identified where res.library_ratio, o's error,
+  // is above the noise floor in size); those that do not leave the model, the largest first,
   // and are listed in res.stand_ins.
   void confirm_in_form(FitOutcome& o, ExplainResult& res);
   // Part i's paper parameter k, at the end of its range, held at the paper's value with the rest

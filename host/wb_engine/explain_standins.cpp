@@ -147,11 +147,11 @@ void Explainer::confirm_in_form(FitOutcome& o, ExplainResult& res) {
   // (on the independent generator's 100 logs of 120 s, 7 of their 10 false re-identifications, by
   // 12-99 %, beside a dry friction or a stick-slip of another form, added mass, a saturation; none
   // of the logs whose terrain was not the paper's ended above the floor). Holding them can only
-  // raise the error, so the size is judged once, on the model as it comes.
+  // raise the error, so the size is judged once, on the model as it comes: finish() has just
+  // computed its error per channel (res.library_ratio).
   std::string leaves;
   {
-    ChannelValues v{kNaN, kNaN, kNaN, kNaN};
-    compare_error(o.parts, &v);
+    const ChannelValues& v = res.library_ratio;
     int worst = -1;
     for (int c = 0; c < kChannels; ++c) {
       const double x = v[static_cast<std::size_t>(c)];

@@ -175,9 +175,7 @@ FitOutcome levenberg_marquardt(const Problem& pr, std::vector<Part> parts, int m
     staged = true;
   }
   if (!staged) return lm_free(pr, std::move(parts), max_iter);
-  std::vector<std::vector<int>> sized_free(sized.size());
-  for (std::size_t p = 0; p < sized.size(); ++p) sized_free[p] = sized[p].free;
-  FitOutcome first = lm_free(pr, std::move(sized), max_iter);
+  FitOutcome first = lm_free(pr, sized, max_iter);
   if (!std::isfinite(first.cost)) return lm_free(pr, std::move(parts), max_iter);
   for (std::size_t p = 0; p < parts.size(); ++p) first.parts[p].free = parts[p].free;
   FitOutcome out = lm_free(pr, first.parts, max_iter);
@@ -190,13 +188,13 @@ FitOutcome levenberg_marquardt(const Problem& pr, std::vector<Part> parts, int m
   for (std::size_t p = 0; p < parts.size() && near_default; ++p)
     for (int i : parts[p].free) {
       const ParamSpec& s = parts[p].specs[static_cast<std::size_t>(i)];
-      if (!s.form || std::find(sized_free[p].begin(), sized_free[p].end(), i) != sized_free[p].end()) continue;
+      if (!s.form || std::find(sized[p].free.begin(), sized[p].free.end(), i) != sized[p].free.end()) continue;
       near_default = near_default && std::fabs(out.parts[p].values[static_cast<std::size_t>(i)] - s.default_value) <=
                                         0.05 * std::fabs(s.typical);
     }
   if (near_default || !(out.cost < first.cost)) {
     // Its parts as fitted: the form held (its JtJ has no column for it).
-    for (std::size_t p = 0; p < parts.size(); ++p) first.parts[p].free = sized_free[p];
+    for (std::size_t p = 0; p < parts.size(); ++p) first.parts[p].free = sized[p].free;
     first.sims = out.sims;
     return first;
   }
