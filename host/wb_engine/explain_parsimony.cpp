@@ -65,6 +65,7 @@ std::string simpler_form_name(const Part& from, const Part& to) {
   if (to.id == "quadratic_drag") return to.id + " per axis";
   if (to.id == "coulomb_friction") return to.id + " as a hard sign (sticking below its level)";
   if (to.id == "yaw_time_constant") return to.id + " of first order (no soil spring)";
+  if (to.id == "screw_blocking") return to.id + " at once (no sinking in, no hysteresis)";
   return to.id + " in its default form";
 }
 

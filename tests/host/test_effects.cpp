@@ -1,6 +1,8 @@
 // Effect interface and registry: creation by id with checked parameters, and the shipped effects
 // against their closed-form behaviour.
 #include <cmath>
+#include <algorithm>
+#include <memory>
 #include <vector>
 
 #include <catch2/catch.hpp>
@@ -498,4 +500,64 @@ TEST_CASE("rigid-body coupling: the rigid body's Coriolis terms; added mass adds
   CHECK(M[1] == Approx(3 * m));
   CHECK_THROWS_AS(reg.create(config("rigid_body_coupling", {{"added_sway", -0.5}})), ConfigError);
   CHECK_THROWS_AS(reg.create(config("rigid_body_coupling", {{"added_surge", -0.5}})), ConfigError);
+}
+
+namespace {
+// The force a screw_blocking effect puts on a robot whose contacts slide at 1 m/s along x (far
+// above any blocked screw's limit, so each blocked contact resists with its whole limit), every
+// screw at omega_rpm, one 10 ms step after another.
+struct BlockingProbe {
+  std::shared_ptr<const Effect> e;
+  Model m;
+  std::vector<double> state;
+  explicit BlockingProbe(const std::vector<double>& values)
+      : e(EffectRegistry::builtin().entries().at("screw_blocking").make(values)),
+        m(make_model(RobotParams{}, kSand, {e})),
+        state(e->state_size()) {
+    e->reset_state(state.data());
+  }
+  double step(double omega_rpm) {
+    EffectContext c;
+    c.omega_rpm = Vec4::Constant(omega_rpm);
+    c.dt_s = 0.01;
+    c.zeta_free = Vec3(1, 0, 0);
+    c.gain = Vec3(1e-3, 1e-3, 1e-3);
+    Vec3 f;
+    e->body_force(m, c, f, state.empty() ? nullptr : state.data());
+    return -f.x();
+  }
+};
+}  // namespace
+
+TEST_CASE("screw blocking: at once by default; sinking in over sink_s, freed only above release x the threshold") {
+  const double force_n = 5, block_rpm = 2;
+  SECTION("the default blocks at once and frees at once") {
+    BlockingProbe p({force_n, block_rpm, 0.4});
+    CHECK(p.state.empty());
+    CHECK(p.step(0) == Approx(4 * force_n).epsilon(1e-3));
+    CHECK(p.step(1.5 * block_rpm) == 0.0);  // above the fade (1.2 x the threshold)
+    CHECK(p.step(block_rpm) == Approx(2 * force_n).epsilon(1e-3));  // half of each screw in the fade's middle
+  }
+  SECTION("sinking in: the resistance grows linearly over sink_s, then holds") {
+    BlockingProbe p({force_n, block_rpm, 0.4, 0.5, 1});
+    for (int k = 1; k <= 80; ++k) {
+      CAPTURE(k);
+      CHECK(p.step(0) == Approx(4 * force_n * std::min(1.0, k * 0.01 / 0.5)).epsilon(1e-3));
+    }
+    // Without hysteresis, speeding up past the threshold frees the screws; slowing again starts over.
+    CHECK(p.step(1.5 * block_rpm) == 0.0);
+    CHECK(p.step(0) == Approx(4 * force_n * 0.01 / 0.5).epsilon(1e-3));
+  }
+  SECTION("hysteresis: a sunk screw holds between the threshold and release x it, and is freed above") {
+    BlockingProbe p({force_n, block_rpm, 0.4, 0.2, 2.5});
+    for (int k = 0; k < 30; ++k) p.step(0);
+    CHECK(p.step(1.5 * block_rpm) == Approx(4 * force_n).epsilon(1e-3));  // 3 rpm: above 2.4, below 4
+    CHECK(p.step(2.0 * block_rpm) == Approx(4 * force_n).epsilon(1e-3));
+    CHECK(p.step(3.5 * block_rpm) == 0.0);  // 7 rpm: above 2.5 x 2 rpm x 1.2
+    CHECK(p.step(1.5 * block_rpm) == 0.0);  // freed, it does not block again between the two
+    CHECK(p.step(0) == Approx(4 * force_n * 0.01 / 0.2).epsilon(1e-3));
+  }
+  const auto& entry = EffectRegistry::builtin().entries().at("screw_blocking");
+  CHECK_THROWS_AS(entry.make({force_n, block_rpm, 0.4, -0.1, 1}), std::invalid_argument);
+  CHECK_THROWS_AS(entry.make({force_n, block_rpm, 0.4, 0.5, 0.9}), std::invalid_argument);
 }

@@ -125,25 +125,41 @@ class YawTimeConstant final : public Effect {
 // to none above (1 + width / 2) omega_block_rpm: a logged speed is a mean over 10 ms or more,
 // and a screw held near the threshold by its speed loop blocks for part of that time (a hard
 // switch would also make the fit's cost flat in the threshold).
+// Its form: a screw left slow sinks in (sink_s > 0): its resistance grows over sink_s of slow
+// turning, not at once, and once sunk it is freed only above release x omega_block_rpm, when its
+// thread carves out of the soil again (release > 1: hysteresis). The defaults, sink_s 0 and
+// release 1, are the blocking above.
 class ScrewBlocking final : public Effect {
  public:
-  ScrewBlocking(double force_n, double omega_block_rpm, double width)
-      : force_n_(force_n), omega_block_rpm_(omega_block_rpm), width_(width) {}
+  ScrewBlocking(double force_n, double omega_block_rpm, double width, double sink_s, double release)
+      : force_n_(force_n), omega_block_rpm_(omega_block_rpm), width_(width), sink_s_(sink_s), release_(release) {}
   const std::string& id() const override {
     static const std::string s = "screw_blocking";
     return s;
   }
   std::vector<std::pair<std::string, double>> params() const override {
-    return {{"force_n", force_n_}, {"omega_block_rpm", omega_block_rpm_}, {"width", width_}};
+    return {{"force_n", force_n_}, {"omega_block_rpm", omega_block_rpm_}, {"width", width_},
+            {"sink_s", sink_s_},   {"release", release_}};
   }
-  void body_force(const Model& model, const EffectContext& ctx, Vec3& force_n, double*) const override {
+  // state: how far each screw has sunk in, 0 (free) to 1 (fully blocked)
+  std::size_t state_size() const override { return sinks() ? 4 : 0; }
+  void reset_state(double* state) const override { std::fill(state, state + state_size(), 0.0); }
+  void body_force(const Model& model, const EffectContext& ctx, Vec3& force_n, double* state) const override {
     force_n.setZero();
     std::array<double, 4> limit_n{};
     bool any = false;
-    for (int i = 0; i < 4; ++i) {
-      const double w = (omega_block_rpm_ - std::fabs(ctx.omega_rpm[i])) / (width_ * omega_block_rpm_) + 0.5;
-      limit_n[static_cast<std::size_t>(i)] = force_n_ * std::clamp(w, 0.0, 1.0);
-      any = any || limit_n[static_cast<std::size_t>(i)] > 0;
+    for (std::size_t i = 0; i < 4; ++i) {
+      const double speed_rpm = std::fabs(ctx.omega_rpm[static_cast<int>(i)]);
+      double depth = fade(speed_rpm, omega_block_rpm_);
+      if (sinks() && state != nullptr) {
+        // Sinks towards the share the speed allows at 1 / sink_s; rises out only above release.
+        const double grown = sink_s_ > 0 ? state[i] + ctx.dt_s / sink_s_ : 1.0;
+        const double held = std::min(state[i], fade(speed_rpm, release_ * omega_block_rpm_));
+        depth = std::max(std::min(grown, depth), held);
+        state[i] = depth;
+      }
+      limit_n[i] = force_n_ * depth;
+      any = any || limit_n[i] > 0;
     }
     if (!any) return;
     // Contact i moves with P_i zeta, P_i = [[1, 0, -y_i], [0, 1, x_i]] (docs/model-notes.md "Frames").
@@ -177,7 +193,13 @@ class ScrewBlocking final : public Effect {
   }
 
  private:
-  double force_n_, omega_block_rpm_, width_;
+  bool sinks() const { return sink_s_ > 0 || release_ > 1; }
+  // The share of a screw turning at speed_rpm blocked by a threshold: 1 well below it, 0 well
+  // above, linear over width x threshold around it.
+  double fade(double speed_rpm, double threshold_rpm) const {
+    return std::clamp((threshold_rpm - speed_rpm) / (width_ * threshold_rpm) + 0.5, 0.0, 1.0);
+  }
+  double force_n_, omega_block_rpm_, width_, sink_s_, release_;
 };
 
 void check_finite_positive(double v, const char* name) {
@@ -250,24 +272,41 @@ void register_body(EffectRegistry& r) {
          }});
   r.add({"screw_blocking",
          "a screw slower than omega_block_rpm resists its contact's motion with dry friction of up to force_n",
+         // From a screw that barely drags in loose sand to one pinned under the robot's weight
+         // (mu m g / 4 is 36 N at mu = 0.5; a screw dug in can hold several times that).
          {ParamSpec{"force_n", 30, true, "dry resistance of one blocked screw", "N", 0.1, 500, 30, false, true, true}
-              .physical(2, 150),
+              .physical(0.1, 150),
           ParamSpec{"omega_block_rpm", 1.5, false, "speed below which a screw blocks", "rpm", 0.05, 10, 1.5}
               .physical(0.2, 5),
           // Not fitted: fitted, the fade and the threshold trade against each other (a threshold of
           // 2.9 rpm with no fade for the truth's 1.5 rpm on a firmware-in-the-loop square).
           ParamSpec{"width", 0.4, false, "width of the fade around omega_block_rpm, as a fraction of it", "", 0.02, 2, 0.4,
                     false, false}
-              .physical(0.02, 2)},
+              .physical(0.02, 2),
+          // Form parameters. A screw sinks in over a fraction of a second to a few seconds (3 s of
+          // standing to block fully is sand that barely gives); it digs out at up to three times
+          // the speed at which it blocked.
+          ParamSpec{"sink_s", 0, false, "time a slow screw takes to sink in fully (0: blocks at once)", "s", 0, 5, 0.5}
+              .physical(0, 3)
+              .form_param(),
+          ParamSpec{"release", 1, false, "speed that frees a sunk screw, as a multiple of omega_block_rpm", "", 1, 4,
+                    0.5}
+              .physical(1, 3)
+              .form_param()},
          [](const std::vector<double>& v) {
            check_finite_positive(v[0], "force_n");
            check_finite_positive(v[1], "omega_block_rpm");
            check_finite_positive(v[2], "width");
-           return std::make_shared<ScrewBlocking>(v[0], v[1], v[2]);
+           if (!(v[3] >= 0) || !std::isfinite(v[3])) throw std::invalid_argument("sink_s must be >= 0");
+           if (!(v[4] >= 1) || !std::isfinite(v[4])) throw std::invalid_argument("release must be >= 1");
+           return std::make_shared<ScrewBlocking>(v[0], v[1], v[2], v[3], v[4]);
          },
          [](const std::vector<double>& v) {
-           return "a screw turning slower than " + fmt(v[1]) + " rpm blocks in the soil and resists with up to " +
-                  fmt(v[0]) + " N at its contact: blocking of stopped screws";
+           std::string d = "a screw turning slower than " + fmt(v[1]) + " rpm blocks in the soil and resists with up to " +
+                           fmt(v[0]) + " N at its contact";
+           if (v[3] > 0) d += ", sinking in fully over " + fmt(v[3]) + " s of slow turning";
+           if (fmt(v[4] * v[1]) != fmt(v[1])) d += ", freed only above " + fmt(v[4] * v[1]) + " rpm";
+           return d + ": blocking of stopped screws";
          }});
 }
 
