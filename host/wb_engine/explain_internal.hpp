@@ -44,6 +44,11 @@ constexpr double kAtNoise = 1.15;
 // The verdict's noise: every channel of the final model, as compare reports it, at most this
 // multiple of the noise floor (docs/workbench.md "The stop rule").
 constexpr double kVerdictNoise = 1.2;
+// How many times the best structure's ranked held-out error a structure may leave and still be
+// carried on in the beam (docs/workbench.md "explain", 5): 1.5, and 1.25 once the best is at the
+// noise floor on the held-out segments (best_heldout <= kVerdictNoise), where a worse one has
+// nothing left to gain on it.
+inline double beam_gap(double best_heldout) { return best_heldout <= kVerdictNoise ? 1.25 : 1.5; }
 // Adding an effect must gain this much in BIC (strong evidence, Kass and Raftery) and lower the
 // held-out error by this share.
 constexpr double kAddBic = -10.0;
