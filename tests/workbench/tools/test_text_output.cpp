@@ -109,6 +109,27 @@ TEST_CASE("diagnose's text and JSON: the ranking rule, each candidate's group, f
     CHECK_THAT(t.out, Catch::Contains("FLAG " + item.substr(item.find(':') + 1) + ": "));
   }
   CHECK(n_flags >= 1);  // on this log at least one library effect cannot be identified
+  // A candidate's row is marked implausible exactly when the JSON puts it in that group.
+  const std::string rows = tools_test::json_eval(
+      dir, j.out,
+      "'|'.join('%4d  %s %d' % (i + 1, c['effect'], c['rank_group'] == 'improves_implausible') "
+      "for i, c in enumerate(d['candidates']))");
+  std::istringstream rs(rows);
+  int n_marked = 0;
+  for (std::string item; std::getline(rs, item, '|');) {
+    const bool marked = item.back() == '1';
+    const std::string head = item.substr(0, item.size() - 2);
+    bool found = false;
+    for (const std::string& line : lines_of(t.out))
+      if (line.rfind(head + " ", 0) == 0) {
+        found = true;
+        INFO(line);
+        CHECK((line.find("   implausible") != std::string::npos) == marked);
+      }
+    CHECK(found);
+    n_marked += marked;
+  }
+  CHECK(n_marked >= 1);  // on this log a fit of a library effect leaves its physical range
   CHECK_THAT(tools_test::json_eval(dir, j.out, "d['next']"), Catch::StartsWith("auger fit "));
 }
 
