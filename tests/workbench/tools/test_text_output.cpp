@@ -15,10 +15,11 @@
 
 namespace {
 
-std::vector<std::string> lines_of(const std::string& text) {
+// The text's parts between separators (its lines by default).
+std::vector<std::string> lines_of(const std::string& text, char separator = '\n') {
   std::vector<std::string> out;
   std::istringstream is(text);
-  for (std::string l; std::getline(is, l);) out.push_back(l);
+  for (std::string l; std::getline(is, l, separator);) out.push_back(l);
   return out;
 }
 
@@ -101,9 +102,8 @@ TEST_CASE("diagnose's text and JSON: the ranking rule, each candidate's group, f
   // Every flagged parameter is printed as a FLAG line.
   const std::string flagged = tools_test::json_eval(
       dir, j.out, "'|'.join(c['effect'] + ':' + p for c in d['candidates'] for p in c['flags'])");
-  std::istringstream fs(flagged);
   int n_flags = 0;
-  for (std::string item; std::getline(fs, item, '|');) {
+  for (const std::string& item : lines_of(flagged, '|')) {
     if (item.empty()) continue;
     ++n_flags;
     CHECK_THAT(t.out, Catch::Contains("FLAG " + item.substr(item.find(':') + 1) + ": "));
@@ -114,13 +114,13 @@ TEST_CASE("diagnose's text and JSON: the ranking rule, each candidate's group, f
       dir, j.out,
       "'|'.join('%4d  %s %d' % (i + 1, c['effect'], c['rank_group'] == 'improves_implausible') "
       "for i, c in enumerate(d['candidates']))");
-  std::istringstream rs(rows);
+  const std::vector<std::string> text_lines = lines_of(t.out);
   int n_marked = 0;
-  for (std::string item; std::getline(rs, item, '|');) {
+  for (const std::string& item : lines_of(rows, '|')) {
     const bool marked = item.back() == '1';
     const std::string head = item.substr(0, item.size() - 2);
     bool found = false;
-    for (const std::string& line : lines_of(t.out))
+    for (const std::string& line : text_lines)
       if (line.rfind(head + " ", 0) == 0) {
         found = true;
         INFO(line);
