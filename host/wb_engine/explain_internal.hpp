@@ -384,6 +384,10 @@ class Explainer {
   // refitted, where that costs at most 2 % (the log does not identify it); true when o changed.
   // at_end: what sits there ("D_y at the end of its physical range, ..."), for the reason given.
   bool hold_one_paper_param(FitOutcome& o, std::size_t i, int k, const std::string& at_end, ExplainResult& res);
+  // Why o's paper parameters (part i, re-identified) are no finding where o is at the noise floor
+  // in size but not in form: held at the paper's values (held: that fit), the model is still at
+  // kAtNoise in every channel. "" when the log needs them.
+  std::string paper_not_needed(const FitOutcome& o, std::size_t i, FitOutcome& held);
   // Why part p's folds (its fits on each two thirds of the segments) disagree with it ("" when
   // they agree); params: the fit's parameters, p's from index at.
   std::string fold_disagreement(const Part& p, const std::array<const Part*, kFolds>& folds,

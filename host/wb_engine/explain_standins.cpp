@@ -141,6 +141,37 @@ bool Explainer::hold_one_paper_param(FitOutcome& o, std::size_t i, int k, const 
   return true;
 }
 
+// Where the model is at the noise floor in size but its residuals are not noise, something is
+// still missing, and the paper's parameters re-identified may have taken up part of it though
+// every fold agrees: on the independent generator's 100 logs of 120 s, 4 of the 15 false
+// discoveries were such re-identifications, 12-63 % off the tables (sigma_long and D_x moved
+// together by 1.12 and 1.63 beside a quadratic drag and a sinking blocking: the same steady speed,
+// only the time constant, which a lag or a blocking's transient also bends). They are a finding
+// only when the log needs them: held at the paper's values with the rest refitted, the model
+// leaves more than kAtNoise times the noise floor in some channel. held: that fit, kept for the
+// caller (it is the model without them); "" when they are needed.
+std::string Explainer::paper_not_needed(const FitOutcome& o, std::size_t i, FitOutcome& held) {
+  held = refit(all_, without_part(o.parts, i), 12, 1);
+  ++structures_;
+  if (!std::isfinite(held.cost)) return "";
+  polish(held);
+  ChannelValues v{kNaN, kNaN, kNaN, kNaN};
+  const double with = compare_error(o.parts), without = compare_error(held.parts, &v);
+  detail("explain: form check: paper_params held at the paper's values: %.3f against %.3f times the noise floor",
+         without, with);
+  double worst = 0;
+  for (double x : v)
+    if (std::isfinite(x)) worst = std::max(worst, x);
+  if (!(worst <= kAtNoise)) return "";
+  char buf[300];
+  std::snprintf(buf, sizeof buf,
+                "the log does not need them: held at the paper's values the model is within %.2f times the noise "
+                "floor in every channel, and with them its residuals are not noise: what they took up may be "
+                "part of what is missing",
+                worst);
+  return buf;
+}
+
 void Explainer::confirm_in_form(FitOutcome& o, ExplainResult& res) {
   // Where the model leaves more than the noise floor in size, the paper's parameters re-identified
   // are no finding: something is missing, and sigma and D take up part of it alike on every fold
@@ -167,6 +198,8 @@ void Explainer::confirm_in_form(FitOutcome& o, ExplainResult& res) {
     }
   }
   for (int round = 0; round < 8; ++round) {
+    FitOutcome held;  // this round's model with part held_for's paper parameters held (paper_not_needed)
+    std::size_t held_for = o.parts.size();
     std::vector<std::size_t> effects;
     for (std::size_t i = 0; i < o.parts.size(); ++i)
       if (is_library_effect(o.parts[i]) || paper_free(o.parts[i])) effects.push_back(i);
@@ -206,6 +239,10 @@ void Explainer::confirm_in_form(FitOutcome& o, ExplainResult& res) {
         }
         reason = fold_disagreement(p, folds, params, start[i]);
       }
+      if (reason.empty() && paper_free(p)) {
+        reason = paper_not_needed(o, i, held);
+        held_for = i;
+      }
       detail("explain: form check: %s: %s", label(p, ctx_.size()).c_str(),
              reason.empty() ? "confirmed" : reason.c_str());
       if (reason.empty()) continue;
@@ -242,10 +279,11 @@ void Explainer::confirm_in_form(FitOutcome& o, ExplainResult& res) {
     s.effect = label(o.parts[stand_in], ctx_.size());
     s.contribution = size;
     compare_error(o.parts, &s.ratio_with);
-    FitOutcome again = refit(all_, without_part(o.parts, stand_in), 12, 1);
-    ++structures_;
+    const bool reuse = held_for == stand_in && std::isfinite(held.cost);
+    FitOutcome again = reuse ? std::move(held) : refit(all_, without_part(o.parts, stand_in), 12, 1);
+    if (!reuse) ++structures_;
     if (!std::isfinite(again.cost)) return;
-    polish(again);
+    if (!reuse) polish(again);
     compare_error(again.parts, &s.ratio_without);
     s.why = (o.parts[stand_in].entry ? "removed: " : "held at the paper's values: ") + why;
     progress("explain: form check: %s is a possible stand-in (%s)", s.effect.c_str(), s.why.c_str());
