@@ -48,12 +48,15 @@ std::vector<TermInputs> term_rows(const Model& model, const Dataset& data) {
 
 // The coefficient that makes the term a force of the dof's reference size at its RMS over the
 // rows; false if it is zero throughout or (but a constant) does not vary.
-bool term_scale_over(const std::vector<TermInputs>& rows, const TermForm& f, double* scale) {
+bool term_scale_over(const Model& model, const std::vector<TermInputs>& rows, const TermForm& f, double* scale) {
   double sum = 0, sum2 = 0;
   std::size_t n = 0;
   for (const TermInputs& r : rows) {
     double v = 0;
-    if (f.dof() >= TermDof::kScrew0) {
+    if (f.dof() == TermDof::kDrag) {
+      // A fraction of the drag: its force (N) in the plane, where the reference size is.
+      v = f.value(r) * model.D_diag.head<2>().cwiseProduct(r.zeta.head<2>()).norm();
+    } else if (f.dof() >= TermDof::kScrew0) {
       // A screw's term in rpm: the largest over the screws it acts on.
       for (int i = 0; i < 4; ++i) {
         if (f.dof() != TermDof::kScrews && static_cast<int>(f.dof()) - static_cast<int>(TermDof::kScrew0) != i) continue;
@@ -71,7 +74,7 @@ bool term_scale_over(const std::vector<TermInputs>& rows, const TermForm& f, dou
   const double spread = std::sqrt(std::max(0.0, sum2 / static_cast<double>(n) - mean * mean));
   // A term that does not vary cannot be told from a constant force (kept: "1") or from nothing.
   if (!(rms > 1e-12) || (f.form_text() != "1" && spread < 1e-6 * rms)) return false;
-  *scale = reference_size(f.dof_text()) / rms;
+  *scale = reference_size(f.dof() == TermDof::kDrag ? "x" : f.dof_text()) / rms;
   return true;
 }
 
@@ -117,6 +120,11 @@ std::vector<DictionaryTerm> term_dictionary(const Model& model, const Dataset& d
     for (const char* f : {"omega_rpm", "sign(omega_rpm)", "pos(omega_rpm)", "neg(omega_rpm)", "sqs(omega_rpm)",
                           "omega_rpm*t_s"})
       raw.push_back({dof, f});
+  // The ground's drag on every axis alike growing or falling over the log or across the field
+  // (soil that the screws work softer or the robot sinks into), as one term where three of the
+  // body dofs' (u t on x, v t on y, r t on yaw) would each pay for its own column.
+  if (!data.gantry)
+    for (const char* f : {"t_s", "x_m", "y_m"}) raw.push_back({"drag", f});
   // Traction that changes with how the body moves over the ground (soil churned by turning,
   // screws slipping sideways or at speed), on every screw alike: omega times |u|, |v|, |r|.
   for (const char* f : {"omega_rpm*abs(u_mps)", "omega_rpm*abs(v_mps)", "omega_rpm*abs(r_radps)"})
@@ -131,7 +139,7 @@ std::vector<DictionaryTerm> term_dictionary(const Model& model, const Dataset& d
   for (const auto& [dof, form] : raw) {
     const TermForm f(dof, form);
     double scale = 0;
-    if (term_scale_over(rows, f, &scale)) out.push_back({f.dof_text(), f.form_text(), scale});
+    if (term_scale_over(model, rows, f, &scale)) out.push_back({f.dof_text(), f.form_text(), scale});
   }
   return out;
 }
@@ -174,7 +182,7 @@ double matched_coefficient(const Model& model, const Dataset& data, const std::s
 double term_scale(const Model& model, const Dataset& data, const std::string& dof, const std::string& form) {
   double scale = 0;
   const TermForm f(dof, form);
-  if (!term_scale_over(term_rows(model, data), f, &scale))
+  if (!term_scale_over(model, term_rows(model, data), f, &scale))
     throw std::invalid_argument("the term " + f.dof_text() + ": " + f.form_text() + " does not vary in " + data.path);
   return scale;
 }

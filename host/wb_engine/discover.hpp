@@ -25,8 +25,9 @@ struct DictionaryTerm {
 // The dictionary for a log: per body dof (x, y, yaw) the body velocities u, v, r, each alone, its
 // sign, |.| and .|.|; the products u r, v r, u v; sin and cos of the heading; u and v times
 // sin 2psi and cos 2psi (ground that is harder to cross one way); t, u t, v t, r t (a change over
-// time); x and y (a change over the field); a constant. Per screw and for every screw alike: its
-// own speed, its sign, forward and backward parts, omega |omega|, omega t. Terms whose inputs do
+// time); x and y (a change over the field); a constant. The drag of every axis alike times t, x or
+// y. Per screw and for every screw alike: its own speed, its sign, forward and backward parts,
+// omega |omega|, omega t. Terms whose inputs do
 // not vary in the log (a term of t on a 5 s log, of v on a log without sideways motion) are left
 // out; so is everything on a gantry log but its moving axis.
 std::vector<DictionaryTerm> term_dictionary(const Model& model, const Dataset& data);

@@ -67,6 +67,18 @@ TEST_CASE("term form: values of the functions, the force through S B for a screw
   CHECK(TermForm("screw_1", "neg(omega_rpm)").coefficient_unit() == "-");
   CHECK(TermForm("y", "u_mps*r_radps").coefficient_unit() == "N/(m/s rad/s)");
   CHECK(TermForm("screws", "omega_rpm*t_s").coefficient_unit() == "rpm/(rpm s)");
+  // The ground's drag D zeta of eq. (6) on every axis alike, grown by c x form: at t = 10 s and
+  // c = 0.005 1/s, 5 % more drag against the motion on each axis; it reads the body velocity.
+  const Vec3 drag = TermForm("drag", "t_s").force(m, in, 0.005);
+  for (int k = 0; k < 3; ++k) CHECK(drag[k] == Approx(-0.05 * m.D_diag[k] * in.zeta[k]));
+  CHECK(drag.x() < 0);
+  CHECK(drag.y() > 0);
+  CHECK(TermForm("drag", "t_s").coefficient_unit() == "1/s");
+  CHECK(TermForm("drag", "x_m").coefficient_unit() == "1/m");
+  CHECK(TermForm("drag", "sin(psi_rad)").coefficient_unit() == "-");
+  CHECK(TermForm("drag", "t_s").input_names() == std::vector<std::string>{"u_mps", "v_mps", "r_radps", "t_s"});
+  CHECK(TermForm("drag", "t_s").describe(0.005).find("drag") != std::string::npos);
+  CHECK_THROWS_WITH(TermForm("drag", "omega_rpm"), Catch::Contains("screw dof"));
 }
 
 TEST_CASE("term effect: from a model file with its dof and form as texts; written back the same; wrong kinds named") {

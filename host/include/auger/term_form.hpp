@@ -14,8 +14,10 @@ namespace auger {
 
 // Where the term acts: a body force along x or y (N), a yaw torque in the model's lumped units
 // (N m, eq. (10)), or a change of one screw's (or every screw's) effective speed in rpm that
-// eq. (7) turns into force through its column of S B.
-enum class TermDof { kX, kY, kYaw, kScrew0, kScrew1, kScrew2, kScrew3, kScrews };
+// eq. (7) turns into force through its column of S B, or (`drag`) a change of the ground's
+// linear drag D zeta of eq. (6) on every axis alike, as a fraction: the force -c form D zeta (a
+// ground that grows harder to move through over the log, or in one part of the field).
+enum class TermDof { kX, kY, kYaw, kDrag, kScrew0, kScrew1, kScrew2, kScrew3, kScrews };
 
 // The inputs a factor may take (the vocabulary; names as the log's columns):
 // omega_rpm_0..3, omega_rpm (a screw dof's own screw), u_mps, v_mps, r_radps (body velocity),
@@ -41,7 +43,7 @@ struct TermInputs {
 
 class TermForm {
  public:
-  // Parses dof ("x", "y", "yaw", "screw_0".."screw_3", "screws") and form ("neg(omega_rpm)",
+  // Parses dof ("x", "y", "yaw", "drag", "screw_0".."screw_3", "screws") and form ("neg(omega_rpm)",
   // "u_mps*r_radps", "sin(psi_rad)", "1", ...); throws std::invalid_argument naming what is wrong.
   TermForm(const std::string& dof, const std::string& form);
   TermDof dof() const { return dof_; }

@@ -15,8 +15,8 @@ struct Named {
   const char* name;
   int value;
 };
-constexpr Named kDofs[] = {{"x", 0}, {"y", 1}, {"yaw", 2}, {"screw_0", 3}, {"screw_1", 4},
-                           {"screw_2", 5}, {"screw_3", 6}, {"screws", 7}};
+constexpr Named kDofs[] = {{"x", 0}, {"y", 1}, {"yaw", 2}, {"drag", 3}, {"screw_0", 4}, {"screw_1", 5},
+                           {"screw_2", 6}, {"screw_3", 7}, {"screws", 8}};
 constexpr Named kInputs[] = {{"omega_rpm_0", 0}, {"omega_rpm_1", 1}, {"omega_rpm_2", 2}, {"omega_rpm_3", 3},
                              {"omega_rpm", 4}, {"u_mps", 5}, {"v_mps", 6}, {"r_radps", 7}, {"psi_rad", 8},
                              {"x_m", 9}, {"y_m", 10}, {"t_s", 11}, {"1", 12}};
@@ -166,6 +166,8 @@ Vec3 TermForm::force(const Model& model, const TermInputs& in, double c) const {
     case TermDof::kX: f.x() = c * value(in); break;
     case TermDof::kY: f.y() = c * value(in); break;
     case TermDof::kYaw: f.z() = c * value(in); break;
+    // eq. (6)'s drag D zeta, every axis scaled alike by the form.
+    case TermDof::kDrag: f = -c * value(in) * model.D_diag.cwiseProduct(in.zeta); break;
     case TermDof::kScrews:
       for (int i = 0; i < 4; ++i) f += model.SB.col(i) * (c * value(in, i));  // eq. (7), each screw's column
       break;
@@ -184,6 +186,8 @@ std::vector<std::string> TermForm::input_names() const {
       if (x == s) return;
     out.push_back(s);
   };
+  if (dof_ == TermDof::kDrag)
+    for (const char* v : {"u_mps", "v_mps", "r_radps"}) add(v);
   for (const TermFactor& f : factors_) {
     if (f.input == TermInput::kOne) continue;
     if (f.input != TermInput::kOmegaOwn) {
@@ -207,11 +211,16 @@ std::string TermForm::form_unit() const {
 }
 
 std::string TermForm::dof_unit() const {
+  if (dof_ == TermDof::kDrag) return "-";  // a fraction of the drag
   return dof_ == TermDof::kX || dof_ == TermDof::kY ? "N" : dof_ == TermDof::kYaw ? "N m" : "rpm";
 }
 
 std::string TermForm::coefficient_unit() const {
   const std::string f = form_unit(), d = dof_unit();
+  if (dof_ == TermDof::kDrag) {
+    if (f.empty()) return "-";
+    return "1/" + std::string(f.find(' ') != std::string::npos || f.find('/') != std::string::npos ? "(" + f + ")" : f);
+  }
   if (f.empty()) return d;
   if (f == d) return "-";
   const bool wrap = f.find(' ') != std::string::npos || (f.find('/') != std::string::npos && f.front() != '(');
@@ -224,6 +233,7 @@ std::string TermForm::describe(double c) const {
     case TermDof::kX: where = "a force along x"; break;
     case TermDof::kY: where = "a force along y"; break;
     case TermDof::kYaw: where = "a yaw torque (the model's lumped units)"; break;
+    case TermDof::kDrag: where = "the ground's drag D zeta (every axis alike) changed as a fraction"; break;
     case TermDof::kScrews: where = "every screw's effective speed changed"; break;
     default: where = "screw " + std::to_string(static_cast<int>(dof_) - static_cast<int>(TermDof::kScrew0)) +
                      "'s effective speed changed";
