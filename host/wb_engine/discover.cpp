@@ -19,7 +19,7 @@ namespace {
 // 240 s log (a 2 N dry friction, a yaw torque of 0.05 N m in the lumped units of eq. (10), half
 // an rpm of screw speed), so the sensitivity is computed in the model's linear range.
 double reference_size(const std::string& dof) {
-  if (dof == "x" || dof == "y") return 2.0;
+  if (dof == "x" || dof == "y" || dof == "drag") return 2.0;  // drag: its force in the plane
   if (dof == "yaw") return 0.05;
   return 0.5;
 }
@@ -74,7 +74,7 @@ bool term_scale_over(const Model& model, const std::vector<TermInputs>& rows, co
   const double spread = std::sqrt(std::max(0.0, sum2 / static_cast<double>(n) - mean * mean));
   // A term that does not vary cannot be told from a constant force (kept: "1") or from nothing.
   if (!(rms > 1e-12) || (f.form_text() != "1" && spread < 1e-6 * rms)) return false;
-  *scale = reference_size(f.dof() == TermDof::kDrag ? "x" : f.dof_text()) / rms;
+  *scale = reference_size(f.dof_text()) / rms;
   return true;
 }
 

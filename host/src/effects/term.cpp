@@ -216,11 +216,9 @@ std::string TermForm::dof_unit() const {
 }
 
 std::string TermForm::coefficient_unit() const {
-  const std::string f = form_unit(), d = dof_unit();
-  if (dof_ == TermDof::kDrag) {
-    if (f.empty()) return "-";
-    return "1/" + std::string(f.find(' ') != std::string::npos || f.find('/') != std::string::npos ? "(" + f + ")" : f);
-  }
+  const std::string f = form_unit();
+  // A fraction of the drag per unit of the form: 1/s for t_s.
+  const std::string d = dof_ == TermDof::kDrag ? (f.empty() ? "-" : "1") : dof_unit();
   if (f.empty()) return d;
   if (f == d) return "-";
   const bool wrap = f.find(' ') != std::string::npos || (f.find('/') != std::string::npos && f.front() != '(');
