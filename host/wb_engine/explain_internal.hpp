@@ -372,6 +372,12 @@ class Explainer {
   // with a parameter the log does not identify that a simpler form (or nothing) predicts as well,
   // or whose removal does not raise the cross-validated error, leave the model (o refitted).
   void parsimony(FitOutcome& o, std::vector<RemovedEffect>& removed);
+  // Parsimony's first check alone: the weakest library effect or re-identified paper parameters,
+  // where it changes the prediction by less than kMinContribution of the noise floor, leave (o
+  // refitted, the removal in removed; after: what the model has changed by since the final checks,
+  // "with the discovered terms, "); true if one left. Run again wherever the model changes after
+  // them: an effect that mended what a stand-in got wrong may have nothing left to do.
+  bool drop_weakest(FitOutcome& o, std::vector<RemovedEffect>& removed, const char* after);
 
   // ---- the check of form (explain_standins.cpp, docs/workbench.md "Parsimony", confirmed in form)
   // Where the model leaves structure, each library effect and the paper's parameters re-identified

@@ -146,6 +146,35 @@ FoldValues Explainer::cross_validated(const std::vector<Part>& parts, std::array
   return per_fold;
 }
 
+bool Explainer::drop_weakest(FitOutcome& o, std::vector<RemovedEffect>& removed, const char* after) {
+  std::size_t weakest = o.parts.size();
+  double weakest_c = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < o.parts.size(); ++i) {
+    const Part& p = o.parts[i];
+    if (!((p.entry && p.texts.empty()) || paper_free(p))) continue;  // (terms have their own checks)
+    const double c = largest(contribution(o.parts, i));
+    if (c < weakest_c) {
+      weakest_c = c;
+      weakest = i;
+    }
+  }
+  if (weakest == o.parts.size() || !(weakest_c < kMinContribution)) return false;
+  const Part& p = o.parts[weakest];
+  RemovedEffect r{label(p, ctx_.size()), "", weakest_c};
+  if (!p.entry && ctx_.size() > 1) r.effect += " (terrain " + p.terrain + ")";
+  char why[300];
+  std::snprintf(why, sizeof why, "%s: %sit changes the prediction by at most %.2f times the noise floor (less than %.1f)",
+                p.entry ? "removed" : "held at the paper's values", after, weakest_c, kMinContribution);
+  r.why = why;
+  FitOutcome again = refit(all_, without_part(o.parts, weakest), 12, 1);
+  ++structures_;
+  if (!std::isfinite(again.cost)) return false;
+  progress("explain: final check: %s %s", r.effect.c_str(), why);
+  o = std::move(again);
+  removed.push_back(r);
+  return true;
+}
+
 void Explainer::parsimony(FitOutcome& o, std::vector<RemovedEffect>& removed) {
   auto remove_part = [&](std::size_t i, const std::string& why, double c, const Part* replacement,
                          const std::vector<Part>* alternative = nullptr) {
@@ -178,22 +207,7 @@ void Explainer::parsimony(FitOutcome& o, std::vector<RemovedEffect>& removed) {
     if (effects.empty()) return;
     auto removal = [&](std::size_t i) { return o.parts[i].entry ? "removed" : "held at the paper's values"; };
     // 1. Physically significant: what it changes in the prediction, the rest held.
-    std::size_t weakest = effects.front();
-    double weakest_c = std::numeric_limits<double>::infinity();
-    for (std::size_t i : effects) {
-      const double c = largest(contribution(o.parts, i));
-      if (c < weakest_c) {
-        weakest_c = c;
-        weakest = i;
-      }
-    }
-    if (weakest_c < kMinContribution) {
-      char why[200];
-      std::snprintf(why, sizeof why,
-                    "%s: it changes the prediction by at most %.2f times the noise floor (less than %.1f)",
-                    removal(weakest), weakest_c, kMinContribution);
-      if (remove_part(weakest, why, weakest_c, nullptr)) continue;
-    }
+    if (drop_weakest(o, removed, "")) continue;
     // 2. Identified: a parameter the log does not identify (at the end of its range with an
     // uncertainty over half its value, or an uncertainty over its value) is kept only if neither
     // taking the effect out nor its simpler form predicts the 25 s segments within 2 % as well.
