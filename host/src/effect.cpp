@@ -207,16 +207,17 @@ void ScrewDeadBand::drive_force(const Model& model, const Vec4& omega_rpm, doubl
 }
 
 // ---------------------------------------------------------------- ImuHeadingBias
-ImuHeadingBias::ImuHeadingBias(double bias_rad) : bias_rad_(bias_rad) {}
+ImuHeadingBias::ImuHeadingBias(double bias_rad, double t_step_s, double before_rad)
+    : bias_rad_(bias_rad), t_step_s_(t_step_s), before_rad_(before_rad) {}
 const std::string& ImuHeadingBias::id() const {
   static const std::string s = "imu_heading_bias";
   return s;
 }
 std::vector<std::pair<std::string, double>> ImuHeadingBias::params() const {
-  return {{"bias_rad", bias_rad_}};
+  return {{"bias_rad", bias_rad_}, {"t_step_s", t_step_s_}, {"before_rad", before_rad_}};
 }
 void ImuHeadingBias::sensors(const Model&, const Vec3&, const Vec3&, SensorValues& v) const {
-  v.imu_psi_rad = wrap_angle(v.imu_psi_rad + bias_rad_);
+  v.imu_psi_rad = wrap_angle(v.imu_psi_rad + (t_step_s_ > 0 && v.t_s < t_step_s_ ? before_rad_ : bias_rad_));
 }
 
 void predict_sensors(const Model& model, const Vec3& eta, const Vec3& zeta, SensorValues& v) {

@@ -103,6 +103,60 @@ FitOutcome fit_stick_slip(const Problem& pr, const std::vector<Part>& held, cons
   return best;
 }
 
+// The time of a jump of the IMU heading's bias (imu_heading_bias's t_step_s). Camera heading minus
+// IMU heading is the bias itself plus both sensors' noise, with no model in between, so the best
+// split of it into two constant levels (least squares over every row that has both, prefix sums)
+// places the jump to a frame or two, where a search over the time through the simulation would
+// need a grid of fits (a cost that jumps with the time: no gradient). At least 5 % of the log on
+// either side. False: no IMU heading or no camera heading.
+bool imu_step_start(const Dataset& d, double& t_step_s) {
+  std::vector<double> t, diff;
+  for (std::size_t k = 0; k < d.size(); ++k) {
+    const double psi = d.meas[k][kPsi], imu = d.meas[k][kImuPsi];
+    if (!std::isfinite(psi) || !std::isfinite(imu)) continue;
+    const double v = wrap_angle(imu - psi);
+    t.push_back(d.t_s[k]);
+    diff.push_back(diff.empty() ? v : diff.front() + wrap_angle(v - diff.front()));
+  }
+  const std::size_t n = diff.size();
+  if (n < 40) return false;
+  std::vector<double> sum(n + 1, 0.0);
+  for (std::size_t k = 0; k < n; ++k) sum[k + 1] = sum[k] + (diff[k] - diff.front());
+  const double margin_s = 0.05 * (t.back() - t.front());
+  double best = -1;
+  for (std::size_t k = 1; k < n; ++k) {  // split before row k
+    if (t[k] - t.front() < margin_s || t.back() - t[k - 1] < margin_s) continue;
+    const double a = sum[k], b = sum[n] - sum[k];
+    const double na = static_cast<double>(k), nb = static_cast<double>(n - k);
+    const double explained = a * a / na + b * b / nb;  // the sum of squares the two means remove
+    if (explained > best) {
+      best = explained;
+      t_step_s = 0.5 * (t[k - 1] + t[k]);
+    }
+  }
+  return best >= 0;
+}
+
+// A jump of the IMU heading's bias is taken only where it lowers the cost by this share: two
+// levels and a time fit a constant bias's noise better too.
+constexpr double kImuStepGain = 0.02;
+
+FitOutcome with_imu_step(const Problem& pr, FitOutcome o, std::size_t c, int max_iter) {
+  const Part& p = o.parts[c];
+  if (!std::isfinite(o.cost) || !p.entry || p.id != "imu_heading_bias" || p.values.size() < 3 || p.values[1] != 0)
+    return o;
+  double t_step_s = 0;
+  if (!imu_step_start(log_data(pr, p), t_step_s)) return o;
+  std::vector<Part> w = o.parts;
+  w[c].values[1] = t_step_s;
+  w[c].values[2] = w[c].values[0];  // both levels from the constant's (the heading is linear in both)
+  FitOutcome s = levenberg_marquardt(pr, std::move(w), max_iter);
+  s.sims += o.sims;
+  if (s.cost < (1 - kImuStepGain) * o.cost) return s;
+  o.sims = s.sims;
+  return o;
+}
+
 }  // namespace
 
 FitOutcome fit_candidate(const Problem& pr, const std::vector<Part>& held_in, const Part& candidate, int max_iter,
@@ -202,7 +256,7 @@ FitOutcome fit_candidate(const Problem& pr, const std::vector<Part>& held_in, co
     if (o.cost <= best.cost) best = std::move(o);
   }
   best.sims = sims;
-  return leave_plateaus(pr, std::move(best), max_iter);
+  return with_imu_step(pr, leave_plateaus(pr, std::move(best), max_iter), c, max_iter);
 }
 
 FitOutcome fit_joint(const Problem& pr, const std::vector<Part>& state, const Part& candidate, int max_iter,

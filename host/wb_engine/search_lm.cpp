@@ -25,7 +25,13 @@ struct FreeRef {
 std::vector<FreeRef> free_refs(const std::vector<Part>& parts) {
   std::vector<FreeRef> f;
   for (std::size_t p = 0; p < parts.size(); ++p)
-    for (int i : parts[p].free) f.push_back({static_cast<int>(p), i});
+    for (int i : parts[p].free) {
+      // A parameter that acts only while another is nonzero (ParamSpec::acts_with) has no gradient
+      // while that one is 0: a column of zeros, and an uncertainty of infinity.
+      const int with = parts[p].specs[static_cast<std::size_t>(i)].acts_with;
+      if (with >= 0 && parts[p].values[static_cast<std::size_t>(with)] == 0) continue;
+      f.push_back({static_cast<int>(p), i});
+    }
   return f;
 }
 
@@ -164,7 +170,7 @@ FitOutcome levenberg_marquardt(const Problem& pr, std::vector<Part> parts, int m
     bool at_default = true, any_form = false;
     for (int i : p.free) {
       const ParamSpec& s = p.specs[static_cast<std::size_t>(i)];
-      if (!s.form) continue;
+      if (!s.form || (s.acts_with >= 0 && p.values[static_cast<std::size_t>(s.acts_with)] == 0)) continue;
       any_form = true;
       at_default = at_default && p.values[static_cast<std::size_t>(i)] == s.default_value;
     }

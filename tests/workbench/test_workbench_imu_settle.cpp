@@ -1,6 +1,7 @@
-// The IMU drift's settling form (docs/workbench.md "`auger effects`", imu_heading_drift): a gyro
-// bias settling while the IMU warms up, written here from its physics (not with the library's
-// ImuHeadingDrift), fitted by the workbench in form; a linear drift keeps the linear form.
+// The IMU heading's forms (docs/workbench.md "`auger effects`"), written here from their physics
+// (not with the library's ImuHeadingDrift or ImuHeadingBias) and fitted by the workbench in form:
+// a gyro bias settling while the IMU warms up (imu_heading_drift; a linear drift keeps the linear
+// form), and a bias that jumps once (imu_heading_bias; a constant one keeps no jump).
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -35,7 +36,57 @@ class SettlingBias final : public Effect {
   double start_, end_, tau_;
 };
 
+// The heading error of an IMU re-initialised (or disturbed) once: before_rad until t_jump_s, then
+// after_rad.
+class JumpingBias final : public Effect {
+ public:
+  JumpingBias(double before_rad, double after_rad, double t_jump_s) : before_(before_rad), after_(after_rad), t_(t_jump_s) {}
+  const std::string& id() const override {
+    static const std::string s = "test_jumping_bias";
+    return s;
+  }
+  std::vector<std::pair<std::string, double>> params() const override { return {}; }
+  void sensors(const Model&, const Vec3&, const Vec3&, SensorValues& v) const override {
+    v.imu_psi_rad = wrap_angle(v.imu_psi_rad + (v.t_s < t_ ? before_ : after_));
+  }
+
+ private:
+  double before_, after_, t_;
+};
+
 }  // namespace
+
+TEST_CASE("IMU bias: a jump is placed and fitted in form; a constant bias keeps no jump") {
+  SynthOptions o;
+  o.seconds = 64;
+  const Dataset d = synth(make_model(RobotParams{}, kSand, {std::make_shared<JumpingBias>(0.006, 0.04, 27.33)}), o);
+  const FitResult r = fit(d, nominal(), {"imu_heading_bias"});
+  const FittedEffect& e = r.effects.back();
+  REQUIRE(e.effect == "imu_heading_bias");
+  INFO(e.description);
+  CHECK(value_of(e, "t_step_s") == Approx(27.33).margin(0.1));
+  CHECK(value_of(e, "bias_rad") == Approx(0.04).margin(0.002));
+  CHECK(value_of(e, "before_rad") == Approx(0.006).margin(0.002));
+  CHECK(r.err_after.ratio_to_noise[kImuPsi] < 1.15);
+  const Dataset c = synth(make_model(RobotParams{}, kSand, {std::make_shared<JumpingBias>(0.04, 0.04, 0)}), o);
+  const FitResult k = fit(c, nominal(), {"imu_heading_bias"});
+  INFO(k.effects.back().description);
+  CHECK(value_of(k.effects.back(), "t_step_s") == 0);
+  CHECK(value_of(k.effects.back(), "bias_rad") == Approx(0.04).margin(0.002));
+}
+
+TEST_CASE("noise floor: a jump of the IMU heading's bias is not taken for camera noise") {
+  SynthOptions o;
+  o.seconds = 120;
+  NoiseColour plain_colour, jump_colour;
+  const ChannelValues plain = estimate_noise_floor(synth(nominal().model, o), &plain_colour);
+  const ChannelValues jump = estimate_noise_floor(
+      synth(make_model(RobotParams{}, kSand, {std::make_shared<JumpingBias>(0.0, 0.05, 41.7)}), o), &jump_colour);
+  CAPTURE(plain[kPsi], jump[kPsi], plain_colour.factor, jump_colour.factor);
+  CHECK(jump_colour.applied == plain_colour.applied);
+  CHECK(jump[kPsi] == Approx(plain[kPsi]).epsilon(0.05));
+  CHECK(jump[kX] == Approx(plain[kX]).epsilon(0.05));
+}
 
 TEST_CASE("IMU drift: a bias settling over 15 s is fitted in form, far better than a constant bias") {
   SynthOptions o;

@@ -149,6 +149,13 @@ struct ParamSpec {
     form = true;
     return *this;
   }
+  // The index of a parameter that must be nonzero for this one to act (a bias before a jump acts
+  // only with a jump time): while that one is 0 this one is not fitted (it has no gradient).
+  int acts_with = -1;
+  ParamSpec& acting_with(int index) {
+    acts_with = index;
+    return *this;
+  }
   // A model file may mark it `online = true` (augerd estimates it while driving): its effect
   // implements Effect::online_basis / online_shape for it and its physical range is finite.
   bool online = false;
@@ -271,16 +278,18 @@ class ScrewDeadBand final : public Effect {
 };
 
 // A constant IMU heading bias: the IMU reports psi + bias_rad.
+// The IMU reports psi + bias_rad; with t_step_s > 0, psi + before_rad before t_step_s (log time): a
+// heading that jumps once (an IMU re-initialised, a magnetic disturbance).
 class ImuHeadingBias final : public Effect {
  public:
-  explicit ImuHeadingBias(double bias_rad);
+  explicit ImuHeadingBias(double bias_rad, double t_step_s = 0, double before_rad = 0);
   const std::string& id() const override;
   std::vector<std::pair<std::string, double>> params() const override;
   void sensors(const Model& model, const Vec3& eta, const Vec3& zeta,
                SensorValues& values) const override;
 
  private:
-  double bias_rad_;
+  double bias_rad_, t_step_s_, before_rad_;
 };
 
 // Ideal sensor readings of (eta, zeta) with the model's sensor effects applied.

@@ -52,17 +52,33 @@ class PoseTimeOffset final : public Effect {
 }  // namespace
 
 void register_sensors(EffectRegistry& r) {
-  EffectRegistry::Entry bias{"imu_heading_bias", "the IMU reports psi + bias_rad",
-                             {ParamSpec{"bias_rad", 0, true, "constant heading bias", "rad", -3.2, 3.2, 0.02}.physical(-3.15, 3.15)},
-                             [](const std::vector<double>& v) {
-                               if (!std::isfinite(v[0])) throw std::invalid_argument("bias_rad must be finite");
-                               return std::make_shared<ImuHeadingBias>(v[0]);
-                             },
-                             [](const std::vector<double>& v) {
-                               return "the IMU heading is off by a constant " + fmt(v[0]) + " rad (" +
-                                      fmt(v[0] * 180 / kPi) + " deg): IMU heading bias";
-                             },
-                             true};
+  EffectRegistry::Entry bias{
+      "imu_heading_bias",
+      "the IMU reports psi + bias_rad; with t_step_s > 0, psi + before_rad before t_step_s (a heading that jumps "
+      "once: an IMU re-initialised, a magnetic disturbance)",
+      {ParamSpec{"bias_rad", 0, true, "heading bias (from t_step_s on)", "rad", -3.2, 3.2, 0.02}.physical(-3.15, 3.15),
+       // The jump's time is not fitted by the search's gradient steps: the workbench places it from
+       // camera minus IMU heading, which needs no model (search_candidate.cpp, imu_step_start).
+       ParamSpec{"t_step_s", 0, false, "time of a jump of the bias (log time; 0: none, a constant bias)", "s", 0, 1e9,
+                 10, false, false}
+           .physical(0, 1e9)
+           .form_param(),
+       ParamSpec{"before_rad", 0, false, "heading bias before t_step_s", "rad", -3.2, 3.2, 0.02}
+           .physical(-3.15, 3.15)
+           .form_param()
+           .acting_with(1)},
+      [](const std::vector<double>& v) {
+        if (!std::isfinite(v[0]) || !std::isfinite(v[2])) throw std::invalid_argument("bias_rad and before_rad must be finite");
+        if (!(v[1] >= 0) || !std::isfinite(v[1])) throw std::invalid_argument("t_step_s must be >= 0");
+        return std::make_shared<ImuHeadingBias>(v[0], v[1], v[2]);
+      },
+      [](const std::vector<double>& v) {
+        const std::string now = fmt(v[0]) + " rad (" + fmt(v[0] * 180 / kPi) + " deg)";
+        if (!(v[1] > 0)) return "the IMU heading is off by a constant " + now + ": IMU heading bias";
+        return "the IMU heading is off by " + fmt(v[2]) + " rad until t = " + fmt(v[1]) + " s, then by " + now +
+               ": IMU heading bias that jumps once (re-initialised, a magnetic disturbance)";
+      },
+      true};
   r.add(std::move(bias));
   EffectRegistry::Entry drift{
       "imu_heading_drift",
