@@ -57,7 +57,9 @@ bool simpler_form(const Part& p, const Dataset& d, Part& out) {
 
 std::string simpler_form_name(const Part& from, const Part& to) {
   if (to.id != from.id) return to.id;
-  if (to.id == "force_lag") return to.id + " without its dead time";
+  if (to.id == "force_lag")
+    return to.id + (to.values.size() > 2 && to.values[2] != from.values[2] ? " with the same lag both ways"
+                                                                             : " without its dead time");
   if (to.id == "imu_heading_drift") return to.id + " as a linear drift";
   if (to.id == "traction_saturation") return to.id + " per screw";
   if (to.id == "rigid_body_coupling") return to.id + " of the rigid body alone (no added mass)";
@@ -173,6 +175,33 @@ bool Explainer::drop_weakest(FitOutcome& o, std::vector<RemovedEffect>& removed,
   o = std::move(again);
   removed.push_back(r);
   return true;
+}
+
+bool Explainer::simpler_where_unidentified(FitOutcome& o, std::vector<RemovedEffect>& removed) {
+  const std::vector<FitParam> params = params_on_all(o);
+  std::size_t k = 0;
+  for (std::size_t i = 0; i < o.parts.size(); ++i) {
+    const Part& p = o.parts[i];
+    bool unidentified_form = false;
+    for (std::size_t j = 0; j < p.specs.size(); ++j, ++k)
+      unidentified_form = unidentified_form || (p.specs[j].form && k < params.size() &&
+                                                params[k].flag.find("not identified") != std::string::npos);
+    Part simpler;
+    if (!p.entry || !p.texts.empty() || !unidentified_form || !simpler_form(p, ctx_.front().data, simpler)) continue;
+    std::vector<Part> alt = o.parts;
+    alt[i] = simpler;
+    FitOutcome a = refit(all_, alt, 12, 1);
+    ++structures_;
+    if (!std::isfinite(a.cost) || compare_error(a.parts) > compare_error(o.parts) * (1.0 + kAddHeldout)) continue;
+    const std::string name = label(p, ctx_.size());
+    const std::string why = "replaced by " + simpler_form_name(p, simpler) +
+                            ": a parameter of its form is not identified and the simpler form predicts as well";
+    progress("explain: final check: %s %s", name.c_str(), why.c_str());
+    removed.push_back({name, why, largest(contribution(o.parts, i))});
+    o = std::move(a);
+    return true;
+  }
+  return false;
 }
 
 void Explainer::parsimony(FitOutcome& o, std::vector<RemovedEffect>& removed) {

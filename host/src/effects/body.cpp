@@ -231,10 +231,10 @@ void register_body(EffectRegistry& r) {
          },
          [](const std::vector<double>& v) {
            if (v[1] > 0 || v[2] > 0)
-             return "soil moved with the screws adds " + fmt(v[1]) + " m sideways and " + fmt(v[2]) +
-                    " m ahead (added mass), with the Coriolis terms of a body of " + fmt(v[0]) +
+             return "soil moved with the screws adds " + fmt(v[1]) + " times the model's mass sideways and " +
+                    fmt(v[2]) + " times ahead (added mass), with the Coriolis terms of a body of " + fmt(v[0]) +
                     " times the model's mass and the Munk moment (" + fmt(v[2] - v[1]) +
-                    ") m u v: rigid-body coupling with added mass";
+                    ") m u v (m the model's mass): rigid-body coupling with added mass";
            return "turning couples the axes as a rigid body of " + fmt(v[0]) +
                   " times the model's mass (forces m r v along x and -m r u along y): Coriolis coupling of a "
                   "turning rigid body";

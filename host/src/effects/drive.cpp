@@ -109,13 +109,14 @@ class TractionSaturation final : public Effect {
 class ForceLag final : public Effect {
  public:
   static constexpr int kSlots = 128;  // covers delay_s up to its bound (0.2 s) for steps >= 1.6 ms
-  ForceLag(double tau_s, double delay_s) : tau_s_(tau_s), delay_s_(delay_s) {}
+  ForceLag(double tau_s, double delay_s, double release_ratio)
+      : tau_s_(tau_s), delay_s_(delay_s), release_ratio_(release_ratio) {}
   const std::string& id() const override {
     static const std::string s = "force_lag";
     return s;
   }
   std::vector<std::pair<std::string, double>> params() const override {
-    return {{"tau_s", tau_s_}, {"delay_s", delay_s_}};
+    return {{"tau_s", tau_s_}, {"delay_s", delay_s_}, {"release_ratio", release_ratio_}};
   }
   std::size_t state_size() const override { return kHeader + 4 * kSlots; }
   void reset_state(double* state) const override { std::fill(state, state + state_size(), 0.0); }
@@ -144,17 +145,21 @@ class ForceLag final : public Effect {
     if (!(dt_s > 0 && dt_s == state[6])) {
       state[6] = dt_s;
       state[7] = tau_s_ > 0 ? std::exp(-dt_s / tau_s_) : 0.0;
+      state[8] = tau_s_ * release_ratio_ > 0 ? std::exp(-dt_s / (tau_s_ * release_ratio_)) : 0.0;
     }
-    const double a = state[7];
     for (int k = 0; k < 3; ++k) {
+      // Building up (the input's magnitude above the force's) with tau_s, falling back with
+      // release_ratio tau_s: soil compresses under the flights slowly and may let go at once.
+      const double a = std::fabs(input[k]) > std::fabs(state[3 + k]) ? state[7] : state[8];
       state[3 + k] = a * state[3 + k] + (1.0 - a) * input[k];
       tau_n[k] = state[3 + k];
     }
   }
 
  private:
-  // [started, now_s, ring head, 3 lagged forces, the last step's length, its decay]
-  static constexpr int kHeader = 8;
+  // [started, now_s, ring head, 3 lagged forces, the last step's length, its decays building up
+  // and falling back]
+  static constexpr int kHeader = 9;
 
   // Mean of the input over [now - delay, now + dt - delay): stored steps, newest first, and the
   // current step (which starts at now) when the delay is shorter than the step.
@@ -176,7 +181,7 @@ class ForceLag final : public Effect {
     return sum / dt_s;
   }
 
-  double tau_s_, delay_s_;
+  double tau_s_, delay_s_, release_ratio_;
 };
 
 // "a screw turning slower than 2 rpm forward and 1 rpm backward pushes with no force; above it its
@@ -265,14 +270,24 @@ void register_drive(EffectRegistry& r) {
          }});
   r.add({"force_lag", "the drive force follows S B omega after a dead time delay_s with a first-order lag tau_s",
          {ParamSpec{"tau_s", 0, true, "time constant", "s", 0, 3, 0.1}.physical(0.005, 1.0),
-          ParamSpec{"delay_s", 0, false, "dead time before the force starts to build up", "s", 0, 0.2, 0.03}.physical(0, 0.2)},
+          ParamSpec{"delay_s", 0, false, "dead time before the force starts to build up", "s", 0, 0.2, 0.03}.physical(0, 0.2),
+          // A form parameter: 1 is the same lag both ways.
+          ParamSpec{"release_ratio", 1, false,
+                    "the lag's time constant while the force falls back, as a multiple of tau_s (below 1: soil "
+                    "that lets go faster than it compresses)",
+                    "", 0.05, 4, 0.3}
+              .physical(0.1, 2)
+              .form_param()},
          [non_negative](const std::vector<double>& v) {
            non_negative(v[0], "tau_s");
            if (!(v[1] >= 0 && v[1] <= 0.2)) throw std::invalid_argument("delay_s must be in [0, 0.2]");
-           return std::make_shared<ForceLag>(v[0], v[1]);
+           if (!(v[2] > 0) || !std::isfinite(v[2])) throw std::invalid_argument("release_ratio must be > 0");
+           return std::make_shared<ForceLag>(v[0], v[1], v[2]);
          },
          [](const std::vector<double>& v) {
+           const bool same = std::fabs(v[2] - 1) < 0.02;
            return "the screws' force builds up with a time constant of " + fmt(v[0]) + " s" +
+                  (same ? std::string() : " and falls back with " + fmt(v[0] * v[2]) + " s") +
                   (v[1] > 0 ? " after a dead time of " + fmt(v[1]) + " s" : std::string()) +
                   ": lag of force build-up";
          }});
