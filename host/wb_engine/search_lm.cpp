@@ -190,15 +190,22 @@ FitOutcome levenberg_marquardt(const Problem& pr, std::vector<Part> parts, int m
   // and the sized fit, which holds them there exactly, is kept: a dry friction's tanh reached over
   // 0.1 mm/s is its hard sign, but creeps, so a level the stalled robot bounds only from below
   // (settle_stalls) ran to the end of its range instead.
-  bool near_default = std::isfinite(out.cost);
+  bool near_default = std::isfinite(out.cost), at_end = false;
   for (std::size_t p = 0; p < parts.size() && near_default; ++p)
     for (int i : parts[p].free) {
       const ParamSpec& s = parts[p].specs[static_cast<std::size_t>(i)];
       if (!s.form || std::find(sized[p].free.begin(), sized[p].free.end(), i) != sized[p].free.end()) continue;
-      near_default = near_default && std::fabs(out.parts[p].values[static_cast<std::size_t>(i)] - s.default_value) <=
-                                        0.05 * std::fabs(s.typical);
+      const double v = out.parts[p].values[static_cast<std::size_t>(i)];
+      near_default = near_default && std::fabs(v - s.default_value) <= 0.05 * std::fabs(s.typical);
+      // A form freed to the end of its physical range is no form the log identifies (a force lag's
+      // release run to 0.1 of its build-up beside a pose clock that drifts: implausible, and it
+      // took the candidate out of the search's beam): the default form, sized, is kept.
+      const double span = s.physical_upper - s.physical_lower;
+      if (std::isfinite(span) && (std::fabs(v - s.physical_lower) <= 1e-3 * span || std::fabs(v - s.physical_upper) <= 1e-3 * span) &&
+          std::fabs(v - s.default_value) > 1e-3 * span)
+        at_end = true;
     }
-  if (near_default || !(out.cost < first.cost)) {
+  if (near_default || at_end || !(out.cost < first.cost)) {
     // Its parts as fitted: the form held (its JtJ has no column for it).
     for (std::size_t p = 0; p < parts.size(); ++p) first.parts[p].free = sized[p].free;
     first.sims = out.sims;
