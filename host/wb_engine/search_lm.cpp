@@ -201,9 +201,11 @@ FitOutcome levenberg_marquardt(const Problem& pr, std::vector<Part> parts, int m
       // release run to 0.1 of its build-up beside a pose clock that drifts: implausible, and it
       // took the candidate out of the search's beam): the default form, sized, is kept.
       const double span = s.physical_upper - s.physical_lower;
-      if (std::isfinite(span) && (std::fabs(v - s.physical_lower) <= 1e-3 * span || std::fabs(v - s.physical_upper) <= 1e-3 * span) &&
-          std::fabs(v - s.default_value) > 1e-3 * span)
-        at_end = true;
+      // (Where the physical range is stricter than the search's, as "Plausibility" flags it: an
+      // isotropy of 1, the end of its definition, is a form.)
+      const bool lo = s.physical_lower > s.lower && std::fabs(v - s.physical_lower) <= 1e-3 * span;
+      const bool hi = s.physical_upper < s.upper && std::fabs(v - s.physical_upper) <= 1e-3 * span;
+      if (std::isfinite(span) && (lo || hi) && std::fabs(v - s.default_value) > 1e-3 * span) at_end = true;
     }
   if (near_default || at_end || !(out.cost < first.cost)) {
     // Its parts as fitted: the form held (its JtJ has no column for it).
