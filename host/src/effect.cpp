@@ -217,7 +217,7 @@ std::vector<std::pair<std::string, double>> ImuHeadingBias::params() const {
   return {{"bias_rad", bias_rad_}, {"t_step_s", t_step_s_}, {"before_rad", before_rad_}};
 }
 void ImuHeadingBias::sensors(const Model&, const Vec3&, const Vec3&, SensorValues& v) const {
-  v.imu_psi_rad = wrap_angle(v.imu_psi_rad + (t_step_s_ > 0 && v.t_s < t_step_s_ ? before_rad_ : bias_rad_));
+  v.imu_psi_rad = wrap_angle(v.imu_psi_rad + (t_step_s_ > 0 && !v.live && v.t_s < t_step_s_ ? before_rad_ : bias_rad_));
 }
 
 void predict_sensors(const Model& model, const Vec3& eta, const Vec3& zeta, SensorValues& v) {

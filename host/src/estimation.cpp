@@ -100,6 +100,7 @@ void ekf_predict(const Model& model, const EkfConfig& cfg, Ekf& ekf, DynamicsDat
 
 double ekf_h_imu_psi(const Model& model, const Vec6& x, Eigen::Matrix<double, 1, 6>* H) {
   SensorValues v;
+  v.live = true;
   predict_sensors(model, x.head<3>(), x.tail<3>(), v);
   if (H) H->setZero(), (*H)(0, 2) = 1;
   return v.imu_psi_rad;
@@ -107,6 +108,7 @@ double ekf_h_imu_psi(const Model& model, const Vec6& x, Eigen::Matrix<double, 1,
 
 double ekf_h_imu_r(const Model& model, const Vec6& x, Eigen::Matrix<double, 1, 6>* H) {
   SensorValues v;
+  v.live = true;
   predict_sensors(model, x.head<3>(), x.tail<3>(), v);
   if (H) H->setZero(), (*H)(0, 5) = 1;
   return v.imu_r_radps;
@@ -114,6 +116,7 @@ double ekf_h_imu_r(const Model& model, const Vec6& x, Eigen::Matrix<double, 1, 6
 
 Vec3 ekf_h_pose(const Model& model, const Vec6& x, Eigen::Matrix<double, 3, 6>* H) {
   SensorValues v;
+  v.live = true;
   predict_sensors(model, x.head<3>(), x.tail<3>(), v);
   if (H) H->setZero(), H->leftCols<3>().setIdentity();
   return v.pose;

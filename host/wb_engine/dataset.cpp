@@ -246,47 +246,6 @@ WhiteningFilter camera_noise_filter(const std::vector<double>& t_s, const std::v
   return f;
 }
 
-// A jump of the IMU heading's bias (re-initialised, a magnetic disturbance) inside a stretch of
-// camera-minus-IMU differences is no camera noise. A line and a jump at the best time are fitted
-// (least squares over every split with 5 s or more and 10 samples on either side); where that
-// leaves less than half of what the line alone leaves (a noise that wanders over a second or two
-// loses a tenth or so to a split of a minute), e becomes its residual. Before, a 44 mrad jump set
-// the floor 2-3 times too high (a line through the samples on either side took most of it).
-void remove_jump(const std::vector<double>& t, const std::vector<double>& d, std::vector<double>& e) {
-  const std::size_t n = e.size();
-  double line_ss = 0;
-  for (double v : e) line_ss += v * v;
-  const double t0 = t[n / 2];
-  // Prefix sums over the rows from k on (the jump's indicator): count, t, d.
-  std::vector<double> cnt(n + 1, 0.0), st(n + 1, 0.0), sd(n + 1, 0.0);
-  double S1 = 0, St = 0, Stt = 0, Sd = 0, Std = 0, Sdd = 0;
-  for (std::size_t i = n; i-- > 0;) {
-    const double x = t[i] - t0;
-    cnt[i] = cnt[i + 1] + 1;
-    st[i] = st[i + 1] + x;
-    sd[i] = sd[i + 1] + d[i];
-    S1 += 1, St += x, Stt += x * x, Sd += d[i], Std += x * d[i], Sdd += d[i] * d[i];
-  }
-  double best_ss = 0.5 * line_ss;
-  Eigen::Vector3d best_c = Eigen::Vector3d::Zero();
-  std::size_t at = 0;
-  for (std::size_t k = 10; k + 10 <= n; ++k) {
-    if (t[k] - t.front() < 5.0 || t.back() - t[k - 1] < 5.0) continue;
-    Eigen::Matrix3d A;
-    A << S1, St, cnt[k], St, Stt, st[k], cnt[k], st[k], cnt[k];
-    const Eigen::Vector3d b(Sd, Std, sd[k]);
-    const Eigen::Vector3d c = A.ldlt().solve(b);
-    const double ss = Sdd - c.dot(b);  // least squares: the residual sum of squares
-    if (ss < best_ss) {
-      best_ss = ss;
-      best_c = c;
-      at = k;
-    }
-  }
-  if (at == 0) return;
-  for (std::size_t i = 0; i < n; ++i) e[i] = d[i] - best_c[0] - best_c[1] * (t[i] - t0) - (i >= at ? best_c[2] : 0.0);
-}
-
 }  // namespace
 
 NoiseColour camera_noise_colour(const Dataset& d, const ChannelValues& white) {
@@ -339,7 +298,15 @@ NoiseColour camera_noise_colour(const Dataset& d, const ChannelValues& white) {
       const double slope = stt > 0 ? std_ / stt : 0.0;
       std::vector<double> es(diff.size());
       for (std::size_t i = 0; i < diff.size(); ++i) es[i] = diff[i] - md - slope * (t[i] - mt);
-      remove_jump(t, diff, es);
+      // A jump of the IMU heading's bias (re-initialised, a magnetic disturbance) is no camera
+      // noise: where a line and a jump (5 s and 10 samples or more on either side) leave less than
+      // half of what the line alone leaves (a noise that wanders over a second or two loses a
+      // tenth or so to a split of a minute), the stretch is their residual instead. Before, a 44
+      // mrad jump set the floor 2-3 times too high (a line through either side took most of it).
+      const JumpSplit j = split_jump(t, diff, 5.0, 10);
+      if (j.line_jump_ss >= 0 && j.total_ss - j.line_jump_ss < 0.5 * (j.total_ss - j.line_ss))
+        for (std::size_t i = 0; i < diff.size(); ++i)
+          es[i] = diff[i] - j.line_jump[0] - j.line_jump[1] * (t[i] - j.t0_s) - (i >= j.line_jump_at ? j.line_jump[2] : 0.0);
       for (std::size_t i = 0; i < diff.size(); ++i) {
         const double e = es[i];
         sum += e * e;
@@ -446,6 +413,54 @@ ChannelValues estimate_noise_floor(const Dataset& data, NoiseColour* colour) {
     for (int c : {kX, kY, kPsi}) out[static_cast<std::size_t>(c)] *= nc.factor;
   if (colour) *colour = nc;
   return out;
+}
+
+JumpSplit split_jump(const std::vector<double>& t_s, const std::vector<double>& d, double margin_s,
+                     std::size_t min_rows) {
+  JumpSplit j;
+  const std::size_t n = std::min(t_s.size(), d.size());
+  if (n < 2 * std::max<std::size_t>(min_rows, 1)) return j;
+  j.t0_s = t_s[n / 2];
+  const double d0 = d[0];  // (sums of d - d0: no cancellation on a large offset)
+  // Sums over the rows from k on (the jump's indicator): count, t, d.
+  std::vector<double> cnt(n + 1, 0.0), st(n + 1, 0.0), sd(n + 1, 0.0);
+  double S1 = 0, St = 0, Stt = 0, Sd = 0, Std = 0, Sdd = 0;
+  for (std::size_t i = n; i-- > 0;) {
+    const double x = t_s[i] - j.t0_s, y = d[i] - d0;
+    cnt[i] = cnt[i + 1] + 1;
+    st[i] = st[i + 1] + x;
+    sd[i] = sd[i + 1] + y;
+    S1 += 1, St += x, Stt += x * x, Sd += y, Std += x * y, Sdd += y * y;
+  }
+  const double mean_ss = Sd * Sd / S1;
+  j.total_ss = Sdd - mean_ss;
+  const double det = S1 * Stt - St * St;
+  j.line_ss = det > 0 ? std::pow(S1 * Std - St * Sd, 2) / (S1 * det) : 0.0;
+  double best_line_jump = -1;
+  for (std::size_t k = std::max<std::size_t>(min_rows, 1); k + min_rows <= n; ++k) {  // split before row k
+    if (t_s[k] - t_s.front() < margin_s || t_s.back() - t_s[k - 1] < margin_s) continue;
+    const double na = S1 - cnt[k], nb = cnt[k], a = Sd - sd[k], b = sd[k];
+    const double levels = a * a / na + b * b / nb - mean_ss;
+    if (levels > j.levels_ss) {
+      j.levels_ss = levels;
+      j.levels_t_s = 0.5 * (t_s[k - 1] + t_s[k]);
+    }
+    Eigen::Matrix3d A;
+    A << S1, St, cnt[k], St, Stt, st[k], cnt[k], st[k], cnt[k];
+    const Eigen::Vector3d rhs(Sd, Std, sd[k]);
+    const Eigen::Vector3d c = A.ldlt().solve(rhs);
+    const double taken = c.dot(rhs);  // least squares: what the fit takes of Sdd
+    if (std::isfinite(taken) && taken > best_line_jump) {
+      best_line_jump = taken;
+      j.line_jump = c;
+      j.line_jump_at = k;
+    }
+  }
+  if (best_line_jump >= 0) {
+    j.line_jump_ss = best_line_jump - mean_ss;
+    j.line_jump[0] += d0;
+  }
+  return j;
 }
 
 }  // namespace auger::wb

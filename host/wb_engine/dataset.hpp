@@ -14,6 +14,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "auger/log.hpp"
 #include "auger/model.hpp"
 
@@ -96,6 +98,22 @@ struct NoiseColour {
   std::size_t anchor_windows = 0;  // 2 s windows it is the variance of
 };
 NoiseColour camera_noise_colour(const Dataset& data, const ChannelValues& white);
+// The best single jump in a series d(t) (camera minus IMU heading: an IMU bias re-initialised),
+// by least squares over every split with at least margin_s and min_rows on either side (prefix
+// sums, one pass). What each explanation takes of the sum of squares about the mean tells a jump
+// from a drift (a line) and from noise.
+struct JumpSplit {
+  double total_ss = 0;      // about the mean
+  double line_ss = 0;       // what a line in t takes of it
+  double levels_ss = -1;    // what the best split into two constant levels takes (-1: no split)
+  double levels_t_s = 0;    // that split's time, midway between its rows
+  double line_jump_ss = -1; // what a line plus a jump, at the best split for both, takes (-1: none)
+  std::size_t line_jump_at = 0;  // the first row after that jump
+  double t0_s = 0;          // line_jump's time origin
+  Eigen::Vector3d line_jump = Eigen::Vector3d::Zero();  // its offset at t0_s, slope, jump
+};
+JumpSplit split_jump(const std::vector<double>& t_s, const std::vector<double>& d, double margin_s,
+                     std::size_t min_rows);
 // The error a perfect model leaves on segments anchored on 2 s of poses, per channel: the noise
 // floor, and where the camera's noise wanders, for x and y the part of it the anchor keeps,
 // sqrt(1 + anchor_share) times the floor (the heading is anchored on the IMU, whose noise is

@@ -174,7 +174,7 @@ void Explainer::finish(const State& s, ExplainResult& res, FitOutcome* pre) {
     const std::size_t before = f.parts.size();
     parsimony(f.fit, res.removed);
     if (f.fit.parts.size() != before || !res.removed.empty()) polish(f.fit);
-    while (simpler_where_unidentified(f.fit, res.removed)) polish(f.fit);
+    while (simplify_unidentified(f.fit, res.removed, true)) polish(f.fit);
     compare_error(f.fit.parts, &res.library_ratio);
     bool noise = true;
     for (double v : res.library_ratio) noise = noise && (!std::isfinite(v) || v <= kVerdictNoise);

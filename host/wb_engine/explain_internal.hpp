@@ -378,12 +378,13 @@ class Explainer {
   // "with the discovered terms, "); true if one left. Run again wherever the model changes after
   // them: an effect that mended what a stand-in got wrong may have nothing left to do.
   bool drop_weakest(FitOutcome& o, std::vector<RemovedEffect>& removed, const char* after);
-  // Parsimony's second check for forms, on the model as it finally stands (a polish after the
-  // checks can move a form parameter where the log no longer identifies it: a force lag of 8 ms
-  // whose release ran to the end of its range): an effect with a form parameter flagged not
-  // identified gives way to its simpler form where that predicts within 2 % as well (o refitted,
-  // the change in removed); true if one did.
-  bool simpler_where_unidentified(FitOutcome& o, std::vector<RemovedEffect>& removed);
+  // Parsimony's second check: the first library effect with a parameter flagged not identified
+  // leaves, or gives way to its simpler form, where that predicts the segments within 2 % as well
+  // (o refitted, the change in removed); true if one did. forms_only: only form parameters count
+  // and the effect stays, run on the model as it finally stands (a polish after the checks can
+  // move a form parameter where the log no longer identifies it: a force lag of 8 ms whose
+  // release ran to the end of its range).
+  bool simplify_unidentified(FitOutcome& o, std::vector<RemovedEffect>& removed, bool forms_only);
 
   // ---- the check of form (explain_standins.cpp, docs/workbench.md "Parsimony", confirmed in form)
   // Where the model leaves structure, each library effect and the paper's parameters re-identified

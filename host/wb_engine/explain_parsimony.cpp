@@ -177,45 +177,49 @@ bool Explainer::drop_weakest(FitOutcome& o, std::vector<RemovedEffect>& removed,
   return true;
 }
 
-bool Explainer::simpler_where_unidentified(FitOutcome& o, std::vector<RemovedEffect>& removed) {
+bool Explainer::simplify_unidentified(FitOutcome& o, std::vector<RemovedEffect>& removed, bool forms_only) {
   const std::vector<FitParam> params = params_on_all(o);
   std::size_t k = 0;
   for (std::size_t i = 0; i < o.parts.size(); ++i) {
     const Part& p = o.parts[i];
-    bool unidentified_form = false;
+    bool unidentified = false;
     for (std::size_t j = 0; j < p.specs.size(); ++j, ++k)
-      unidentified_form = unidentified_form || (p.specs[j].form && k < params.size() &&
-                                                params[k].flag.find("not identified") != std::string::npos);
+      unidentified = unidentified || ((!forms_only || p.specs[j].form) && k < params.size() &&
+                                      params[k].flag.find("not identified") != std::string::npos);
+    if (!p.entry || !unidentified || (forms_only && !p.texts.empty())) continue;
+    const double err = compare_error(o.parts);
+    std::vector<std::vector<Part>> alts;
+    std::vector<std::string> whys;
+    const char* what = forms_only ? "a parameter of its form" : "a parameter of it";
+    if (!forms_only) {
+      alts.push_back(without_part(o.parts, i));
+      whys.push_back(std::string("removed: ") + what + " is not identified and the model predicts as well without it");
+    }
     Part simpler;
-    if (!p.entry || !p.texts.empty() || !unidentified_form || !simpler_form(p, ctx_.front().data, simpler)) continue;
-    std::vector<Part> alt = o.parts;
-    alt[i] = simpler;
-    FitOutcome a = refit(all_, alt, 12, 1);
-    ++structures_;
-    if (!std::isfinite(a.cost) || compare_error(a.parts) > compare_error(o.parts) * (1.0 + kAddHeldout)) continue;
-    const std::string name = label(p, ctx_.size());
-    const std::string why = "replaced by " + simpler_form_name(p, simpler) +
-                            ": a parameter of its form is not identified and the simpler form predicts as well";
-    progress("explain: final check: %s %s", name.c_str(), why.c_str());
-    removed.push_back({name, why, largest(contribution(o.parts, i))});
-    o = std::move(a);
-    return true;
+    if (simpler_form(p, ctx_.front().data, simpler)) {
+      alts.push_back(o.parts);
+      alts.back()[i] = simpler;
+      whys.push_back("replaced by " + simpler_form_name(p, simpler) + ": " + what +
+                     " is not identified and the simpler form predicts as well");
+    }
+    for (std::size_t a = 0; a < alts.size(); ++a) {
+      FitOutcome fit = refit(all_, alts[a], 12, 1);
+      ++structures_;
+      if (!std::isfinite(fit.cost) || compare_error(fit.parts) > err * (1.0 + kAddHeldout)) continue;
+      const std::string name = label(p, ctx_.size());
+      progress("explain: final check: %s %s", name.c_str(), whys[a].c_str());
+      removed.push_back({name, whys[a], largest(contribution(o.parts, i))});
+      o = std::move(fit);
+      return true;
+    }
   }
   return false;
 }
 
 void Explainer::parsimony(FitOutcome& o, std::vector<RemovedEffect>& removed) {
-  auto remove_part = [&](std::size_t i, const std::string& why, double c, const Part* replacement,
-                         const std::vector<Part>* alternative = nullptr) {
+  auto remove_part = [&](std::size_t i, const std::string& why, double c, const std::vector<Part>& rest) {
     RemovedEffect r{label(o.parts[i], ctx_.size()), why, c};
     if (!o.parts[i].entry && ctx_.size() > 1) r.effect += " (terrain " + o.parts[i].terrain + ")";
-    std::vector<Part> rest;
-    if (replacement) {
-      rest = o.parts;
-      rest[i] = *replacement;
-    } else {
-      rest = alternative ? *alternative : without_part(o.parts, i);
-    }
     FitOutcome again = refit(all_, rest, 12, 1);
     ++structures_;
     if (!std::isfinite(again.cost)) return false;
@@ -240,40 +244,7 @@ void Explainer::parsimony(FitOutcome& o, std::vector<RemovedEffect>& removed) {
     // 2. Identified: a parameter the log does not identify (at the end of its range with an
     // uncertainty over half its value, or an uncertainty over its value) is kept only if neither
     // taking the effect out nor its simpler form predicts the 25 s segments within 2 % as well.
-    const std::vector<FitParam> params = params_on_all(o);
-    bool changed = false;
-    std::size_t k = 0;
-    for (std::size_t i = 0; i < o.parts.size() && !changed; ++i) {
-      bool unidentified = false;
-      for (std::size_t j = 0; j < o.parts[i].specs.size(); ++j, ++k)
-        unidentified = unidentified || params[k].flag.find("not identified") != std::string::npos;
-      if (!o.parts[i].entry || !unidentified) continue;
-      const double err = compare_error(o.parts);
-      const double c = largest(contribution(o.parts, i));
-      std::vector<Part> without = o.parts;
-      without.erase(without.begin() + static_cast<std::ptrdiff_t>(i));
-      FitOutcome w = refit(all_, without, 12, 1);
-      ++structures_;
-      if (std::isfinite(w.cost) && compare_error(w.parts) <= err * (1.0 + kAddHeldout)) {
-        changed = remove_part(i, "removed: a parameter of it is not identified and the model predicts as well without it",
-                              c, nullptr);
-        break;
-      }
-      Part simpler;
-      if (simpler_form(o.parts[i], ctx_.front().data, simpler)) {
-        std::vector<Part> alt = o.parts;
-        alt[i] = simpler;
-        FitOutcome a = refit(all_, alt, 12, 1);
-        ++structures_;
-        if (std::isfinite(a.cost) && compare_error(a.parts) <= err * (1.0 + kAddHeldout)) {
-          changed = remove_part(i, "replaced by " + simpler_form_name(o.parts[i], simpler) +
-                                       ": a parameter of it is not identified and the simpler form predicts as well",
-                                c, &simpler);
-          break;
-        }
-      }
-    }
-    if (changed) continue;
+    if (simplify_unidentified(o, removed, false)) continue;
     // 3. Confirmed by cross-validation: without it, the error on segments no fit saw rises, in
     // two folds of three (the median fold): one fold whose fit went astray (the paper's
     // parameters traded against a slope on a third of the log) neither confirms nor refutes.
@@ -330,7 +301,7 @@ void Explainer::parsimony(FitOutcome& o, std::vector<RemovedEffect>& removed) {
                       o.parts[worst].entry ? "it" : "them re-identified", 100 * kConfirm);
         why = std::string(removal(worst)) + ": " + reason;
       }
-      if (remove_part(worst, why, largest(contribution(o.parts, worst)), nullptr, &worst_alt)) {
+      if (remove_part(worst, why, largest(contribution(o.parts, worst)), worst_alt)) {
         removed.back().unconfirmed = !worst_constant;
         removed.back().reason = reason;
         continue;

@@ -111,6 +111,13 @@ FitOutcome levenberg_marquardt(const Problem& pr, std::vector<Part> parts, int m
 // The bounds of the search: a parameter's own bounds and its physical range, the stricter.
 double search_lower(const ParamSpec& s);
 double search_upper(const ParamSpec& s);
+// Whether v lies at a bound: within a thousandth of it for a log-scale parameter, else of its
+// physical range (of its typical size where that range is open).
+bool near_bound(const ParamSpec& s, double v, double bound);
+// -1 (+1) where v lies at the lower (upper) end of a physical range that is stricter than the
+// parameter's own bounds; 0 elsewhere. The effect's own bounds are definitions (a breakaway ratio of 1 is Coulomb
+// friction, a force limit of 1e6 N none), not ends a fit runs into.
+int physical_end(const ParamSpec& s, double v);
 // Levenberg-Marquardt restarted with a fresh damping while it still gains (a stalled step is
 // often a poor finite-difference direction, not the optimum).
 FitOutcome refit(const Problem& pr, std::vector<Part> parts, int max_iter, int restarts = 3);

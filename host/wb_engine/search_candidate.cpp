@@ -124,53 +124,33 @@ bool imu_step_start(const Dataset& d, double& t_step_s) {
     t.push_back(d.t_s[k]);
     diff.push_back(diff.empty() ? v : diff.front() + wrap_angle(v - diff.front()));
   }
-  const std::size_t n = diff.size();
-  if (n < 40) return false;
-  std::vector<double> sum(n + 1, 0.0);
-  for (std::size_t k = 0; k < n; ++k) sum[k + 1] = sum[k] + (diff[k] - diff.front());
-  const double margin_s = 0.05 * (t.back() - t.front());
-  const double whole = sum[n] * sum[n] / static_cast<double>(n);
-  double total = 0;  // the sum of squares about the mean
-  for (std::size_t k = 0; k < n; ++k) total += (diff[k] - diff.front()) * (diff[k] - diff.front());
-  total -= whole;
-  double best = -1;
-  for (std::size_t k = 1; k < n; ++k) {  // split before row k
-    if (t[k] - t.front() < margin_s || t.back() - t[k - 1] < margin_s) continue;
-    const double a = sum[k], b = sum[n] - sum[k];
-    const double na = static_cast<double>(k), nb = static_cast<double>(n - k);
-    const double explained = a * a / na + b * b / nb - whole;  // the sum of squares the two means remove
-    if (explained > best) {
-      best = explained;
-      t_step_s = 0.5 * (t[k - 1] + t[k]);
-    }
-  }
-  if (!(total > 0 && best >= 0.2 * total)) return false;
-  // What a line through the difference takes (least squares in t).
-  double mt = 0;
-  for (double x : t) mt += x;
-  mt /= static_cast<double>(n);
-  double stt = 0, std_ = 0;
-  for (std::size_t k = 0; k < n; ++k) {
-    stt += (t[k] - mt) * (t[k] - mt);
-    std_ += (t[k] - mt) * (diff[k] - diff.front());
-  }
-  const double line = stt > 0 ? std_ * std_ / stt : 0.0;
-  return best > line;
+  if (diff.size() < 40) return false;
+  const JumpSplit j = split_jump(t, diff, 0.05 * (t.back() - t.front()), 1);
+  t_step_s = j.levels_t_s;
+  return j.total_ss > 0 && j.levels_ss >= 0.2 * j.total_ss && j.levels_ss > j.line_ss;
 }
 
 // A jump of the IMU heading's bias is taken only where it lowers the cost by this share: two
 // levels and a time fit a constant bias's noise better too.
 constexpr double kImuStepGain = 0.02;
 
+std::size_t param_index(const Part& p, const char* name) {
+  for (std::size_t i = 0; i < p.specs.size(); ++i)
+    if (p.specs[i].name == name) return i;
+  return p.specs.size();
+}
+
 FitOutcome with_imu_step(const Problem& pr, FitOutcome o, std::size_t c, int max_iter) {
   const Part& p = o.parts[c];
-  if (!std::isfinite(o.cost) || !p.entry || p.id != "imu_heading_bias" || p.values.size() < 3 || p.values[1] != 0)
-    return o;
+  if (!std::isfinite(o.cost) || !p.entry || p.id != "imu_heading_bias") return o;
+  const std::size_t bias = param_index(p, "bias_rad"), step = param_index(p, "t_step_s"),
+                    before = param_index(p, "before_rad");
+  if (std::max({bias, step, before}) >= p.values.size() || p.values[step] != 0) return o;
   double t_step_s = 0;
   if (!imu_step_start(log_data(pr, p), t_step_s)) return o;
   std::vector<Part> w = o.parts;
-  w[c].values[1] = t_step_s;
-  w[c].values[2] = w[c].values[0];  // both levels from the constant's (the heading is linear in both)
+  w[c].values[step] = t_step_s;
+  w[c].values[before] = w[c].values[bias];  // both levels from the constant's (the heading is linear in both)
   FitOutcome s = levenberg_marquardt(pr, std::move(w), max_iter);
   s.sims += o.sims;
   if (s.cost < (1 - kImuStepGain) * o.cost) return s;

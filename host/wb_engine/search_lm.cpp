@@ -62,7 +62,23 @@ Eigen::VectorXd get_z(const std::vector<Part>& parts, const std::vector<FreeRef>
 double search_lower(const ParamSpec& s) { return std::max(s.lower, s.physical_lower); }
 double search_upper(const ParamSpec& s) { return std::min(s.upper, s.physical_upper); }
 
+bool near_bound(const ParamSpec& s, double v, double bound) {
+  const double span = s.physical_upper - s.physical_lower;
+  const double tol = s.log_scale ? 1e-3 * std::fabs(bound) : 1e-3 * (std::isfinite(span) ? span : std::fabs(s.typical));
+  return std::fabs(v - bound) <= tol;
+}
+
+int physical_end(const ParamSpec& s, double v) {
+  if (s.physical_lower > s.lower && near_bound(s, v, s.physical_lower)) return -1;
+  if (s.physical_upper < s.upper && near_bound(s, v, s.physical_upper)) return 1;
+  return 0;
+}
+
 namespace {
+
+// The cost a form at the end of its physical range must reach, as a multiple of the default
+// form's, to be kept.
+constexpr double kFormAtEndGain = 0.8;
 
 FitOutcome lm_free(const Problem& pr, std::vector<Part> parts, int max_iter) {
   FitOutcome out;
@@ -197,16 +213,15 @@ FitOutcome levenberg_marquardt(const Problem& pr, std::vector<Part> parts, int m
       if (!s.form || std::find(sized[p].free.begin(), sized[p].free.end(), i) != sized[p].free.end()) continue;
       const double v = out.parts[p].values[static_cast<std::size_t>(i)];
       near_default = near_default && std::fabs(v - s.default_value) <= 0.05 * std::fabs(s.typical);
-      // A form freed to the end of its physical range is no form the log identifies (a force lag's
-      // release run to 0.1 of its build-up beside a pose clock that drifts: implausible, and it
-      // took the candidate out of the search's beam): the default form, sized, is kept.
-      const double span = s.physical_upper - s.physical_lower;
-      // (Where the physical range is stricter than the search's, as "Plausibility" flags it: an
-      // isotropy of 1, the end of its definition, is a form.)
-      const bool lo = s.physical_lower > s.lower && std::fabs(v - s.physical_lower) <= 1e-3 * span;
-      const bool hi = s.physical_upper < s.upper && std::fabs(v - s.physical_upper) <= 1e-3 * span;
-      if (std::isfinite(span) && (lo || hi) && std::fabs(v - s.default_value) > 1e-3 * span) at_end = true;
+      at_end = at_end || (physical_end(s, v) != 0 && physical_end(s, v) != physical_end(s, s.default_value));
     }
+  // A form freed to the end of its physical range that gains little is no form the log identifies
+  // (a force lag's release run to 0.1 of its build-up beside a pose clock that drifts took the
+  // candidate out of the search's beam): the default form, sized, is kept. One that takes a fifth
+  // of the cost or more is the form the log has, though the fit trades it against the size (added
+  // mass 2.6 times the robot's sideways fitted as 1.6 with the coupling and the surge at their
+  // ends: 0.38 of the cost of the rigid body alone).
+  at_end = at_end && out.cost > kFormAtEndGain * first.cost;
   if (near_default || at_end || !(out.cost < first.cost)) {
     // Its parts as fitted: the form held (its JtJ has no column for it).
     for (std::size_t p = 0; p < parts.size(); ++p) first.parts[p].free = sized[p].free;

@@ -270,15 +270,9 @@ void flag_params(std::vector<FitParam>& params, const Part& part) {
       p.flag = buf;
       continue;
     }
-    // At the end of the physical range where it is stricter than the effect's own bounds (those
-    // are definitions: a breakaway ratio of 1 is Coulomb friction, a force limit of 1e6 N none).
-    const double pspan = s.physical_upper - s.physical_lower;
-    auto near = [&](double bound) {
-      const double tol = s.log_scale ? 1e-3 * std::fabs(bound) : 1e-3 * (std::isfinite(pspan) ? pspan : std::fabs(s.typical));
-      return std::fabs(p.value - bound) <= tol;
-    };
-    const bool at_lo = s.physical_lower > s.lower && near(s.physical_lower);
-    const bool at_hi = s.physical_upper < s.upper && near(s.physical_upper);
+    auto near = [&](double bound) { return near_bound(s, p.value, bound); };
+    const int end = physical_end(s, p.value);
+    const bool at_lo = end < 0, at_hi = end > 0;
     if (p.value < s.physical_lower || p.value > s.physical_upper) {
       std::snprintf(buf, sizeof buf, "outside the physical range %g..%g %s", s.physical_lower, s.physical_upper,
                     s.unit.c_str());

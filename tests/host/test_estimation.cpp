@@ -116,6 +116,22 @@ TEST_CASE("EKF measurement Jacobians match finite differences (with a sensor eff
   CHECK((Hpose - numeric_jacobian<3>(hpose, x, true)).cwiseAbs().maxCoeff() < 1e-8);
 }
 
+TEST_CASE("EKF: an IMU bias that jumped at a time of the fitted log takes its newest value; a replay takes it by time") {
+  // Fitted on a log: -0.2 rad until t = 50 s of that log, 0.1 rad after. augerd's filter runs now,
+  // long after that jump (its own clock starts at 0: the log's times mean nothing to it).
+  const Model m = make_model(RobotParams{}, kSand, {std::make_shared<ImuHeadingBias>(0.1, 50.0, -0.2)});
+  Vec6 x;
+  x << 0.4, -0.3, 1.1, 0.05, -0.01, 0.2;
+  CHECK(ekf_h_imu_psi(m, x, nullptr) == Approx(1.1 + 0.1));
+  SensorValues replay;
+  replay.t_s = 10.0;
+  predict_sensors(m, x.head<3>(), x.tail<3>(), replay);
+  CHECK(replay.imu_psi_rad == Approx(1.1 - 0.2));
+  replay.t_s = 60.0;
+  predict_sensors(m, x.head<3>(), x.tail<3>(), replay);
+  CHECK(replay.imu_psi_rad == Approx(1.1 + 0.1));
+}
+
 TEST_CASE("EKF with camera and IMU tracks a robot whose traction differs from the model") {
   // Truth: 30 % less longitudinal traction than the model believes, an IMU heading bias the
   // model knows about (effect), noisy measurements.

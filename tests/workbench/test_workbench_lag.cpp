@@ -1,7 +1,8 @@
 // The force lag's form (docs/workbench.md "`auger effects`", force_lag): a drive force that builds
 // up slowly and falls back fast (soil compressed under the flights lets go at once), written here
 // from its physics (not with the library's ForceLag), fitted by the workbench in form; a lag the
-// same both ways keeps that form.
+// same both ways keeps that form. And a form at the end of its physical range (soil moved with the
+// screws as added mass, also written from its physics) is kept where it takes most of the cost.
 #include <catch2/catch.hpp>
 
 #include <cmath>
@@ -65,4 +66,51 @@ TEST_CASE("force lag: a force that builds up slowly and falls back fast is fitte
   INFO(s.effects.back().description);
   CHECK(value_of(s.effects.back(), "tau_s") == Approx(0.25).epsilon(0.15));
   CHECK(std::fabs(value_of(s.effects.back(), "release_ratio") - 1) < 0.15);
+}
+
+namespace {
+
+// Soil moved with the screws as added mass (Fossen's diagonal mass matrix): surge_x and sway_x
+// times the robot's mass ahead and sideways, in the inertia and in the Coriolis and centripetal
+// forces of a body of mass m + that, with the Munk moment (m11 - m22) u v.
+class AddedMass final : public Effect {
+ public:
+  AddedMass(double surge_x, double sway_x) : surge_x_(surge_x), sway_x_(sway_x) {}
+  const std::string& id() const override {
+    static const std::string s = "test_added_mass";
+    return s;
+  }
+  std::vector<std::pair<std::string, double>> params() const override { return {}; }
+  void inertia(const Model& model, Vec3& M_diag) const override {
+    M_diag[0] += surge_x_ * model.robot.m_kg;
+    M_diag[1] += sway_x_ * model.robot.m_kg;
+  }
+  void body_force(const Model& model, const EffectContext& ctx, Vec3& force_n, double*) const override {
+    const double m11 = (1 + surge_x_) * model.robot.m_kg, m22 = (1 + sway_x_) * model.robot.m_kg;
+    const double u = ctx.zeta.x(), v = ctx.zeta.y(), r = ctx.zeta.z();
+    force_n += Vec3(m22 * r * v, -m11 * r * u, (m11 - m22) * u * v);
+  }
+
+ private:
+  double surge_x_, sway_x_;
+};
+
+}  // namespace
+
+// A form freed to the end of its physical range gives way to the default form only where it gains
+// little: on the independent generator's rigid-body log (added mass 2.6 times the robot's
+// sideways), the fit ran the surge to its end and kept 0.38 of the rigid body alone's cost, and
+// the default form then lost the effect from the search.
+TEST_CASE("forms: a form at the end of its physical range that takes most of the cost is kept") {
+  SynthOptions o;
+  o.seconds = 64;
+  o.steps = true;
+  // Surge added mass beyond the physical range (0-1.5): the fit must stop at its end.
+  const Dataset d = synth(make_model(RobotParams{}, kSand, {std::make_shared<AddedMass>(2.0, 2.5)}), o);
+  const FitResult r = fit(d, nominal(), {"rigid_body_coupling"});
+  const FittedEffect& e = r.effects.back();
+  REQUIRE(e.effect == "rigid_body_coupling");
+  INFO(e.description);
+  CHECK(value_of(e, "added_surge") == Approx(1.5).margin(0.01));
+  CHECK(value_of(e, "added_sway") > 1.0);
 }

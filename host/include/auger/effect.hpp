@@ -51,6 +51,9 @@ struct SensorValues {
   double imu_psi_rad;  // IMU heading
   double imu_r_radps;  // IMU yaw rate
   double t_s = 0;      // time of the reading (set by the caller), for drifting sensors
+  // A reading of augerd's filter, now: not a time of the log a model was fitted on, so a sensor's
+  // jump fitted at such a time (imu_heading_bias's t_step_s) is past and its newest value holds.
+  bool live = false;
 };
 
 class Effect {
