@@ -76,8 +76,8 @@ int physical_end(const ParamSpec& s, double v) {
 
 namespace {
 
-// The cost a form at the end of its physical range must reach, as a multiple of the default
-// form's, to be kept.
+// A form at the end of its physical range is kept only where its cost is at most this multiple
+// of the default form's.
 constexpr double kFormAtEndGain = 0.8;
 
 FitOutcome lm_free(const Problem& pr, std::vector<Part> parts, int max_iter) {
