@@ -133,10 +133,4 @@ double pose_delay_s(const Model& model) {
   return delay_s;
 }
 
-double pose_delay_rate(const Model& model) {
-  double rate = 0.0;
-  for (const auto& e : model.effects) rate += e->pose_delay_rate();
-  return rate;
-}
-
 }  // namespace auger

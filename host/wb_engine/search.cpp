@@ -259,7 +259,6 @@ bool residuals(const Problem& pr, const std::vector<Part>& parts, Eigen::VectorX
     SimOptions o = t.options;
     const SimOptions own = sim_options_for(m);
     o.pose_delay_s = own.pose_delay_s;
-    o.pose_delay_rate = own.pose_delay_rate;
     o.warm_s = own.warm_s;
     const Dataset& d = *t.data;
     Prediction& w = work[ti];

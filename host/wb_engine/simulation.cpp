@@ -140,10 +140,10 @@ void simulate_range(const Model& model, const Dataset& data, const SimOptions& o
   // Poses compared with the model at another time than their row's: their capture time where the
   // log has one (augerd's pose_capture_t_s), and pose_delay_s earlier (effect pose_time_offset).
   const bool capture_times = data.pose_t_s.size() == n;
-  const bool delayed = o.pose_delay_s != 0 || o.pose_delay_rate != 0 || capture_times;
+  const bool delayed = o.pose_delay_s != 0 || capture_times;
   auto pose_time = [&](std::size_t k) {
     const double tc = capture_times ? data.pose_t_s[k] : kNaN;
-    return (finite(tc) ? tc : data.t_s[k]) - o.pose_delay_s - o.pose_delay_rate * data.t_s[k];
+    return (finite(tc) ? tc : data.t_s[k]) - o.pose_delay_s;
   };
   const bool imu_heading = o.imu_heading && data.active[kImuPsi];
   bool started = false;
@@ -547,7 +547,6 @@ std::vector<RegimeRow> error_by_regime(const Model& model, const Dataset& data, 
 SimOptions sim_options_for(const Model& model) {
   SimOptions o;
   o.pose_delay_s = pose_delay_s(model);
-  o.pose_delay_rate = pose_delay_rate(model);
   // The warm-up before a segment spans five of the model's slowest time constants M / D
   // (eq. (8)): a segment that starts mid-turn must start at the model's own yaw rate, and with a
   // yaw time constant of 2.3 s the fixed 2 s left 42 % of a turn's transient at the start (a

@@ -40,7 +40,6 @@ struct SimOptions {
   bool imu_heading = false;   // the paper's Fig. 9 variant: heading taken from the IMU
   int n_sub = 1;              // dynamics sub-steps per sample (the linear part is exact per step)
   double pose_delay_s = 0.0;  // pose rows show the state pose_delay_s earlier (effect pose_time_offset)
-  double pose_delay_rate = 0.0;  // ... and pose_delay_rate t_s more (s per s; its clock drifting)
   // Each segment's start pose is refined to the mean offset of its first anchor_s of measurements
   // (a rigid shift of the segment), so one noisy pose sample does not bias a whole segment.
   double anchor_s = 2.0;

@@ -60,10 +60,10 @@ Dataset synth(const Model& truth, const SynthOptions& o) {
     dyn.t_s = t;
     dynamics_step(truth, dyn, eta, zeta, speed(t + dt), dt, 4);
   }
+  const auto delay = static_cast<std::size_t>(std::lround(o.pose_delay_s / dt));
   for (std::size_t k = 0; k < n; ++k) {
     ChannelValues m{kNaN, kNaN, kNaN, kNaN};
     const double t = d.t_s[k];
-    const auto delay = static_cast<std::size_t>(std::lround((o.pose_delay_s + o.pose_delay_rate * t) / dt));
     const bool gap = o.gaps && std::fmod(t, 20.0) > 12.0 && std::fmod(t, 20.0) < 13.0;
     if (k % static_cast<std::size_t>(o.pose_every) == 0 && !gap) {
       const Vec3& s = states[k >= delay ? k - delay : 0];

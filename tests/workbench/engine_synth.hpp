@@ -23,7 +23,6 @@ struct SynthOptions {
   double pose_noise_m = 0.003, psi_noise_rad = 0.005, imu_noise_rad = 0.005;
   int pose_every = 5;          // 20 Hz poses in a 100 Hz log
   double pose_delay_s = 0;     // poses show the state this much earlier
-  double pose_delay_rate = 0;  // ... and this much more per second of the log (a drifting clock)
   bool gaps = true;            // a 1 s gap without poses every 20 s
   bool steps = false;          // speeds step (from rest at t = 0 straight to the first piece's)
   double drive_scale = 1;      // drive_profile's speeds times this (a slow drive: a robot that stalls)

@@ -114,30 +114,3 @@ TEST_CASE("forms: a form at the end of its physical range that takes most of the
   CHECK(value_of(e, "added_surge") == Approx(1.5).margin(0.01));
   CHECK(value_of(e, "added_sway") > 1.0);
 }
-
-// A camera whose latency grows over the log (its clock runs at another rate, a frame queue fills):
-// 0.1 s at the start, 0.3 s after 64 s. The constant offset leaves the poses out of step at both
-// ends; the drift, a form of pose_time_offset, is fitted to its rate. A constant latency keeps
-// the constant form (within two samples' worth over the log).
-TEST_CASE("pose clock: a latency that grows over the log is fitted as a drifting offset; a constant one keeps none") {
-  SynthOptions o;
-  o.seconds = 64;
-  o.pose_delay_s = 0.1;
-  o.pose_delay_rate = 0.2 / 64;
-  const Dataset d = synth(make_model(RobotParams{}, kSand, {}), o);
-  const FitResult r = fit(d, nominal(), {"pose_time_offset"});
-  const FittedEffect& e = r.effects.back();
-  REQUIRE(e.effect == "pose_time_offset");
-  INFO(e.description);
-  CHECK(value_of(e, "offset_s") == Approx(0.1).margin(0.02));
-  CHECK(value_of(e, "drift_s_per_s") == Approx(0.2 / 64).epsilon(0.15));
-  for (int c = 0; c < kChannels; ++c) CHECK(r.err_after.ratio_to_noise[static_cast<std::size_t>(c)] < 1.2);
-
-  o.pose_delay_rate = 0;
-  o.pose_delay_s = 0.2;
-  const FitResult still = fit(synth(make_model(RobotParams{}, kSand, {}), o), nominal(), {"pose_time_offset"});
-  INFO(still.effects.back().description);
-  CHECK(value_of(still.effects.back(), "offset_s") == Approx(0.2).margin(0.02));
-  // (a sixth of the drifting one's rate at most: 20 ms over the log, two samples)
-  CHECK(std::fabs(value_of(still.effects.back(), "drift_s_per_s")) < 5e-4);
-}

@@ -90,9 +90,6 @@ class Effect {
   // How much earlier than its t_s a pose row shows the robot (camera latency, two computers'
   // clocks), in s; it changes nothing in the dynamics. Read through pose_delay_s(model).
   virtual double pose_delay_s() const { return 0.0; }
-  // How fast that delay grows, in s per s of the log's time (a camera clock that runs at another
-  // rate, a queue that fills): the delay at t_s is pose_delay_s() + t_s times this.
-  virtual double pose_delay_rate() const { return 0.0; }
   // Text parameters (name, value) for the model file, e.g. a discovered term's form.
   virtual std::vector<std::pair<std::string, std::string>> text_params() const { return {}; }
 

@@ -123,8 +123,6 @@ Model make_model(const RobotParams& robot, const TerrainParams& terrain,
 // effects' pose_delay_s() (effect pose_time_offset). The workbench shifts the screw speeds
 // against the poses by it, the controller's EKF takes each pose as of that much earlier.
 double pose_delay_s(const Model& model);
-// The sum of its effects' pose_delay_rate() (s per s of the log's time).
-double pose_delay_rate(const Model& model);
 
 // eq. (9): body to world.
 Mat3 rotation_J(double psi_rad);

@@ -32,26 +32,21 @@ class ImuHeadingDrift final : public Effect {
   double bias_, drift_, settle_;
 };
 
-// The pose rows are late: a row at t shows the robot at t - offset_s - drift t (camera latency,
-// clocks of two computers; drift: a camera clock that runs at another rate, a frame queue that
-// fills). It changes nothing in the dynamics; pose_delay_s(model) and pose_delay_rate(model)
-// report it to the workbench (wb::SimOptions) and the controller's EKF (Controller, PoseHistory,
-// which takes offset_s alone: a log's clock drift says nothing of the next run's).
+// The pose rows are late: a row at t shows the robot at t - offset_s (camera latency, clocks
+// of two computers). It changes nothing in the dynamics; pose_delay_s(model) reports it to the
+// workbench (wb::SimOptions::pose_delay_s) and the controller's EKF (Controller, PoseHistory).
 class PoseTimeOffset final : public Effect {
  public:
-  PoseTimeOffset(double offset_s, double drift) : offset_s_(offset_s), drift_(drift) {}
+  explicit PoseTimeOffset(double offset_s) : offset_s_(offset_s) {}
   const std::string& id() const override {
     static const std::string s = "pose_time_offset";
     return s;
   }
-  std::vector<std::pair<std::string, double>> params() const override {
-    return {{"offset_s", offset_s_}, {"drift_s_per_s", drift_}};
-  }
+  std::vector<std::pair<std::string, double>> params() const override { return {{"offset_s", offset_s_}}; }
   double pose_delay_s() const override { return offset_s_; }
-  double pose_delay_rate() const override { return drift_; }
 
  private:
-  double offset_s_, drift_;
+  double offset_s_;
 };
 
 }  // namespace
@@ -109,25 +104,13 @@ void register_sensors(EffectRegistry& r) {
       },
       true};
   r.add(std::move(drift));
-  r.add({"pose_time_offset",
-         "pose rows show the robot offset_s + drift_s_per_s t_s earlier than their t_s (latency; with drift, a "
-         "camera clock that runs at another rate)",
-         {ParamSpec{"offset_s", 0, true, "pose latency relative to the screw speeds (at t_s = 0)", "s", -1, 1, 0.05}
-              .physical(-1, 1),
-          // Form: a latency that grows by up to a hundredth of a second per second of log (a
-          // frame queue that fills, a clock 1 % fast); beyond, the poses would not keep up at all.
-          ParamSpec{"drift_s_per_s", 0, false, "latency's change per second of log time", "s/s", -0.05, 0.05, 1e-3}
-              .physical(-0.01, 0.01)
-              .form_param()},
+  r.add({"pose_time_offset", "pose rows show the robot offset_s earlier than their t_s (latency)",
+         {ParamSpec{"offset_s", 0, true, "pose latency relative to the screw speeds", "s", -1, 1, 0.05}.physical(-1, 1)},
          [](const std::vector<double>& v) {
            if (!(std::fabs(v[0]) <= 5)) throw std::invalid_argument("offset_s must be within +-5 s");
-           if (!(std::fabs(v[1]) <= 0.05)) throw std::invalid_argument("drift_s_per_s must be within +-0.05");
-           return std::make_shared<PoseTimeOffset>(v[0], v[1]);
+           return std::make_shared<PoseTimeOffset>(v[0]);
          },
          [](const std::vector<double>& v) {
-           if (v[1] != 0)
-             return "the poses are " + fmt(v[0] * 1000) + " ms late against the screw speeds at t = 0 s, " +
-                    fmt(v[1] * 60 * 1000) + " ms more each minute: a pose clock that drifts";
            return "the poses are " + fmt(v[0] * 1000) + " ms late against the screw speeds: time offset between pose and screw speeds";
          }});
 }
