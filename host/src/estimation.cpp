@@ -98,26 +98,31 @@ void ekf_predict(const Model& model, const EkfConfig& cfg, Ekf& ekf, DynamicsDat
   ekf.P.diagonal() += q;
 }
 
-double ekf_h_imu_psi(const Model& model, const Vec6& x, Eigen::Matrix<double, 1, 6>* H) {
+namespace {
+// What the sensors read for state x, now (SensorValues::live: a jump a model was fitted with, at a
+// time of its log, is past).
+SensorValues predicted_now(const Model& model, const Vec6& x) {
   SensorValues v;
   v.live = true;
   predict_sensors(model, x.head<3>(), x.tail<3>(), v);
+  return v;
+}
+}  // namespace
+
+double ekf_h_imu_psi(const Model& model, const Vec6& x, Eigen::Matrix<double, 1, 6>* H) {
+  const SensorValues v = predicted_now(model, x);
   if (H) H->setZero(), (*H)(0, 2) = 1;
   return v.imu_psi_rad;
 }
 
 double ekf_h_imu_r(const Model& model, const Vec6& x, Eigen::Matrix<double, 1, 6>* H) {
-  SensorValues v;
-  v.live = true;
-  predict_sensors(model, x.head<3>(), x.tail<3>(), v);
+  const SensorValues v = predicted_now(model, x);
   if (H) H->setZero(), (*H)(0, 5) = 1;
   return v.imu_r_radps;
 }
 
 Vec3 ekf_h_pose(const Model& model, const Vec6& x, Eigen::Matrix<double, 3, 6>* H) {
-  SensorValues v;
-  v.live = true;
-  predict_sensors(model, x.head<3>(), x.tail<3>(), v);
+  const SensorValues v = predicted_now(model, x);
   if (H) H->setZero(), H->leftCols<3>().setIdentity();
   return v.pose;
 }

@@ -213,7 +213,8 @@ FitOutcome levenberg_marquardt(const Problem& pr, std::vector<Part> parts, int m
       if (!s.form || std::find(sized[p].free.begin(), sized[p].free.end(), i) != sized[p].free.end()) continue;
       const double v = out.parts[p].values[static_cast<std::size_t>(i)];
       near_default = near_default && std::fabs(v - s.default_value) <= 0.05 * std::fabs(s.typical);
-      at_end = at_end || (physical_end(s, v) != 0 && physical_end(s, v) != physical_end(s, s.default_value));
+      const int end = physical_end(s, v);
+      at_end = at_end || (end != 0 && end != physical_end(s, s.default_value));
     }
   // A form freed to the end of its physical range that gains little is no form the log identifies
   // (a force lag's release run to 0.1 of its build-up beside a pose clock that drifts took the
