@@ -108,6 +108,11 @@ struct FitOutcome {
   int sims = 0;
 };
 FitOutcome levenberg_marquardt(const Problem& pr, std::vector<Part> parts, int max_iter);
+// Whether levenberg_marquardt keeps the fit with its forms held at their defaults (sized, its cost
+// sized_cost) over the one with them freed (out): where every freed form stayed within 5 % of its
+// typical size from its default, or one ran to the end of its physical range while the cost fell
+// by less than a fifth, or freeing them gained nothing.
+bool keep_sized_fit(const std::vector<Part>& sized, double sized_cost, const FitOutcome& out);
 // The bounds of the search: a parameter's own bounds and its physical range, the stricter.
 double search_lower(const ParamSpec& s);
 double search_upper(const ParamSpec& s);

@@ -175,6 +175,32 @@ FitOutcome lm_free(const Problem& pr, std::vector<Part> parts, int max_iter) {
 
 }  // namespace
 
+bool keep_sized_fit(const std::vector<Part>& sized, double sized_cost, const FitOutcome& out) {
+  // Forms that end within 5 % of their typical size from their defaults are the default forms,
+  // and the sized fit, which holds them there exactly, is kept: a dry friction's tanh reached over
+  // 0.1 mm/s is its hard sign, but creeps, so a level the stalled robot bounds only from below
+  // (settle_stalls) ran to the end of its range instead. Every part is looked at: in a joint
+  // refit, one part's form that moved must not hide another's run to its end.
+  bool near_default = std::isfinite(out.cost), at_end = false;
+  for (std::size_t p = 0; p < out.parts.size(); ++p)
+    for (int i : out.parts[p].free) {
+      const ParamSpec& s = out.parts[p].specs[static_cast<std::size_t>(i)];
+      if (!s.form || std::find(sized[p].free.begin(), sized[p].free.end(), i) != sized[p].free.end()) continue;
+      const double v = out.parts[p].values[static_cast<std::size_t>(i)];
+      near_default = near_default && std::fabs(v - s.default_value) <= 0.05 * std::fabs(s.typical);
+      const int end = physical_end(s, v);
+      at_end = at_end || (end != 0 && end != physical_end(s, s.default_value));
+    }
+  // A form freed to the end of its physical range that gains little is no form the log identifies
+  // (a force lag's release run to 0.1 of its build-up beside a pose clock that drifts took the
+  // candidate out of the search's beam): the default form, sized, is kept. One that takes a fifth
+  // of the cost or more is the form the log has, though the fit trades it against the size (added
+  // mass 2.6 times the robot's sideways fitted as 1.6 with the coupling and the surge at their
+  // ends: 0.38 of the cost of the rigid body alone).
+  at_end = at_end && out.cost > kFormAtEndGain * sized_cost;
+  return near_default || at_end || !(out.cost < sized_cost);
+}
+
 FitOutcome levenberg_marquardt(const Problem& pr, std::vector<Part> parts, int max_iter) {
   // An effect whose form parameters (ParamSpec::form) are still at their defaults is fitted in
   // size first, its form held, then in everything: freed together from a wrong size, a dead band's
@@ -202,28 +228,7 @@ FitOutcome levenberg_marquardt(const Problem& pr, std::vector<Part> parts, int m
   for (std::size_t p = 0; p < parts.size(); ++p) first.parts[p].free = parts[p].free;
   FitOutcome out = lm_free(pr, first.parts, max_iter);
   out.sims += first.sims;
-  // Forms that end within 5 % of their typical size from their defaults are the default forms,
-  // and the sized fit, which holds them there exactly, is kept: a dry friction's tanh reached over
-  // 0.1 mm/s is its hard sign, but creeps, so a level the stalled robot bounds only from below
-  // (settle_stalls) ran to the end of its range instead.
-  bool near_default = std::isfinite(out.cost), at_end = false;
-  for (std::size_t p = 0; p < parts.size() && near_default; ++p)
-    for (int i : parts[p].free) {
-      const ParamSpec& s = parts[p].specs[static_cast<std::size_t>(i)];
-      if (!s.form || std::find(sized[p].free.begin(), sized[p].free.end(), i) != sized[p].free.end()) continue;
-      const double v = out.parts[p].values[static_cast<std::size_t>(i)];
-      near_default = near_default && std::fabs(v - s.default_value) <= 0.05 * std::fabs(s.typical);
-      const int end = physical_end(s, v);
-      at_end = at_end || (end != 0 && end != physical_end(s, s.default_value));
-    }
-  // A form freed to the end of its physical range that gains little is no form the log identifies
-  // (a force lag's release run to 0.1 of its build-up beside a pose clock that drifts took the
-  // candidate out of the search's beam): the default form, sized, is kept. One that takes a fifth
-  // of the cost or more is the form the log has, though the fit trades it against the size (added
-  // mass 2.6 times the robot's sideways fitted as 1.6 with the coupling and the surge at their
-  // ends: 0.38 of the cost of the rigid body alone).
-  at_end = at_end && out.cost > kFormAtEndGain * first.cost;
-  if (near_default || at_end || !(out.cost < first.cost)) {
+  if (keep_sized_fit(sized, first.cost, out)) {
     // Its parts as fitted: the form held (its JtJ has no column for it).
     for (std::size_t p = 0; p < parts.size(); ++p) first.parts[p].free = sized[p].free;
     first.sims = out.sims;

@@ -37,11 +37,14 @@ class RigidBodyCoupling final : public Effect {
   // body gives m11 = m22 = coupling m. Soil moved with the screws adds mass (added mass): a_v m
   // sideways, a_u m ahead, in the inertia (below) and in m22 and m11; heavier sideways than ahead,
   // the robot feels the Munk moment (a_u - a_v) m u v, which turns it broadside to its path when
-  // it drives at an angle. Smooth in the velocity: safe to anticipate.
+  // it drives at an angle. That moment is a real one, and enters eq. (8)'s lumped yaw row scaled
+  // as the screws' own moments are (yaw_lumping, about 1/17): unscaled, it turned the model 17
+  // times too hard, and fits held m11 near m22 (the surge's added mass at the end of its range,
+  // the sway's at 0.6-0.7 of a true 2.6-2.9). Smooth in the velocity: safe to anticipate.
   bool feedforward_force(const Model& model, const Vec3&, const Vec3& zeta, Vec3& force_n) const override {
     const double m = model.robot.m_kg, m11 = (coupling_ + added_surge_) * m, m22 = (coupling_ + added_sway_) * m;
     const double u = zeta.x(), v = zeta.y(), r = zeta.z();
-    force_n << m22 * r * v, -m11 * r * u, (m11 - m22) * u * v;
+    force_n << m22 * r * v, -m11 * r * u, yaw_lumping(model) * (m11 - m22) * u * v;
     return true;
   }
   void inertia(const Model& model, Vec3& M_diag) const override {
