@@ -194,9 +194,8 @@ bool keep_sized_fit(const std::vector<Part>& sized, double sized_cost, const Fit
   // A form freed to the end of its physical range that gains little is no form the log identifies
   // (a force lag's release run to 0.1 of its build-up beside a pose clock that drifts took the
   // candidate out of the search's beam): the default form, sized, is kept. One that takes a fifth
-  // of the cost or more is the form the log has, though the fit trades it against the size (added
-  // mass 2.6 times the robot's sideways fitted as 1.6 with the coupling and the surge at their
-  // ends: 0.38 of the cost of the rigid body alone).
+  // of the cost or more is the form the log has, only larger than the range allows (soil of 4
+  // times the robot's mass moved sideways, fitted at 3, the end).
   at_end = at_end && out.cost > kFormAtEndGain * sized_cost;
   return near_default || at_end || !(out.cost < sized_cost);
 }
