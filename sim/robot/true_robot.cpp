@@ -213,12 +213,10 @@ TrueRobot::Deriv TrueRobot::derivative(const TruthState& s, const Vec4& omega_rp
     if (p_.offset.on) {
       const double asym = p.x() > 0 ? p_.offset.asym : -p_.offset.asym;
       const Eigen::Vector2d f_asym = asym * f_plain;
+      // Its moment is the real one, like every contact force's: in the model's lumped yaw row it
+      // is 1/yaw_scale of that (the library's resistance_offset scales it so), and the centre of
+      // resistance sits at asym l_x for the model too.
       f_drag += f_asym;
-      // With the model's yaw time constant the truth's yaw equation is yaw_scale times the
-      // model's (drive, drag and inertia alike), so the moment of the asymmetric part is scaled
-      // with it: the centre of resistance then sits at asym l_x for the model too (its force on
-      // y from r is not a moment and is not scaled).
-      if (p_.nominal_yaw_time_constant) m_z += (yaw_scale_ - 1.0) * (p.x() * f_asym.y() - p.y() * f_asym.x());
     }
     const Eigen::Vector2d f = f_tr + f_block + f_drag;
     f_body += f;

@@ -52,7 +52,8 @@ class TerrainSlope final : public Effect {
 };
 
 // The resistance -D zeta of eq. (6) acts at (offset_x_m, offset_y_m) from the centre instead of
-// at it: sideways resistance then turns the robot, torque = x_c (-D_y v) - y_c (-D_x u).
+// at it: sideways resistance then turns the robot, torque = x_c (-D_y v) - y_c (-D_x u), in the
+// lumped yaw units.
 class ResistanceOffset final : public Effect {
  public:
   ResistanceOffset(double ox, double oy) : ox_(ox), oy_(oy) {}
@@ -67,8 +68,10 @@ class ResistanceOffset final : public Effect {
     // The resistance point moves with (u - r y_c, v + r x_c) (rigid body); the difference to the
     // centre's resistance is the extra force, and its moment about the centre the extra torque.
     const double u = ctx.zeta_free.x(), v = ctx.zeta_free.y(), r = ctx.zeta_free.z();
+    // The moment is a real one: it enters eq. (8)'s lumped yaw row scaled as the screws' moments
+    // are (yaw_lumping, about 1/17). Unscaled, fitted offsets came out 13-17 times too small.
     const double fx = -model.D_diag.x() * (u - r * oy_), fy = -model.D_diag.y() * (v + r * ox_);
-    force_n << fx + model.D_diag.x() * u, fy + model.D_diag.y() * v, ox_ * fy - oy_ * fx;
+    force_n << fx + model.D_diag.x() * u, fy + model.D_diag.y() * v, yaw_lumping(model) * (ox_ * fy - oy_ * fx);
   }
 
  private:
