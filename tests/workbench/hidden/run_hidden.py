@@ -127,8 +127,8 @@ ROBOT_EFFECTS = {
         uniform(r, 0.08, 0.2), uniform(r, 0, 2 * math.pi)),
     # front contacts plough 50-80 % more than the rear (or less; e.g. the battery's weight at the
     # front sinks the front screws deeper): lateral centre of resistance 75-120 mm ahead of
-    # (behind) the centre. Its moment is physical, 1/17 of the model's yaw row: smaller offsets
-    # leave the log within 3 times the noise.
+    # (behind) the centre. Its moment is the physical one (about 1/17 of it in the model's lumped
+    # yaw row): smaller offsets leave the log within 3 times the noise.
     "resistance_offset": lambda r: spec("resistance_offset", asym=signed(r, 0.5, 0.8)),
     # camera clock 250-500 ms late or early (a camera on another computer, its pipeline's
     # latency unknown).
