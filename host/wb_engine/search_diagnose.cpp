@@ -12,11 +12,6 @@ namespace auger::wb {
 using namespace search;
 
 namespace {
-// A held-out error above this multiple of the noise floor is beyond what logs without a missing
-// effect give (those stay within 1.0-1.1x: docs/workbench.md "Calibration").
-constexpr double kNominalMissRatio = 1.3;
-// ... or beyond 1.1 times with the best candidate lowering the held-out error by this share.
-constexpr double kSignificantHeldout = 0.05;
 // Held-out errors this share apart are one tier of the ranking (as mark_near_ties: within 2 %
 // they cannot be told apart on new data).
 constexpr double kHeldOutSame = 0.02;
@@ -226,15 +221,9 @@ DiagnoseResult diagnose(const Dataset& full, ModelChoice mc, const DiagnoseOptio
     best_parts = std::move(parts_sorted);
   }
   mark_near_ties(res.candidates);
-  // Significant: beyond what logs with no missing effect produce (docs/workbench.md,
-  // "Calibration"): the nominal model misses clearly and the best candidate removes a clear share
-  // of that on held-out data (clean logs: at most 0.2 %, whatever their BIC gain), with a clear
-  // BIC gain.
   const Candidate* best = res.candidates.empty() ? nullptr : &res.candidates.front();
-  const double nominal_excess = res.nominal_all_ratio;
-  res.significant = best && (nominal_excess > kNominalMissRatio ||
-                             (nominal_excess > 1.1 && best->delta_bic < -20 &&
-                              best->heldout_ratio < res.nominal_heldout_ratio * (1.0 - kSignificantHeldout)));
+  res.significant = best && diagnose_significant(res.nominal_all_ratio, res.nominal_heldout_ratio,
+                                                 best->heldout_ratio, best->delta_bic);
   // Explained: the best candidate leaves at most 1.5x the noise, or removes 80 % of the excess.
   const bool explained = best && res.significant &&
                          (best->heldout_ratio < 1.5 ||
