@@ -11,7 +11,7 @@ runs=${2:-3}
 auger=$build/host/auger/auger
 work=$build/bench-explain
 mkdir -p "$work"
-pair=(--effect screw_dead_band:omega_rpm=2.2 --effect resistance_offset:asym=0.15)
+pair=(--effect screw_dead_band:omega_rpm=2.2 --effect resistance_offset:asym=0.6)
 "$build/sim/robot/auger-sim-log" --out "$work/pair-240s.csv" --seconds 240 --seed 3 "${pair[@]}" 2>/dev/null
 "$build/sim/robot/auger-sim-log" --out "$work/pair-600s.csv" --seconds 600 --seed 3 "${pair[@]}" 2>/dev/null
 "$build/sim/robot/auger-sim-drive" --out "$work/fil-square-240s.csv" --drive square --seconds 240 --seed 1
