@@ -18,7 +18,7 @@
 #   make bench-host       instructions and time per host controller step (callgrind)
 #   make bench-online     the online estimator's cost per cycle (x86, aarch64 under qemu) and its
 #                         change detector's delay / false-alarm curve (docs/benchmarks.md)
-#   make bench-online-fil the same detector on hours of firmware-in-the-loop logs (~15 min)
+#   make bench-online-fil the same detector on hours of firmware-in-the-loop logs (~5 min)
 #   make bench-robot      speed of the whole simulated robot in lock-step
 #   make bench-ros2       what augerd's ROS 2 interface costs its 100 Hz loop, under load
 #   make bench-explain    auger explain on 240 s and 10 min logs (wall and CPU seconds)
