@@ -68,7 +68,7 @@ inline double ranking_heldout(double heldout_ratio, bool implausible) {
   return heldout_ratio * (implausible ? kImplausibleHeldout : 1.0);
 }
 
-// diagnose's `significant` (docs/workbench.md "Calibration of significant"): the nominal model
+// diagnose's `significant` (docs/workbench.md "Calibration of `significant`"): the nominal model
 // misses by more than 1.3 times the noise floor over every segment, or the best candidate gains
 // more than 20 in BIC and removes 5 % of the held-out error. Logs without a missing effect stay
 // within 1.0-1.1 times and no candidate removes more than 0.2 % of theirs, so the 5 % alone tells
