@@ -217,8 +217,8 @@ bool Explainer::discover(FitOutcome& o, ExplainResult& res) {
   ChannelValues per_channel;
   const double err_library = compare_error(o.parts, &per_channel);
   // Where the library's model is at the noise floor in size (only its residuals' form is off: a
-  // hard dead band for a smooth one), its effects are the finding and stay: a term may only be
-  // added to them. Where it is not, a term may take the place of effects that stood in for it.
+  // hard dead band for a smooth one), the first route keeps its effects: a term may only be added
+  // to them. Where it is not, a term may take the place of effects that stood in for it there too.
   bool fails_in_size = false;
   for (double v : per_channel) fails_in_size = fails_in_size || (std::isfinite(v) && v > kVerdictNoise);
   struct Route {
@@ -242,11 +242,15 @@ bool Explainer::discover(FitOutcome& o, ExplainResult& res) {
       routes.push_back(std::move(r));
     }
   }
-  // 2. On the paper's model alone, the library's effects added back where they pay.
+  // 2. On the paper's model alone, the library's effects added back where they pay: at the noise
+  // floor in size too, where an effect may have stood in for the whole of the term (a quadratic
+  // drag in yaw for a traction that falls with the yaw rate, the same torque r |r| in steady
+  // turns; a Coulomb friction and a change of terrain for a battery's sag: the independent
+  // generator's logs ended "near the noise floor" with them kept as findings).
   std::vector<Part> paper;
   for (const Part& p : o.parts)
     if (!p.entry) paper.push_back(p);
-  if (fails_in_size && paper.size() != o.parts.size() && select_terms_on(paper, dict, chosen)) {
+  if (paper.size() != o.parts.size() && select_terms_on(paper, dict, chosen)) {
     std::vector<Part> parts = paper;
     parts.insert(parts.end(), chosen.begin(), chosen.end());
     Route r;
@@ -306,12 +310,12 @@ bool Explainer::discover(FitOutcome& o, ExplainResult& res) {
       best = &r;
   }
   if (best)
-    progress("explain: discovery: the 25 s segments %.3f times the noise floor with the terms, %.3f without",
-             best->err, err_library);
+    progress("explain: discovery: the 25 s segments %.3f times the noise floor with the terms (%d parameters), "
+             "%.3f without (%d)", best->err, best->fit.n_params, err_library, o.n_params);
   else
     progress("explain: discovery: no term is left after its checks (the 25 s segments %.3f times the noise "
              "floor without)", err_library);
-  if (!best || !(best->err <= (1.0 - kAddHeldout) * err_library)) return false;
+  if (!best || !terms_replace_library(best->err, best->fit.n_params, err_library, o.n_params)) return false;
   res.removed.insert(res.removed.end(), best->stand_ins.begin(), best->stand_ins.end());
   const FitOutcome& with = best->fit;
   // The groups, per dof in the order first chosen, each with the error of the terms so far.

@@ -65,6 +65,16 @@ inline bool significant_gain(double delta_bic, double h_from, double h_to) {
   if (!(h_to < h_from * (1.0 - kAddHeldout))) return false;
   return delta_bic < kAddBic || (h_from >= kFarFromNoise && h_to <= h_from * (1.0 - kLargeHeldout));
 }
+// Discovered terms are proposed in place of the library's model (docs/workbench.md "Discovered
+// terms") where they predict the 25 s segments kAddHeldout better, or as well (within kAddHeldout)
+// with fewer fitted parameters: the library's effects they do without are then the less
+// parsimonious account of the same force (a quadratic drag whose x and y coefficients a log turning
+// on the spot does not identify, for a traction that falls with the yaw rate: one term, the same
+// torque r |r|).
+inline bool terms_replace_library(double err_terms, int params_terms, double err_library, int params_library) {
+  return err_terms <= (1.0 - kAddHeldout) * err_library ||
+         (err_terms <= (1.0 + kAddHeldout) * err_library && params_terms < params_library);
+}
 constexpr int kFolds = 3;
 using FoldValues = std::array<double, kFolds>;
 // An effect (or a discovered term) stays in the final model only when it changes the prediction
