@@ -226,6 +226,7 @@ bool Explainer::discover(FitOutcome& o, ExplainResult& res) {
     std::vector<RemovedEffect> stand_ins;
     double err = std::numeric_limits<double>::infinity();
     int parts = 0;
+    bool on_paper = false;  // the second route: terms found on the paper's model alone
   };
   std::vector<Route> routes;
   // 1. On the library's model.
@@ -254,6 +255,7 @@ bool Explainer::discover(FitOutcome& o, ExplainResult& res) {
     std::vector<Part> parts = paper;
     parts.insert(parts.end(), chosen.begin(), chosen.end());
     Route r;
+    r.on_paper = true;
     r.fit = refit(all_, parts, 15, 1);
     ++structures_;
     if (std::isfinite(r.fit.cost)) {
@@ -310,12 +312,16 @@ bool Explainer::discover(FitOutcome& o, ExplainResult& res) {
       best = &r;
   }
   if (best)
-    progress("explain: discovery: the 25 s segments %.3f times the noise floor with the terms (%d parameters), "
-             "%.3f without (%d)", best->err, best->fit.n_params, err_library, o.n_params);
+    progress("explain: discovery: the 25 s segments %.3f times the noise floor with the terms (%d parameters, %d "
+             "parts), %.3f without (%d)", best->err, best->fit.n_params, best->parts, err_library, o.n_params);
   else
     progress("explain: discovery: no term is left after its checks (the 25 s segments %.3f times the noise "
              "floor without)", err_library);
-  if (!best || !terms_replace_library(best->err, best->fit.n_params, err_library, o.n_params)) return false;
+  int library_parts = 0;
+  for (const Part& p : o.parts) library_parts += p.entry != nullptr;
+  if (!best || !terms_accepted(best->err, best->fit.n_params, best->parts, err_library, o.n_params, library_parts,
+                               best->on_paper && !fails_in_size))
+    return false;
   res.removed.insert(res.removed.end(), best->stand_ins.begin(), best->stand_ins.end());
   const FitOutcome& with = best->fit;
   // The groups, per dof in the order first chosen, each with the error of the terms so far.

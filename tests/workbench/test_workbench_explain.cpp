@@ -8,7 +8,7 @@
 #include <cmath>
 
 #include "engine_synth.hpp"
-#include "explain_internal.hpp"  // terms_replace_library (the rule itself)
+#include "explain_internal.hpp"  // terms_accepted (the rule itself)
 #include "fitting.hpp"  // flag_params (the plausibility rule itself), make_part, fitted_effect
 #include "workbench.hpp"
 
@@ -238,18 +238,23 @@ TEST_CASE("explain: at the noise floor in size, a library effect the dictionary'
   for (int c = 0; c < kChannels; ++c) CHECK(r.final_ratio[static_cast<std::size_t>(c)] < 1.2);
 }
 
-TEST_CASE("explain: discovered terms replace the library's model where they predict better, or as well with fewer "
-          "parameters") {
-  using explain_internal::terms_replace_library;
+TEST_CASE("explain: discovered terms are proposed where they predict better, or as well with fewer parameters") {
+  using explain_internal::terms_accepted;
   // The independent generator's traction falling with the yaw rate, seed 4 (turning mostly on the
-  // spot): one term at 1.005 times the floor against a quadratic drag with two parameters at 1.026,
-  // short of 2 % better by a hair. Within 2 % with one parameter fewer: replaced.
-  CHECK(terms_replace_library(1.015, 1, 1.026, 2));
-  // As well with as many parameters or more: the library's effect stays.
-  CHECK_FALSE(terms_replace_library(1.015, 2, 1.026, 2));
-  // Fewer parameters but more than 2 % worse: stays; 2 % better with more parameters: replaced.
-  CHECK_FALSE(terms_replace_library(1.05, 1, 1.026, 2));
-  CHECK(terms_replace_library(1.0, 5, 1.03, 2));
+  // spot): one term at 1.005 times the floor against a quadratic drag with two parameters at 1.026.
+  // Within 2 % with one parameter fewer, one part for one: replaced, at the noise floor in size or not.
+  CHECK(terms_accepted(1.005, 1, 1, 1.026, 2, 1, true));
+  CHECK(terms_accepted(1.015, 1, 1, 1.026, 2, 1, false));
+  // As well with as many parameters, or with more parts: the library's effects stay.
+  CHECK_FALSE(terms_accepted(1.015, 2, 1, 1.026, 2, 1, false));
+  CHECK_FALSE(terms_accepted(1.015, 1, 2, 1.026, 2, 1, false));
+  // Fewer parameters but more than 2 % worse: stays.
+  CHECK_FALSE(terms_accepted(1.05, 1, 1, 1.026, 2, 1, false));
+  // 2 % better: accepted, but not when terms found on the paper's model alone would replace a
+  // library model at the noise floor in size (the project's dead band and offset centre, 5
+  // parameters in 2 effects: three terms, 3 parameters, at 1.030 against 1.051).
+  CHECK(terms_accepted(1.2, 3, 3, 1.3, 3, 2, false));
+  CHECK_FALSE(terms_accepted(1.030, 3, 3, 1.051, 5, 2, true));
 }
 
 TEST_CASE("explain: an effect the held-out segments do not show is sought where the rest of the log shows it",
