@@ -311,14 +311,15 @@ bool Explainer::discover(FitOutcome& o, ExplainResult& res) {
         (r.err <= best->err * (1.0 + kAddHeldout) && r.parts < best->parts))
       best = &r;
   }
+  int library_parts = 0;
+  for (const Part& p : o.parts) library_parts += p.entry != nullptr;
   if (best)
-    progress("explain: discovery: the 25 s segments %.3f times the noise floor with the terms (%d parameters, %d "
-             "parts), %.3f without (%d)", best->err, best->fit.n_params, best->parts, err_library, o.n_params);
+    progress("explain: discovery: the 25 s segments %.3f times the noise floor with the terms (%d fitted "
+             "parameters in %d effects and terms), %.3f without (%d in %d)",
+             best->err, best->fit.n_params, best->parts, err_library, o.n_params, library_parts);
   else
     progress("explain: discovery: no term is left after its checks (the 25 s segments %.3f times the noise "
              "floor without)", err_library);
-  int library_parts = 0;
-  for (const Part& p : o.parts) library_parts += p.entry != nullptr;
   if (!best || !terms_accepted(best->err, best->fit.n_params, best->parts, err_library, o.n_params, library_parts,
                                best->on_paper && !fails_in_size))
     return false;
