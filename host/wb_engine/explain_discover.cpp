@@ -299,7 +299,7 @@ bool Explainer::discover(FitOutcome& o, ExplainResult& res) {
     // offset of the centre of resistance, within its uncertainty of 0, beside a drift's terms).
     while (drop_weakest(r.fit, r.stand_ins, "with the discovered terms, ")) polish(r.fit);
     r.err = compare_error(r.fit.parts);
-    for (const Part& p : r.fit.parts) r.parts += p.entry != nullptr;
+    r.parts = effects_in(r.fit.parts);
   }
   // The better route; of two within 2 % the one with fewer parts.
   const Route* best = nullptr;
@@ -311,8 +311,7 @@ bool Explainer::discover(FitOutcome& o, ExplainResult& res) {
         (r.err <= best->err * (1.0 + kAddHeldout) && r.parts < best->parts))
       best = &r;
   }
-  int library_parts = 0;
-  for (const Part& p : o.parts) library_parts += p.entry != nullptr;
+  const int library_parts = effects_in(o.parts);
   if (best)
     progress("explain: discovery: the 25 s segments %.3f times the noise floor with the terms (%d fitted "
              "parameters in %d effects and terms), %.3f without (%d in %d)",

@@ -202,11 +202,13 @@ class Explainer {
     return false;
   }
 
-  static int effects_in(const State& s) {
+  // Library effects and discovered terms (the parts with an entry; the paper's parameters have none).
+  static int effects_in(const std::vector<Part>& parts) {
     int n = 0;
-    for (const Part& p : s.parts) n += p.entry != nullptr;
+    for (const Part& p : parts) n += p.entry != nullptr;
     return n;
   }
+  static int effects_in(const State& s) { return effects_in(s.parts); }
 
   bool at_noise(const State& s) const;
 

@@ -153,6 +153,14 @@ class TurnTractionLoss final : public Effect {
   double loss_;
 };
 
+// Whether a term explain discovered reads the input (a name of the dictionary's vocabulary).
+bool discovered_reads(const ExplainResult& r, const std::string& input) {
+  for (const auto& g : r.discovered)
+    for (const auto& t : g.terms)
+      if (std::find(t.inputs.begin(), t.inputs.end(), input) != t.inputs.end()) return true;
+  return false;
+}
+
 }  // namespace
 
 TEST_CASE("fit --add-term: a discovered term's coefficient recovered from physics made otherwise") {
@@ -193,11 +201,7 @@ TEST_CASE("explain: physics outside the library is said so, with the missing ter
   CHECK(r.outside_library);
   CHECK(r.verdict_kind == "outside_library");
   REQUIRE(!r.discovered.empty());
-  bool reads_screw_2 = false;
-  for (const auto& g : r.discovered)
-    for (const auto& t : g.terms)
-      for (const auto& in : t.inputs) reads_screw_2 = reads_screw_2 || in == "omega_rpm_2";
-  CHECK(reads_screw_2);
+  CHECK(discovered_reads(r, "omega_rpm_2"));
   // What the library's effects stood in for has left the model, and the terms reach the noise.
   CHECK(r.effects.empty());
   for (int c = 0; c < kChannels; ++c) CHECK(r.final_ratio[static_cast<std::size_t>(c)] < 1.2);
@@ -230,11 +234,7 @@ TEST_CASE("explain: at the noise floor in size, a library effect the dictionary'
   for (const RemovedEffect& e : r.removed)
     left = left || (e.effect == "coulomb_friction" && e.why.find("stood in") != std::string::npos);
   CHECK(left);
-  bool reads_r = false;
-  for (const auto& g : r.discovered)
-    for (const auto& t : g.terms)
-      for (const auto& in : t.inputs) reads_r = reads_r || in == "r_radps";
-  CHECK(reads_r);
+  CHECK(discovered_reads(r, "r_radps"));
   for (int c = 0; c < kChannels; ++c) CHECK(r.final_ratio[static_cast<std::size_t>(c)] < 1.2);
 }
 
@@ -317,11 +317,7 @@ TEST_CASE("explain: where no library effect is significant, the missing term is 
   INFO(r.verdict);
   CHECK(r.effects.empty());
   CHECK(r.verdict_kind == "outside_library");
-  bool reads_screw_2 = false;
-  for (const auto& g : r.discovered)
-    for (const auto& t : g.terms)
-      for (const auto& in : t.inputs) reads_screw_2 = reads_screw_2 || in == "omega_rpm_2";
-  CHECK(reads_screw_2);
+  CHECK(discovered_reads(r, "omega_rpm_2"));
   for (int c = 0; c < kChannels; ++c) CHECK(r.final_ratio[static_cast<std::size_t>(c)] < 1.2);
 }
 
