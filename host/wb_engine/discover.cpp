@@ -288,12 +288,28 @@ Selection select_terms(const std::vector<Eigen::VectorXd>& r, const std::vector<
     // drift (a slow function of time, of the position on the field) lowers its residual there
     // but not elsewhere. Every segment is judged once: with a few 25 s segments to a log, one
     // held-out third alone can miss the motion the term needs (the turns of a log).
+    // Each column is scored by what it would take off the residual, which is its part outside
+    // the columns already in the fit (the paper's parameters and the terms chosen): a term much
+    // like a change of sigma (every screw's backward part) is mostly taken up by them, and by
+    // its whole length it would rank far below what it explains beyond them.
+    std::vector<int> in_fit = always;
+    in_fit.insert(in_fit.end(), sel.columns.begin(), sel.columns.end());
+    Eigen::MatrixXd Q;
+    if (!in_fit.empty()) {
+      const Eigen::MatrixXd A = columns_of(S_all, in_fit);
+      Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(A);
+      Q = qr.householderQ() * Eigen::MatrixXd::Identity(A.rows(), qr.rank());
+    }
     std::vector<std::pair<double, Eigen::Index>> by_fit;
     for (Eigen::Index j = nuisance; j < P; ++j) {
       if (std::find(sel.columns.begin(), sel.columns.end(), static_cast<int>(j)) != sel.columns.end()) continue;
-      const double nj = S_all.col(j).norm();
+      Eigen::VectorXd s = S_all.col(j);
+      const double nj = s.norm();
       if (!(nj > 1e-12)) continue;
-      by_fit.push_back({-std::fabs(S_all.col(j).dot(resid)) / nj, j});
+      if (Q.cols() > 0) s -= Q * (Q.transpose() * s);
+      const double nj_out = s.norm();
+      if (!(nj_out > 1e-6 * nj)) continue;  // within the fit's columns already
+      by_fit.push_back({-std::fabs(s.dot(resid)) / nj_out, j});
     }
     if (by_fit.empty()) break;
     std::sort(by_fit.begin(), by_fit.end());

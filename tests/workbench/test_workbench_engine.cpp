@@ -570,6 +570,36 @@ TEST_CASE("discovered terms' regression: the model's own parameters refit in eve
   CHECK(none.columns.empty());
 }
 
+TEST_CASE("discovered terms' regression: a term mostly along the model's parameter is ranked by what it adds") {
+  // Column 0 the model's own parameter p; term 0 the missing form, p + 0.05 e (a screw's backward
+  // part is mostly every screw's speed, which sigma scales); terms 1-9 decoys 0.3 e + w_k, each
+  // more alike to the residual by its whole length than term 0, and more of them than the
+  // regression tries in full each round (8). Only term 0 takes the residual to the noise.
+  std::mt19937 rng(11);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  constexpr int kDecoys = 9;
+  std::vector<Eigen::VectorXd> r(3);
+  std::vector<Eigen::MatrixXd> S(3);
+  for (int f = 0; f < 3; ++f) {
+    Eigen::MatrixXd m(300, 2 + kDecoys);
+    Eigen::VectorXd& rf = r[static_cast<std::size_t>(f)];
+    rf.resize(300);
+    for (int i = 0; i < 300; ++i) {
+      const double p = n01(rng), e = n01(rng);
+      m(i, 0) = p;
+      m(i, 1) = p + 0.05 * e;
+      for (int k = 0; k < kDecoys; ++k) m(i, 2 + k) = 0.3 * e + n01(rng);
+      rf[i] = -(1.0 * p + 2.0 * m(i, 1)) + 0.005 * n01(rng);
+    }
+    S[static_cast<std::size_t>(f)] = m;
+  }
+  const double min_bic = 10 + 2 * std::log(static_cast<double>(1 + kDecoys));
+  const Selection sel = select_terms(r, S, 1, std::vector<int>(1 + kDecoys, -1), 900, 4, 0.04, min_bic);
+  REQUIRE(!sel.columns.empty());
+  CHECK(sel.columns[0] == 0);
+  CHECK(sel.columns.size() == 1);
+  CHECK(sel.coefficients[0] == Approx(2.0).epsilon(0.05));
+}
 TEST_CASE("model file: online marks follow their effect through a refit; a dropped effect drops them") {
   // The model as a marked file gives it (ModelChoice::online): a slope with incline_x online, a drag.
   auto effect = [](const char* id, const char* name, double value) {
