@@ -78,6 +78,16 @@ struct DiscoveredTerm {
   std::string unit;                 // of the coefficient
   std::string description;
   double contribution = kNaN;       // as RemovedEffect::contribution
+  // Terms that predict as well in its place (within 2 %, refitted): the same steady speeds, which
+  // the log does not tell apart (docs/workbench.md "Discovered terms", twins).
+  struct Alternative {
+    std::string dof, form;
+    std::vector<std::string> inputs;
+    double coefficient = kNaN;
+    std::string unit, description, tell_apart;
+    double ratio = kNaN;  // the largest over the channels with it, as compare computes it
+  };
+  std::vector<Alternative> alternatives;
 };
 // The terms of one dof (`channel`: x, y, yaw, screw_0..3, screws) and the error compare reports
 // with them and the groups listed before.

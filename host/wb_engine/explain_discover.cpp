@@ -36,6 +36,27 @@ Part term_part(const DictionaryTerm& d, double coefficient) {
 }
 
 bool is_term(const Part& p) { return !p.texts.empty(); }
+
+// A term's twin at steady speeds: the ground's drag growing by a fraction c t over the log is, at
+// steady speed, every screw's thrust falling by c t (zeta = D^-1 sigma S B omega, eqs. (6)-(7));
+// only the speed changes tell them apart, over the time constants M / D (0.06 s along x on sand).
+// Empty where the term has none in the dictionary.
+const DictionaryTerm* steady_twin(const Part& term, const std::vector<DictionaryTerm>& dict) {
+  const std::string& dof = term.texts[0];
+  const std::string& form = term.texts[1];
+  std::string twin_dof, twin_form;
+  if (dof == "drag") {
+    twin_dof = "screws";
+    twin_form = "omega_rpm*" + form;
+  } else if (dof == "screws" && form.rfind("omega_rpm*", 0) == 0) {
+    twin_dof = "drag";
+    twin_form = form.substr(10);
+  }
+  const auto d = std::find_if(dict.begin(), dict.end(), [&](const DictionaryTerm& t) {
+    return t.dof == twin_dof && t.form == twin_form;
+  });
+  return d == dict.end() ? nullptr : &*d;
+}
 bool is_library_effect(const Part& p) { return p.entry && p.texts.empty(); }
 
 }  // namespace
@@ -347,6 +368,32 @@ bool Explainer::discover(FitOutcome& o, ExplainResult& res) {
     t.unit = f.coefficient_unit();
     t.description = f.describe(p.values[0]);
     t.contribution = largest(contribution(with.parts, i));
+    if (const DictionaryTerm* twin = steady_twin(p, dict)) {
+      // Refitted in the term's place from the steady equivalent (a drag fraction c is a thrust
+      // fraction -c): proposed beside it where it predicts as well, not as the term's rival.
+      std::vector<Part> alt = with.parts;
+      alt[i] = term_part(*twin, -p.values[0]);
+      const FitOutcome w = refit(all_, alt, 12, 1);
+      ++structures_;
+      ChannelValues per;
+      const double err = std::isfinite(w.cost) ? compare_error(w.parts, &per) : kNaN;
+      progress("explain: discovery: %s: %s in place of %s: %s: %.3f times the noise floor, %.3f with it",
+               twin->dof.c_str(), twin->form.c_str(), p.texts[0].c_str(), p.texts[1].c_str(), err, best->err);
+      if (err <= best->err * (1.0 + kAddHeldout)) {
+        const TermForm tf(twin->dof, twin->form);
+        DiscoveredTerm::Alternative a;
+        a.dof = tf.dof_text();
+        a.form = tf.form_text();
+        a.inputs = tf.input_names();
+        a.coefficient = w.parts[i].values[0];
+        a.unit = tf.coefficient_unit();
+        a.description = tf.describe(a.coefficient);
+        a.tell_apart = "the same steady speeds, which only the speed changes (over the time constants M / D) "
+                       "tell apart";
+        a.ratio = largest(per);
+        t.alternatives.push_back(a);
+      }
+    }
     auto g = std::find_if(res.discovered.begin(), res.discovered.end(),
                           [&](const DiscoveredGroup& x) { return x.channel == t.dof; });
     if (g == res.discovered.end()) {

@@ -71,7 +71,10 @@ void Explainer::verdict(const State& f, ExplainResult& res) const {
   if (named.empty()) named = "no library effect";
   std::string terms;
   for (const DiscoveredGroup& g : res.discovered)
-    for (const DiscoveredTerm& d : g.terms) terms += (terms.empty() ? "" : "; ") + d.description;
+    for (const DiscoveredTerm& d : g.terms) {
+      terms += (terms.empty() ? "" : "; ") + d.description;
+      for (const auto& a : d.alternatives) terms += " (or, as well, " + a.description + "; " + a.tell_apart + ")";
+    }
   std::string with = named + (terms.empty() ? "" : " and the discovered terms");
   char buf[2400];
   if (res.outside_library) {

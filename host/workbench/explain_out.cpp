@@ -107,7 +107,14 @@ void print_explain_json(const ExplainResult& r, const std::vector<Dataset>& logs
       j.begin_object().str("dof", d.dof).str("form", d.form).begin_array("inputs");
       for (const auto& in : d.inputs) j.str(nullptr, in);
       j.end_array().num("coefficient", d.coefficient).str("unit", d.unit).num("uncertainty", d.uncertainty);
-      j.num("contribution", d.contribution).str("description", d.description).end_object();
+      j.num("contribution", d.contribution).str("description", d.description).begin_array("alternatives");
+      for (const auto& a : d.alternatives) {
+        j.begin_object().str("dof", a.dof).str("form", a.form).begin_array("inputs");
+        for (const auto& in : a.inputs) j.str(nullptr, in);
+        j.end_array().num("coefficient", a.coefficient).str("unit", a.unit).num("ratio", a.ratio);
+        j.str("description", a.description).str("tell_apart", a.tell_apart).end_object();
+      }
+      j.end_array().end_object();
     }
     j.end_array().channels("ratio_after", g.ratio_after, r.active).end_object();
   }
@@ -190,9 +197,13 @@ for (const auto& x : r.stand_ins)
 if (!r.discovered.empty()) {
   std::printf("discovered terms (no library effect has them; docs/workbench.md \"Discovered terms\"):\n");
   for (const auto& g : r.discovered) {
-    for (const auto& d : g.terms)
+    for (const auto& d : g.terms) {
       std::printf("  %s: %s = %.4g +- %.2g %s (changes the prediction by %.2f times the noise floor)\n",
                   d.dof.c_str(), d.form.c_str(), d.coefficient, d.uncertainty, d.unit.c_str(), d.contribution);
+      for (const auto& a : d.alternatives)
+        std::printf("    or as well %s: %s = %.4g %s (%.2f times the noise floor with it): %s\n", a.dof.c_str(),
+                    a.form.c_str(), a.coefficient, a.unit.c_str(), a.ratio, a.tell_apart.c_str());
+    }
     std::printf("    error with the %s terms so far:", g.channel.c_str());
     for (int c = 0; c < kChannels; ++c)
       if (r.active[static_cast<std::size_t>(c)])

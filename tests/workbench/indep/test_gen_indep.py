@@ -211,6 +211,23 @@ def test_runner_scores_pairs_and_false_discoveries():
     assert not c.failures and c.info["discovered_ok"]
 
 
+def test_runner_counts_a_twin_listed_beside_the_term_apart():
+    import run_indep as ri
+    truth = {"effects": [dict(library=False, family=None, mechanism="battery_sag",
+                              variable_groups=[["t_s"], ["omega_rpm_0", "omega_rpm_1"]])]}
+    drag = {"dof": "drag", "form": "t_s", "inputs": ["t_s", "u_mps"]}
+    r = {"effects": [], "verdict_kind": "outside_library", "final": {"ratio": {}},
+         "discovered": [{"terms": [dict(drag)]}]}
+    alone = ri.Case("outside:battery_sag", 1)
+    ri.score(alone, truth, {}, r, 0.1)
+    assert not alone.info["discovered_ok"] and alone.failures
+    drag["alternatives"] = [{"dof": "screws", "form": "omega_rpm*t_s", "inputs": ["omega_rpm_0", "t_s"]}]
+    r["discovered"] = [{"terms": [drag]}]
+    twin = ri.Case("outside:battery_sag", 2)
+    ri.score(twin, truth, {}, r, 0.1)
+    assert twin.info["discovered_ok"] and twin.info["discovered_via_twin"] and not twin.failures
+
+
 def test_runner_scores_an_effect_below_the_floor_at_its_maximum_like_a_clean_log():
     # weak_at_max: not asked to be named (nor diagnose to be significant), but nothing else may
     # be; such cases leave the singles' share for a row of their own
