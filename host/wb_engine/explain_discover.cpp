@@ -36,6 +36,7 @@ Part term_part(const DictionaryTerm& d, double coefficient) {
 }
 
 bool is_term(const Part& p) { return !p.texts.empty(); }
+bool is_library_effect(const Part& p) { return p.entry && p.texts.empty(); }
 
 // A term's twin at steady speeds: the ground's drag growing by a fraction c t over the log is, at
 // steady speed, every screw's thrust falling by c t (zeta = D^-1 sigma S B omega, eqs. (6)-(7));
@@ -57,7 +58,6 @@ const DictionaryTerm* steady_twin(const Part& term, const std::vector<Dictionary
   });
   return d == dict.end() ? nullptr : &*d;
 }
-bool is_library_effect(const Part& p) { return p.entry && p.texts.empty(); }
 
 }  // namespace
 
