@@ -70,21 +70,22 @@ struct NearTie {
   std::vector<std::string> with;  // the alternatives, as their step listed them
   std::string tell_apart;         // the experiment that tells them apart
 };
-// A term no library effect has, proposed from the residuals (docs/workbench.md "Discovered terms").
-struct DiscoveredTerm {
+// A term as explain writes it out: where it acts, its form, the inputs it reads, its coefficient.
+struct TermText {
   std::string dof, form;            // as the model file's [[effect]] id = "term" takes them
   std::vector<std::string> inputs;  // the vocabulary's names it reads (omega_rpm_2, u_mps, ...)
-  double coefficient = kNaN, uncertainty = kNaN;
+  double coefficient = kNaN;
   std::string unit;                 // of the coefficient
   std::string description;
+};
+// A term no library effect has, proposed from the residuals (docs/workbench.md "Discovered terms").
+struct DiscoveredTerm : TermText {
+  double uncertainty = kNaN;
   double contribution = kNaN;       // as RemovedEffect::contribution
   // Terms that predict as well in its place (within 2 %, refitted): the same steady speeds, which
   // the log does not tell apart (docs/workbench.md "Discovered terms", twins).
-  struct Alternative {
-    std::string dof, form;
-    std::vector<std::string> inputs;
-    double coefficient = kNaN;
-    std::string unit, description, tell_apart;
+  struct Alternative : TermText {
+    std::string tell_apart;
     double ratio = kNaN;  // the largest over the channels with it, as compare computes it
   };
   std::vector<Alternative> alternatives;

@@ -44,20 +44,32 @@ bool is_library_effect(const Part& p) { return p.entry && p.texts.empty(); }
 // 0.05 s along x on sand).
 // Empty where the term has none in the dictionary.
 const DictionaryTerm* steady_twin(const Part& term, const std::vector<DictionaryTerm>& dict) {
+  static const std::string kTimesOmega = "omega_rpm*";
   const std::string& dof = term.texts[0];
   const std::string& form = term.texts[1];
   std::string twin_dof, twin_form;
   if (dof == "drag") {
     twin_dof = "screws";
-    twin_form = "omega_rpm*" + form;
-  } else if (dof == "screws" && form.rfind("omega_rpm*", 0) == 0) {
+    twin_form = kTimesOmega + form;
+  } else if (dof == "screws" && form.rfind(kTimesOmega, 0) == 0) {
     twin_dof = "drag";
-    twin_form = form.substr(10);
+    twin_form = form.substr(kTimesOmega.size());
   }
   const auto d = std::find_if(dict.begin(), dict.end(), [&](const DictionaryTerm& t) {
     return t.dof == twin_dof && t.form == twin_form;
   });
   return d == dict.end() ? nullptr : &*d;
+}
+
+// A term's text: its dof, form, inputs and unit in the vocabulary's spelling, with the coefficient.
+void write_term(const std::string& dof, const std::string& form, double coefficient, TermText& out) {
+  const TermForm f(dof, form);
+  out.dof = f.dof_text();
+  out.form = f.form_text();
+  out.inputs = f.input_names();
+  out.coefficient = coefficient;
+  out.unit = f.coefficient_unit();
+  out.description = f.describe(coefficient);
 }
 
 }  // namespace
@@ -359,15 +371,9 @@ bool Explainer::discover(FitOutcome& o, ExplainResult& res) {
     const std::size_t at = k;
     k += p.specs.size();
     if (!is_term(p)) continue;
-    const TermForm f(p.texts[0], p.texts[1]);
     DiscoveredTerm t;
-    t.dof = f.dof_text();
-    t.form = f.form_text();
-    t.inputs = f.input_names();
-    t.coefficient = p.values[0];
+    write_term(p.texts[0], p.texts[1], p.values[0], t);
     t.uncertainty = params[at].sigma;
-    t.unit = f.coefficient_unit();
-    t.description = f.describe(p.values[0]);
     t.contribution = largest(contribution(with.parts, i));
     if (const DictionaryTerm* twin = steady_twin(p, dict)) {
       // Refitted in the term's place from the steady equivalent (a drag fraction c is a thrust
@@ -381,14 +387,8 @@ bool Explainer::discover(FitOutcome& o, ExplainResult& res) {
       progress("explain: discovery: %s: %s in place of %s: %s: %.3f times the noise floor, %.3f with it",
                twin->dof.c_str(), twin->form.c_str(), p.texts[0].c_str(), p.texts[1].c_str(), err, best->err);
       if (err <= best->err * (1.0 + kAddHeldout)) {
-        const TermForm tf(twin->dof, twin->form);
         DiscoveredTerm::Alternative a;
-        a.dof = tf.dof_text();
-        a.form = tf.form_text();
-        a.inputs = tf.input_names();
-        a.coefficient = w.parts[i].values[0];
-        a.unit = tf.coefficient_unit();
-        a.description = tf.describe(a.coefficient);
+        write_term(twin->dof, twin->form, w.parts[i].values[0], a);
         a.tell_apart = "the same steady speeds, which only the speed changes (over the time constants M / D) "
                        "tell apart";
         a.ratio = largest(per);

@@ -101,17 +101,19 @@ void print_explain_json(const ExplainResult& r, const std::vector<Dataset>& logs
   j.boolean("outside_library", r.outside_library);
   if (r.outside_library) j.channels("library_ratio", r.library_ratio, r.active);
   j.begin_array("discovered");
+  // A term's object opened with where it acts, its form, inputs, coefficient and unit.
+  auto term_head = [&j](const TermText& t) -> Json& {
+    j.begin_object().str("dof", t.dof).str("form", t.form).begin_array("inputs");
+    for (const auto& in : t.inputs) j.str(nullptr, in);
+    return j.end_array().num("coefficient", t.coefficient).str("unit", t.unit);
+  };
   for (const auto& g : r.discovered) {
     j.begin_object().str("channel", g.channel).begin_array("terms");
     for (const auto& d : g.terms) {
-      j.begin_object().str("dof", d.dof).str("form", d.form).begin_array("inputs");
-      for (const auto& in : d.inputs) j.str(nullptr, in);
-      j.end_array().num("coefficient", d.coefficient).str("unit", d.unit).num("uncertainty", d.uncertainty);
+      term_head(d).num("uncertainty", d.uncertainty);
       j.num("contribution", d.contribution).str("description", d.description).begin_array("alternatives");
       for (const auto& a : d.alternatives) {
-        j.begin_object().str("dof", a.dof).str("form", a.form).begin_array("inputs");
-        for (const auto& in : a.inputs) j.str(nullptr, in);
-        j.end_array().num("coefficient", a.coefficient).str("unit", a.unit).num("ratio", a.ratio);
+        term_head(a).num("ratio", a.ratio);
         j.str("description", a.description).str("tell_apart", a.tell_apart).end_object();
       }
       j.end_array().end_object();

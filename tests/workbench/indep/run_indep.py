@@ -213,20 +213,23 @@ def score(case, truth, d, r, min_shift):
         if "discovered" in r:
             case.info["discovered_terms"] = sum(len(t.get("terms", [])) for t in r["discovered"])
             groups = outside[0]["variable_groups"]
+
+            def covers(names):  # one of each group of the mechanism's variables
+                return all(any(v in names for v in grp) for grp in groups)
+
             terms = [term for t in r["discovered"] for term in t.get("terms", [])]
             inputs = {i for term in terms for i in term.get("inputs", [])}
-            ok = all(any(v in inputs for v in grp) for grp in groups)
-            if not ok:
-                # A term's twin that explain lists beside it (as good on the log: the same steady
-                # speeds) names the mechanism's variables as well; counted, and counted apart.
-                for term in terms:
-                    for alt in term.get("alternatives", []):
-                        other = inputs - set(term.get("inputs", [])) | set(alt.get("inputs", []))
-                        if all(any(v in other for v in grp) for grp in groups):
-                            ok = True
-                            case.info["discovered_via_twin"] = True
-                            case.notes.append("inputs right through %s: %s, listed beside %s: %s"
-                                              % (alt["dof"], alt["form"], term["dof"], term["form"]))
+            ok = covers(inputs)
+            # A term's twin that explain lists beside it (as good on the log: the same steady
+            # speeds) names the mechanism's variables as well; counted, and counted apart.
+            twins = [(term, alt) for term in terms for alt in term.get("alternatives", [])
+                     if covers(inputs - set(term.get("inputs", [])) | set(alt.get("inputs", [])))]
+            if not ok and twins:
+                ok = True
+                case.info["discovered_via_twin"] = True
+                term, alt = twins[0]
+                case.notes.append("inputs right through %s: %s, listed beside %s: %s"
+                                  % (alt["dof"], alt["form"], term["dof"], term["form"]))
             case.info["discovered_ok"] = ok
             if not ok:
                 case.fail("discovered inputs %s miss %s" % (sorted(inputs) or "none",
