@@ -268,11 +268,29 @@ Selection select_terms(const std::vector<Eigen::VectorXd>& r, const std::vector<
       tr.held = tr.rss;
       return tr;
     }
+    // Only the terms are cross-validated: the paper's parameters keep their fit on every fold.
+    // Refitted on two thirds, they may be left unidentified by a motion that only the third
+    // holds (one fold of a 120 s battery-sag log predicted 175 times worse than by the fit on
+    // every fold), and the held-out residual then ranks the terms by how well they mend that
+    // instead of by the log's physics.
+    const Eigen::VectorXd c_nuisance = c.head(nuisance);
     tr.held = 0;
     for (int f = 0; f < folds; ++f) {
-      const Eigen::VectorXd cf = stack_cols(S, with, f).colPivHouseholderQr().solve(-stack_rows(r, f));
-      const Eigen::VectorXd rf = r[static_cast<std::size_t>(f)] + columns_of(S[static_cast<std::size_t>(f)], with) * cf;
-      tr.held += cf.allFinite() ? rf.squaredNorm() : std::numeric_limits<double>::infinity();
+      const auto fi = static_cast<std::size_t>(f);
+      Eigen::VectorXd rest = stack_rows(r, f), rf = r[fi];
+      if (nuisance > 0) {
+        rest += stack_cols(S, always, f) * c_nuisance;
+        rf += columns_of(S[fi], always) * c_nuisance;
+      }
+      if (!tr.cols.empty()) {
+        const Eigen::VectorXd cf = stack_cols(S, tr.cols, f).colPivHouseholderQr().solve(-rest);
+        if (!cf.allFinite()) {
+          tr.held = std::numeric_limits<double>::infinity();
+          break;
+        }
+        rf += columns_of(S[fi], tr.cols) * cf;
+      }
+      tr.held += rf.squaredNorm();
     }
     return tr;
   };

@@ -12,8 +12,10 @@ using namespace search;
 
 // An effect part's label: terrain_change of one of several logs carries the log's number.
 std::string label(const Part& p, std::size_t n_logs) {
-  if (p.log >= 0 && n_logs > 1) return p.id + "@" + std::to_string(p.log + 1);
-  return p.id;
+  // A discovered term by its dof and form (every term's part is one generic entry, "term").
+  const std::string name = p.texts.size() >= 2 ? p.texts[0] + ": " + p.texts[1] : p.id;
+  if (p.log >= 0 && n_logs > 1) return name + "@" + std::to_string(p.log + 1);
+  return name;
 }
 
 std::vector<std::string> effect_labels(const std::vector<Part>& parts, std::size_t n_logs) {

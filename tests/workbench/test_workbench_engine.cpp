@@ -600,6 +600,35 @@ TEST_CASE("discovered terms' regression: a term mostly along the model's paramet
   CHECK(sel.columns.size() == 1);
   CHECK(sel.coefficients[0] == Approx(2.0).epsilon(0.05));
 }
+TEST_CASE("discovered terms' regression: a fold whose motion only it holds does not choose the term") {
+  // Two model parameters: p1 everywhere, p2 only in fold 1 (a motion only that third of the log
+  // holds, as sideways driving informs sigma_lat). The missing form is t. A decoy d is t in folds
+  // 0 and 2 and t + 2 p2 in fold 1 (with some noise of its own): fitted on folds 0 and 2 it
+  // predicts fold 1's p2, which p2's own coefficient, fitted there on nothing, cannot. With the
+  // model's parameters refitted on the other two folds, d would predict the held-out folds best;
+  // fitted on every fold, t does, as it fits every fold.
+  std::mt19937 rng(7);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  std::vector<Eigen::VectorXd> r(3);
+  std::vector<Eigen::MatrixXd> S(3);
+  for (int f = 0; f < 3; ++f) {
+    Eigen::MatrixXd m(300, 4);
+    Eigen::VectorXd& rf = r[static_cast<std::size_t>(f)];
+    rf.resize(300);
+    for (int i = 0; i < 300; ++i) {
+      const double p1 = n01(rng), p2 = f == 1 ? n01(rng) : 0.0, t = n01(rng);
+      m.row(i) << p1, p2, t, t + 2.0 * p2 + 0.3 * n01(rng);
+      rf[i] = -(p1 + p2 + 0.5 * t) + 0.01 * n01(rng);
+    }
+    S[static_cast<std::size_t>(f)] = m;
+  }
+  const double min_bic = 10 + 2 * std::log(2.0);
+  const Selection sel = select_terms(r, S, 2, {-1, -1}, 900, 4, 0.04, min_bic);
+  REQUIRE(!sel.columns.empty());
+  CHECK(sel.columns[0] == 0);
+  CHECK(sel.columns.size() == 1);
+  CHECK(sel.coefficients[0] == Approx(0.5).epsilon(0.05));
+}
 TEST_CASE("model file: online marks follow their effect through a refit; a dropped effect drops them") {
   // The model as a marked file gives it (ModelChoice::online): a slope with incline_x online, a drag.
   auto effect = [](const char* id, const char* name, double value) {
