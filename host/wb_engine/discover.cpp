@@ -273,22 +273,19 @@ Selection select_terms(const std::vector<Eigen::VectorXd>& r, const std::vector<
     // holds (one fold of a 120 s battery-sag log predicted 175 times worse than by the fit on
     // every fold), and the held-out residual then ranks the terms by how well they mend that
     // instead of by the log's physics.
-    const Eigen::VectorXd c_nuisance = c.head(nuisance);
+    std::vector<Eigen::VectorXd> left(r);  // each fold's residual with the paper's parameters' share
+    if (nuisance > 0)
+      for (std::size_t f = 0; f < left.size(); ++f) left[f] += columns_of(S[f], always) * c.head(nuisance);
     tr.held = 0;
     for (int f = 0; f < folds; ++f) {
-      const auto fi = static_cast<std::size_t>(f);
-      Eigen::VectorXd rest = stack_rows(r, f), rf = r[fi];
-      if (nuisance > 0) {
-        rest += stack_cols(S, always, f) * c_nuisance;
-        rf += columns_of(S[fi], always) * c_nuisance;
-      }
+      Eigen::VectorXd rf = left[static_cast<std::size_t>(f)];
       if (!tr.cols.empty()) {
-        const Eigen::VectorXd cf = stack_cols(S, tr.cols, f).colPivHouseholderQr().solve(-rest);
+        const Eigen::VectorXd cf = stack_cols(S, tr.cols, f).colPivHouseholderQr().solve(-stack_rows(left, f));
         if (!cf.allFinite()) {
           tr.held = std::numeric_limits<double>::infinity();
           break;
         }
-        rf += columns_of(S[fi], tr.cols) * cf;
+        rf += columns_of(S[static_cast<std::size_t>(f)], tr.cols) * cf;
       }
       tr.held += rf.squaredNorm();
     }
