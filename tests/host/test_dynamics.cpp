@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 
 #include "auger/dynamics.hpp"
+#include "auger/effect.hpp"
 #include "auger/model_file.hpp"
 
 using namespace auger;
@@ -118,4 +119,37 @@ TEST_CASE("the step's exponentials kept per step length follow the step length a
       CHECK(eta.z() == psi);
     }
   }
+}
+
+TEST_CASE("traction saturation's shares kept in the workspace are those computed afresh, to the bit") {
+  // The saturation keeps each screw's and axis's last load and share in the run's state, for the
+  // sub-steps of a step; another sharpness (another model in the same workspace) or another load
+  // must not reuse them.
+  auto saturated = [](double sharpness) {
+    EffectConfig c;
+    c.id = "traction_saturation";
+    c.params = {{"force_max_long_n", 6.0}, {"force_max_lat_n", 2.0}, {"sharpness", sharpness}};
+    return make_model(RobotParams{}, TerrainParams{"sand", 0.812, 0.247, 560.33, 320.08, 11.46},
+                      {EffectRegistry::builtin().create(c)});
+  };
+  const Model soft = saturated(2.0), sharp = saturated(8.0);
+  DynamicsData kept(soft);
+  const Vec4 speeds[] = {{-20, -4, 6, 18}, {-20, -4, 6, 18}, {-20, -4, 6, 19}, {0, 0, 0, 0}, {-20, -4, 6, 18}};
+  int differs = 0;
+  for (int pass = 0; pass < 2; ++pass) {
+    const Model& m = pass == 0 ? soft : sharp;
+    for (const Vec4& omega : speeds) {
+      Vec3 expect, tau;
+      DynamicsData fresh(m);
+      drive_force(m, fresh, omega, 0.01, expect);
+      drive_force(m, kept, omega, 0.01, tau);
+      for (int k = 0; k < 3; ++k) CHECK(tau[k] == expect[k]);
+    }
+    Vec3 a, b;
+    DynamicsData other(m);
+    drive_force(soft, other, speeds[0], 0.01, a);
+    drive_force(sharp, other, speeds[0], 0.01, b);
+    differs += (a - b).norm() > 1e-3;  // the sharpness matters at these loads
+  }
+  CHECK(differs == 2);
 }

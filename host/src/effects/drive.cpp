@@ -1,6 +1,7 @@
 // Drive effects: changes of how the screw speeds become the body force, eq. (7).
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "effects.hpp"
 
@@ -56,8 +57,14 @@ class TractionSaturation final : public Effect {
             {"pooling", pooling_},
             {"ellipse", ellipse_}};
   }
+  // State: each screw's and axis's last load, sharpness and share, so that the sub-steps of one
+  // step, which see the same screw speeds, do not compute the same powers again.
+  std::size_t state_size() const override { return 3 * kSlots; }
+  void reset_state(double* state) const override {
+    std::fill(state, state + state_size(), std::numeric_limits<double>::quiet_NaN());
+  }
   void drive_force(const Model& model, const Vec4& omega_rpm, double sigma_scale, double, Vec3& tau_n,
-                   double*) const override {
+                   double* state) const override {
     Vec3 f[4];
     Vec3 mean = Vec3::Zero();
     for (int i = 0; i < 4; ++i) {
@@ -81,7 +88,9 @@ class TractionSaturation final : public Effect {
                  q.z() + ellipse_ * (q.x() + pooling_ * q.y()))
                 .cwiseSqrt();
       }
-      tau_n += Vec3(f[i].x() * (share(n.x()) - 1), f[i].y() * (share(n.y()) - 1), f[i].z() * (share(n.z()) - 1));
+      double* slot = state + 9 * i;
+      tau_n += Vec3(f[i].x() * (share(n.x(), slot) - 1), f[i].y() * (share(n.y(), slot + 3) - 1),
+                    f[i].z() * (share(n.z(), slot + 6) - 1));
     }
   }
 
@@ -92,6 +101,16 @@ class TractionSaturation final : public Effect {
     const double s = 1.0 + std::pow(n, p_);
     return s == 1.0 ? 1.0 : 1.0 / std::pow(s, 1.0 / p_);
   }
+  // share(n) again where the slot {load, sharpness, share} last saw this load and sharpness: the
+  // same number to the bit, whatever model last used the workspace.
+  double share(double n, double* slot) const {
+    if (slot[0] == n && slot[1] == p_) return slot[2];
+    slot[0] = n;
+    slot[1] = p_;
+    slot[2] = share(n);
+    return slot[2];
+  }
+  static constexpr int kSlots = 12;  // 4 screws x 3 axes
   double long_max_, lat_max_, p_, pooling_, ellipse_;
 };
 
